@@ -1,0 +1,100 @@
+//! Configurations stored for streaming: blocks of [`LANES`] configurations, each block holding
+//! its 12 fields as 12 contiguous runs of [`LANES`] values (array-of-structures-of-arrays).
+//!
+//! One allocation, read front to back by every algorithm, so the hardware sees a single stream;
+//! a block is one SIMD load per field for the batched kernel (16 × f32 = one AVX-512 register),
+//! and generation fills blocks independently in parallel.
+
+use crate::config::Configuration;
+use crate::real::Real;
+
+/// Configurations per block.
+pub const LANES: usize = 16;
+/// r_SC (3) and ê_T, ê_L, ê_W (3 × 3).
+pub const FIELDS: usize = 12;
+/// Values per block.
+pub const BLOCK: usize = LANES * FIELDS;
+
+#[derive(Clone, Debug)]
+pub struct Batch<T> {
+    len: usize,
+    data: Vec<T>,
+}
+
+impl<T: Real> Batch<T> {
+    /// `len` configurations, all zero (sphere at the cuboid centre, degenerate axes) until written.
+    pub fn zeroed(len: usize) -> Self {
+        Self { len, data: vec![T::ZERO; len.div_ceil(LANES) * BLOCK] }
+    }
+
+    pub fn from_configurations(configs: &[Configuration<T>]) -> Self {
+        let mut batch = Self::zeroed(configs.len());
+        for (i, c) in configs.iter().enumerate() {
+            batch.set(i, c);
+        }
+        batch
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Bytes held by the arrays (padding of the last block included).
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.data.as_slice())
+    }
+
+    pub fn values(&self) -> &[T] {
+        &self.data
+    }
+
+    pub fn values_mut(&mut self) -> &mut [T] {
+        &mut self.data
+    }
+
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Configuration<T> {
+        debug_assert!(i < self.len);
+        let block = &self.data[(i / LANES) * BLOCK..][..BLOCK];
+        let lane = i % LANES;
+        let f = |field: usize| block[field * LANES + lane];
+        Configuration {
+            r_sc: [f(0), f(1), f(2)],
+            axes: [[f(3), f(4), f(5)], [f(6), f(7), f(8)], [f(9), f(10), f(11)]],
+        }
+    }
+
+    pub fn set(&mut self, i: usize, c: &Configuration<T>) {
+        assert!(i < self.len, "configuration {i} out of {}", self.len);
+        let block = &mut self.data[(i / LANES) * BLOCK..][..BLOCK];
+        write_lane(block, i % LANES, c);
+    }
+}
+
+/// Writes configuration `c` into lane `lane` of one block.
+#[inline]
+pub fn write_lane<T: Real>(block: &mut [T], lane: usize, c: &Configuration<T>) {
+    let fields = [
+        c.r_sc[0], c.r_sc[1], c.r_sc[2], //
+        c.axes[0][0], c.axes[0][1], c.axes[0][2], //
+        c.axes[1][0], c.axes[1][1], c.axes[1][2], //
+        c.axes[2][0], c.axes[2][1], c.axes[2][2],
+    ];
+    for (field, v) in fields.into_iter().enumerate() {
+        block[field * LANES + lane] = v;
+    }
+}
+
+/// Number of `u64` words of a verdict bitset for `len` configurations.
+pub fn verdict_words(len: usize) -> usize {
+    len.div_ceil(64)
+}
+
+/// Verdict `i` of a bitset written by a batched kernel.
+pub fn verdict(bits: &[u64], i: usize) -> bool {
+    bits[i / 64] >> (i % 64) & 1 == 1
+}
