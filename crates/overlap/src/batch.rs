@@ -5,7 +5,7 @@
 //! a block is one SIMD load per field for the batched kernel (16 × f32 = one AVX-512 register),
 //! and generation fills blocks independently in parallel.
 
-use crate::config::Configuration;
+use crate::config::{Configuration, ConfigurationView};
 use crate::real::Real;
 
 /// Configurations per block.
@@ -56,15 +56,19 @@ impl<T: Real> Batch<T> {
         &mut self.data
     }
 
+    /// Configuration `i` in place.
     #[inline(always)]
+    pub fn lane(&self, i: usize) -> Lane<'_, T> {
+        let block: &[T; BLOCK] = self.data[(i / LANES) * BLOCK..][..BLOCK].try_into().expect("a block is BLOCK values");
+        Lane { block, lane: i % LANES }
+    }
+
+    /// Configuration `i` copied out.
     pub fn get(&self, i: usize) -> Configuration<T> {
-        debug_assert!(i < self.len);
-        let block = &self.data[(i / LANES) * BLOCK..][..BLOCK];
-        let lane = i % LANES;
-        let f = |field: usize| block[field * LANES + lane];
+        let view = self.lane(i);
         Configuration {
-            r_sc: [f(0), f(1), f(2)],
-            axes: [[f(3), f(4), f(5)], [f(6), f(7), f(8)], [f(9), f(10), f(11)]],
+            r_sc: std::array::from_fn(|j| view.r_sc(j)),
+            axes: std::array::from_fn(|a| std::array::from_fn(|j| view.axis(a, j))),
         }
     }
 
@@ -72,6 +76,24 @@ impl<T: Real> Batch<T> {
         assert!(i < self.len, "configuration {i} out of {}", self.len);
         let block = &mut self.data[(i / LANES) * BLOCK..][..BLOCK];
         write_lane(block, i % LANES, c);
+    }
+}
+
+/// One configuration inside its block: reads go straight to the arrays.
+#[derive(Clone, Copy)]
+pub struct Lane<'a, T> {
+    block: &'a [T; BLOCK],
+    lane: usize,
+}
+
+impl<T: Real> ConfigurationView<T> for Lane<'_, T> {
+    #[inline(always)]
+    fn r_sc(&self, j: usize) -> T {
+        self.block[j * LANES + self.lane]
+    }
+    #[inline(always)]
+    fn axis(&self, i: usize, j: usize) -> T {
+        self.block[(3 + 3 * i + j) * LANES + self.lane]
     }
 }
 

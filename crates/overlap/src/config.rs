@@ -25,12 +25,31 @@ pub struct Configuration<T> {
     pub axes: [[T; 3]; 3],
 }
 
-impl<T: Real> Configuration<T> {
+/// Read access to one configuration wherever it is stored. The kernels read through this so
+/// that, in the timed loops, each value is loaded straight from the configuration arrays (as the
+/// papers' harness passes pointers into its arrays) instead of being copied into a temporary
+/// first: such a copy costs store-forwarding stalls that belong to no algorithm.
+pub trait ConfigurationView<T: Real> {
+    /// Component j of r_SC.
+    fn r_sc(&self, j: usize) -> T;
+    /// Component j of the cuboid axis ê_i (i = 0, 1, 2 for T, L, W).
+    fn axis(&self, i: usize, j: usize) -> T;
+
     /// r_SC · ê_i, the projection on the cuboid axis i (line 4 of Algorithms 2–4).
     #[inline(always)]
-    pub fn projection(&self, i: usize) -> T {
-        let (r, e) = (&self.r_sc, &self.axes[i]);
-        r[0] * e[0] + r[1] * e[1] + r[2] * e[2]
+    fn projection(&self, i: usize) -> T {
+        self.r_sc(0) * self.axis(i, 0) + self.r_sc(1) * self.axis(i, 1) + self.r_sc(2) * self.axis(i, 2)
+    }
+}
+
+impl<T: Real> ConfigurationView<T> for Configuration<T> {
+    #[inline(always)]
+    fn r_sc(&self, j: usize) -> T {
+        self.r_sc[j]
+    }
+    #[inline(always)]
+    fn axis(&self, i: usize, j: usize) -> T {
+        self.axes[i][j]
     }
 }
 

@@ -8,8 +8,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::algorithm::{Algorithm, Precision};
-use crate::batch::{Batch, verdict_words};
-use crate::config::{Configuration, Cuboid};
+use crate::batch::{Batch, Lane, verdict_words};
+use crate::config::Cuboid;
 use crate::error::OverlapError;
 use crate::kernels::{arvo::arvo, ocsi::ocsi, qrf::qrf, qri::qri};
 use crate::real::Real;
@@ -177,20 +177,18 @@ pub fn stream_read<T: Real>(batch: &Batch<T>) -> u64 {
     T::xor_fold(batch.values())
 }
 
-type PairKernel<T> = fn(&Configuration<T>, &Cuboid<T>, T) -> bool;
-
 /// The timed loop. A per-pair kernel is called through a function pointer once per
 /// configuration, as the papers' harness calls its overlap function, so the compiler cannot
 /// vectorise across configurations and each algorithm is measured as written.
 #[inline(never)]
-pub fn count_overlaps<T: Real>(
+pub fn count_overlaps<'a, T: Real>(
     algorithm: Algorithm,
-    batch: &Batch<T>,
+    batch: &'a Batch<T>,
     cuboid: &Cuboid<T>,
     radius: T,
     verdicts: &mut [u64],
 ) -> u64 {
-    let kernel: PairKernel<T> = match algorithm {
+    let kernel: fn(&Lane<'a, T>, &Cuboid<T>, T) -> bool = match algorithm {
         Algorithm::Arvo => arvo,
         Algorithm::Qri => qri,
         Algorithm::Qrf => qrf,
@@ -202,5 +200,5 @@ pub fn count_overlaps<T: Real>(
         }
     };
     let kernel = black_box(kernel);
-    (0..batch.len()).map(|i| kernel(&batch.get(i), cuboid, radius) as u64).sum()
+    (0..batch.len()).map(|i| kernel(&batch.lane(i), cuboid, radius) as u64).sum()
 }

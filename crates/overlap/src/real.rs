@@ -4,7 +4,8 @@ use std::fmt::Debug;
 use std::ops::{Add, Mul, Neg, Sub};
 
 use crate::batch::Batch;
-use crate::config::{Configuration, Cuboid};
+use crate::config::{ConfigurationView, Cuboid};
+use crate::kernels::batch::Isa;
 
 /// `f32` or `f64`. Sealed: the SIMD kernels exist for exactly these two.
 pub trait Real:
@@ -48,10 +49,15 @@ pub trait Real:
     }
 
     /// Algorithm 4 (SSE-intr) in this precision; see [`crate::kernels::sse`].
-    fn sse(cfg: &Configuration<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool;
+    fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool;
 
-    /// OCSI across configurations, see [`crate::kernels::batch`].
-    fn ocsi_batch(batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]);
+    /// OCSI across configurations on instruction set `isa`, see [`crate::kernels::batch`].
+    fn ocsi_batch_on(isa: Isa, batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]);
+
+    /// OCSI across configurations on the best instruction set of this CPU.
+    fn ocsi_batch(batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+        Self::ocsi_batch_on(Isa::best(), batch, cuboid, radius, verdicts)
+    }
 }
 
 impl Real for f32 {
@@ -75,11 +81,11 @@ impl Real for f32 {
         f32::abs(self)
     }
     #[inline(always)]
-    fn sse(cfg: &Configuration<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
+    fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
         crate::kernels::sse::sse_f32(cfg, cuboid, radius)
     }
-    fn ocsi_batch(batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
-        crate::kernels::batch::ocsi_batch_f32(batch, cuboid, radius, verdicts)
+    fn ocsi_batch_on(isa: Isa, batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+        crate::kernels::batch::ocsi_batch_f32(isa, batch, cuboid, radius, verdicts)
     }
 }
 
@@ -104,11 +110,11 @@ impl Real for f64 {
         f64::abs(self)
     }
     #[inline(always)]
-    fn sse(cfg: &Configuration<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
+    fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
         crate::kernels::sse::sse_f64(cfg, cuboid, radius)
     }
-    fn ocsi_batch(batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
-        crate::kernels::batch::ocsi_batch_f64(batch, cuboid, radius, verdicts)
+    fn ocsi_batch_on(isa: Isa, batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+        crate::kernels::batch::ocsi_batch_f64(isa, batch, cuboid, radius, verdicts)
     }
 }
 

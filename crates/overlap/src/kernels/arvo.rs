@@ -2,12 +2,12 @@
 //! into the cuboid frame (r_S,i = r_SC · ê_i, the cuboid centred at the origin, so
 //! B_i = [−c_i, c_i]), then the axis-aligned test runs unchanged.
 
-use crate::config::{Configuration, Cuboid};
+use crate::config::{ConfigurationView, Cuboid};
 use crate::real::Real;
 
 /// Algorithm 1 after the change of frame. Eq. 5 with the case analysis that follows it.
 #[inline]
-pub fn arvo<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
+pub fn arvo<T: Real>(cfg: &impl ConfigurationView<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
     let r_s = [cfg.projection(0), cfg.projection(1), cfg.projection(2)];
     let mut d = T::ZERO;
     for i in 0..3 {

@@ -3,7 +3,8 @@
 //! the blocks of a [`Batch`], verdicts packed into a bitset. With FMA and a branch-free body the
 //! loop is limited by memory bandwidth, not arithmetic.
 //!
-//! The instruction set is chosen at run time: AVX-512F, else AVX2+FMA, else portable code.
+//! The instruction set is chosen at run time ([`Isa::best`]): AVX-512F, else AVX2+FMA, else
+//! portable code.
 
 use crate::batch::{Batch, LANES, verdict_words};
 use crate::config::Cuboid;
@@ -52,34 +53,73 @@ fn ocsi_batch_portable<T: Real>(batch: &Batch<T>, cuboid: &Cuboid<T>, radius: T,
     pack_verdicts(batch, verdicts, |block| block_verdicts_portable(block, cuboid, r2));
 }
 
-pub fn ocsi_batch_f32(batch: &Batch<f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { x86::ocsi_batch_f32_avx512(batch, cuboid, radius, verdicts) };
-        }
-        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU supports AVX2 and FMA, checked just above.
-            return unsafe { x86::ocsi_batch_f32_avx2(batch, cuboid, radius, verdicts) };
-        }
-    }
-    ocsi_batch_portable(batch, cuboid, radius, verdicts)
+/// An instruction set the batched kernel can run on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    Avx512,
+    Avx2Fma,
+    Portable,
 }
 
-pub fn ocsi_batch_f64(batch: &Batch<f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { x86::ocsi_batch_f64_avx512(batch, cuboid, radius, verdicts) };
+impl Isa {
+    /// Every instruction set this CPU can run, best first.
+    pub fn available() -> Vec<Isa> {
+        let mut isas = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f") {
+                isas.push(Isa::Avx512);
+            }
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                isas.push(Isa::Avx2Fma);
+            }
         }
-        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU supports AVX2 and FMA, checked just above.
-            return unsafe { x86::ocsi_batch_f64_avx2(batch, cuboid, radius, verdicts) };
+        isas.push(Isa::Portable);
+        isas
+    }
+
+    /// The best instruction set of this CPU (detected once; the check is a cached load).
+    pub fn best() -> Isa {
+        static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *BEST.get_or_init(|| Isa::available()[0])
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Avx512 => "avx512f",
+            Isa::Avx2Fma => "avx2+fma",
+            Isa::Portable => "portable",
         }
     }
-    ocsi_batch_portable(batch, cuboid, radius, verdicts)
+}
+
+/// Panics if `isa` is not available: running AVX code on a CPU without it is undefined behaviour.
+fn assert_available(isa: Isa) {
+    assert!(Isa::available().contains(&isa), "{} is not available on this CPU", isa.name());
+}
+
+pub fn ocsi_batch_f32(isa: Isa, batch: &Batch<f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+    assert_available(isa);
+    match isa {
+        // SAFETY: availability of the instruction set was asserted above.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { x86::ocsi_batch_f32_avx512(batch, cuboid, radius, verdicts) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2Fma => unsafe { x86::ocsi_batch_f32_avx2(batch, cuboid, radius, verdicts) },
+        _ => ocsi_batch_portable(batch, cuboid, radius, verdicts),
+    }
+}
+
+pub fn ocsi_batch_f64(isa: Isa, batch: &Batch<f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+    assert_available(isa);
+    match isa {
+        // SAFETY: availability of the instruction set was asserted above.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { x86::ocsi_batch_f64_avx512(batch, cuboid, radius, verdicts) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2Fma => unsafe { x86::ocsi_batch_f64_avx2(batch, cuboid, radius, verdicts) },
+        _ => ocsi_batch_portable(batch, cuboid, radius, verdicts),
+    }
 }
 
 /// The same arithmetic as [`block_verdicts_portable`], `W` lanes per register:

@@ -1,12 +1,12 @@
 //! Quick Rejection First (Algorithm 3, Larsson et al.): all three rejection tests of Eq. 6
 //! first, then the distance from the stored projections.
 
-use crate::config::{Configuration, Cuboid};
+use crate::config::{ConfigurationView, Cuboid};
 use crate::real::Real;
 
 /// Algorithm 3.
 #[inline]
-pub fn qrf<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
+pub fn qrf<T: Real>(cfg: &impl ConfigurationView<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
     let mut a = [T::ZERO; 3];
     for (i, a_i) in a.iter_mut().enumerate() {
         *a_i = cfg.projection(i);

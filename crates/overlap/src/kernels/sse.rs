@@ -3,14 +3,14 @@
 //! baseline, so no run-time detection is needed there; other targets run the same arithmetic
 //! in scalar code.
 
-use crate::config::{Configuration, Cuboid};
+use crate::config::{ConfigurationView, Cuboid};
 #[cfg(not(target_arch = "x86_64"))]
 use crate::real::Real;
 
 /// Algorithm 4 in `f32`.
 #[cfg(target_arch = "x86_64")]
 #[inline]
-pub fn sse_f32(cfg: &Configuration<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
+pub fn sse_f32(cfg: &impl ConfigurationView<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
     // SAFETY: SSE is part of the x86-64 baseline.
     unsafe { sse_f32_intrinsics(cfg, cuboid, radius) }
 }
@@ -18,7 +18,7 @@ pub fn sse_f32(cfg: &Configuration<f32>, cuboid: &Cuboid<f32>, radius: f32) -> b
 /// Algorithm 4 in `f64`.
 #[cfg(target_arch = "x86_64")]
 #[inline]
-pub fn sse_f64(cfg: &Configuration<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
+pub fn sse_f64(cfg: &impl ConfigurationView<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
     // SAFETY: SSE2 is part of the x86-64 baseline.
     unsafe { sse_f64_intrinsics(cfg, cuboid, radius) }
 }
@@ -26,18 +26,18 @@ pub fn sse_f64(cfg: &Configuration<f64>, cuboid: &Cuboid<f64>, radius: f64) -> b
 /// One `__m128` holds (T, L, W, 0).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse")]
-fn sse_f32_intrinsics(cfg: &Configuration<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
+fn sse_f32_intrinsics(cfg: &impl ConfigurationView<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
     use std::arch::x86_64::*;
-    let [e_t, e_l, e_w] = &cfg.axes;
-    let [r_x, r_y, r_z] = cfg.r_sc;
+    let e = |i, j| cfg.axis(i, j);
+    let [r_x, r_y, r_z] = [0, 1, 2].map(|j| cfg.r_sc(j));
     let [c_t, c_l, c_w] = cuboid.half;
     // Lines 2–4: the three dot products at once, lane i = r_SC · ê_i.
     let a = _mm_add_ps(
         _mm_add_ps(
-            _mm_mul_ps(_mm_set1_ps(r_x), _mm_set_ps(0.0, e_w[0], e_l[0], e_t[0])),
-            _mm_mul_ps(_mm_set1_ps(r_y), _mm_set_ps(0.0, e_w[1], e_l[1], e_t[1])),
+            _mm_mul_ps(_mm_set1_ps(r_x), _mm_set_ps(0.0, e(2, 0), e(1, 0), e(0, 0))),
+            _mm_mul_ps(_mm_set1_ps(r_y), _mm_set_ps(0.0, e(2, 1), e(1, 1), e(0, 1))),
         ),
-        _mm_mul_ps(_mm_set1_ps(r_z), _mm_set_ps(0.0, e_w[2], e_l[2], e_t[2])),
+        _mm_mul_ps(_mm_set1_ps(r_z), _mm_set_ps(0.0, e(2, 2), e(1, 2), e(0, 2))),
     );
     // Lines 5–8: l_i = min(a_i + c_i, 0) + max(a_i − c_i, 0), squared.
     let c = _mm_set_ps(0.0, c_w, c_l, c_t);
@@ -53,10 +53,11 @@ fn sse_f32_intrinsics(cfg: &Configuration<f32>, cuboid: &Cuboid<f32>, radius: f3
 /// Two `__m128d` hold (T, L) and (W, 0).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse2")]
-fn sse_f64_intrinsics(cfg: &Configuration<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
+fn sse_f64_intrinsics(cfg: &impl ConfigurationView<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
     use std::arch::x86_64::*;
-    let [e_t, e_l, e_w] = &cfg.axes;
-    let [r_x, r_y, r_z] = cfg.r_sc;
+    let axis = |i: usize| [0, 1, 2].map(|j| cfg.axis(i, j));
+    let (e_t, e_l, e_w) = (axis(0), axis(1), axis(2));
+    let [r_x, r_y, r_z] = [0, 1, 2].map(|j| cfg.r_sc(j));
     let [c_t, c_l, c_w] = cuboid.half;
     let (rx, ry, rz) = (_mm_set1_pd(r_x), _mm_set1_pd(r_y), _mm_set1_pd(r_z));
     let dot = |hi: [f64; 3], lo: [f64; 3]| {
@@ -70,8 +71,8 @@ fn sse_f64_intrinsics(cfg: &Configuration<f64>, cuboid: &Cuboid<f64>, radius: f6
         let l = _mm_add_pd(_mm_min_pd(_mm_add_pd(a, c), zero), _mm_max_pd(_mm_sub_pd(a, c), zero));
         _mm_mul_pd(l, l)
     };
-    let tl = squared_excess(dot(*e_l, *e_t), _mm_set_pd(c_l, c_t));
-    let w0 = squared_excess(dot([0.0; 3], *e_w), _mm_set_pd(0.0, c_w));
+    let tl = squared_excess(dot(e_l, e_t), _mm_set_pd(c_l, c_t));
+    let w0 = squared_excess(dot([0.0; 3], e_w), _mm_set_pd(0.0, c_w));
     let sum = _mm_add_pd(tl, w0);
     let total = _mm_add_sd(sum, _mm_unpackhi_pd(sum, sum));
     _mm_cvtsd_f64(total) <= radius * radius
@@ -80,7 +81,7 @@ fn sse_f64_intrinsics(cfg: &Configuration<f64>, cuboid: &Cuboid<f64>, radius: f6
 /// Algorithm 4 without SIMD, for targets other than x86-64.
 #[cfg(not(target_arch = "x86_64"))]
 #[inline]
-fn sse_scalar<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
+fn sse_scalar<T: Real>(cfg: &impl ConfigurationView<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
     let mut d = T::ZERO;
     for i in 0..3 {
         let a = cfg.projection(i);
@@ -91,11 +92,11 @@ fn sse_scalar<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) ->
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-pub fn sse_f32(cfg: &Configuration<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
+pub fn sse_f32(cfg: &impl ConfigurationView<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
     sse_scalar(cfg, cuboid, radius)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-pub fn sse_f64(cfg: &Configuration<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
+pub fn sse_f64(cfg: &impl ConfigurationView<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
     sse_scalar(cfg, cuboid, radius)
 }

@@ -1,0 +1,42 @@
+//! What the binary needs from the operating system: logs, core pinning, memory figures.
+
+use anyhow::{Context, bail};
+use tracing_subscriber::EnvFilter;
+
+/// Logs to stderr, filtered by `RUST_LOG` (default: warnings).
+pub fn init_logging() {
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
+    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
+}
+
+/// Starts rayon's global pool before any thread is pinned: threads inherit the affinity of the
+/// thread that spawns them, and the untimed generation must keep every core.
+pub fn start_thread_pool() -> anyhow::Result<()> {
+    rayon::ThreadPoolBuilder::new().build_global().or_else(|e| {
+        // Already started (e.g. by an earlier call): fine, it was started unpinned.
+        tracing::debug!("rayon pool: {e}");
+        Ok::<_, anyhow::Error>(())
+    })?;
+    rayon::broadcast(|_| ());
+    Ok(())
+}
+
+/// Pins the calling thread to core `core` (an id of `core_affinity::get_core_ids`).
+pub fn pin_current_thread(core: usize) -> anyhow::Result<()> {
+    let ids = core_affinity::get_core_ids().context("cannot list this machine's cores")?;
+    let Some(id) = ids.into_iter().find(|id| id.id == core) else {
+        bail!("--core {core}: no such core available to this process");
+    };
+    if !core_affinity::set_for_current(id) {
+        bail!("--core {core}: the operating system refused to pin the thread");
+    }
+    Ok(())
+}
+
+/// Peak resident memory of this process (`VmHWM`), where the OS reports it.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}

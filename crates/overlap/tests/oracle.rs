@@ -1,0 +1,225 @@
+//! Every algorithm, in both precisions, against an exact oracle: Eq. 2 evaluated in rational
+//! arithmetic on the very values the kernel sees (floats are dyadic rationals, so the oracle's
+//! only approximation is none). A kernel may disagree with the oracle only inside the rounding
+//! band of [`rounding_band`], and that is asserted, not assumed.
+
+use num_rational::BigRational;
+use num_traits::{Signed, ToPrimitive, Zero};
+use overlap::batch::{Batch, verdict, verdict_words};
+use overlap::config::axes_from_quaternion;
+use overlap::kernels::batch::Isa;
+use overlap::{Algorithm, Configuration, Cuboid, Real, min_distance, overlaps};
+use proptest::prelude::*;
+
+fn exact(x: impl Real) -> BigRational {
+    BigRational::from_float(x.to_f64()).expect("finite input")
+}
+
+/// d_min² − R², exactly.
+fn exact_margin<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> BigRational {
+    let mut d2 = BigRational::zero();
+    for i in 0..3 {
+        let a: BigRational = (0..3).map(|j| exact(cfg.r_sc[j]) * exact(cfg.axes[i][j])).sum();
+        let l = a.abs() - exact(cuboid.half[i]);
+        if l.is_positive() {
+            d2 += &l * &l;
+        }
+    }
+    let r = exact(radius);
+    d2 - &r * &r
+}
+
+fn gamma(n: f64, u: f64) -> f64 {
+    n * u / (1.0 - n * u)
+}
+
+/// A bound on |fl(d²) − d²| + |fl(R²) − R²| for any of the kernels (plain or fused arithmetic,
+/// any summation order). Per axis, the projection a_i = Σ_j r_j e_ij carries at most
+/// γ₃·Σ_j|r_j e_ij|, and |a_i| − c_i one more rounding: δ_i ≤ γ₄·(Σ_j|r_j e_ij| + c_i). Squaring
+/// l_i ± δ_i moves l_i² by at most 2(l_i + δ_i)δ_i, the products and the three-term sum add
+/// γ₄·d², and R·R adds u·R². The quick-rejection tests of QRI/QRF compare l_i with ±R, which
+/// can only flip when |l_i| is within δ_i + u·R of R, a case the same terms cover. The factor 2
+/// is slack for the second-order terms dropped above.
+fn rounding_band<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> f64 {
+    let u = T::UNIT_ROUNDOFF;
+    let mut band = 0.0;
+    let mut d2 = 0.0;
+    for i in 0..3 {
+        let s: f64 = (0..3).map(|j| (cfg.r_sc[j].to_f64() * cfg.axes[i][j].to_f64()).abs()).sum();
+        let a: f64 = (0..3).map(|j| cfg.r_sc[j].to_f64() * cfg.axes[i][j].to_f64()).sum();
+        let c = cuboid.half[i].to_f64();
+        let delta = gamma(4.0, u) * (s + c);
+        let l = (a.abs() - c).max(0.0);
+        band += 2.0 * (l + delta) * delta + delta * delta;
+        d2 += l * l;
+    }
+    let r = radius.to_f64();
+    2.0 * (band + gamma(4.0, u) * d2 + u * r * r)
+}
+
+/// The verdicts of every algorithm for `cfgs`, the batched kernel on all of them at once.
+fn check_all<T: Real>(cfgs: &[Configuration<T>], cuboid: &Cuboid<T>, radius: T) -> Result<(), TestCaseError> {
+    let batch = Batch::from_configurations(cfgs);
+    let isas = Isa::available();
+    let mut bits = vec![vec![0u64; verdict_words(cfgs.len())]; isas.len()];
+    for (isa, bits) in isas.iter().zip(&mut bits) {
+        T::ocsi_batch_on(*isa, &batch, cuboid, radius, bits);
+    }
+    for (i, cfg) in cfgs.iter().enumerate() {
+        let margin = exact_margin(cfg, cuboid, radius);
+        let truth = !margin.is_positive();
+        let band = rounding_band(cfg, cuboid, radius);
+        let margin_f = margin.to_f64().unwrap_or(f64::INFINITY);
+        let per_pair = Algorithm::ALL.into_iter().filter(|&a| a != Algorithm::OcsiBatch).map(|a| (a.name(), overlaps(a, cfg, cuboid, radius)));
+        let batched = isas.iter().zip(&bits).map(|(isa, bits)| (isa.name(), verdict(bits, i)));
+        for (name, got) in per_pair.chain(batched) {
+            prop_assert!(
+                got == truth || margin_f.abs() <= band,
+                "{name} {}: verdict {got}, exact d²−R² = {margin_f:e} outside the rounding band {band:e}; {cfg:?} {cuboid:?} R={radius:?}",
+                T::NAME
+            );
+        }
+        // |√a − √b| ≤ √|a − b|: the band of d² (taken at R = 0) bounds d, plus the final rounding.
+        let d = min_distance(cfg, cuboid).to_f64();
+        let d_exact = exact_margin(cfg, cuboid, T::ZERO).to_f64().unwrap_or(f64::INFINITY).sqrt();
+        let tolerance = rounding_band(cfg, cuboid, T::ZERO).sqrt() + 2.0 * T::UNIT_ROUNDOFF * d_exact;
+        prop_assert!((d - d_exact).abs() <= tolerance, "min_distance {d} vs exact {d_exact} (tolerance {tolerance:e})");
+    }
+    Ok(())
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Feature {
+    Face,
+    Edge,
+    Corner,
+    Inside,
+    Anywhere,
+}
+
+/// A sphere centre in the cuboid frame at distance `scale`·R from the chosen feature.
+fn place(feature: Feature, half: [f64; 3], radius: f64, scale: f64, dir: [f64; 3], signs: [f64; 3]) -> [f64; 3] {
+    let n = |v: [f64; 3]| {
+        let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
+        v.map(|x| x / len)
+    };
+    let d = scale * radius;
+    match feature {
+        // Off the face +T (or −T): the foot point anywhere on that face.
+        Feature::Face => [signs[0] * (half[0] + d), dir[1] * half[1], dir[2] * half[2]],
+        // Off the edge along W: the outward normal in the T–L plane.
+        Feature::Edge => {
+            let m = n([dir[0].abs() + 1e-3, dir[1].abs() + 1e-3, 0.0]);
+            [signs[0] * (half[0] + d * m[0]), signs[1] * (half[1] + d * m[1]), dir[2] * half[2]]
+        }
+        Feature::Corner => {
+            let m = n(dir.map(|x| x.abs() + 1e-3));
+            std::array::from_fn(|i| signs[i] * (half[i] + d * m[i]))
+        }
+        Feature::Inside => std::array::from_fn(|i| dir[i] * half[i]),
+        Feature::Anywhere => std::array::from_fn(|i| dir[i] * (half[i] + 2.0 * radius)),
+    }
+}
+
+fn configuration<T: Real>(p: [f64; 3], axes: [[f64; 3]; 3]) -> Configuration<T> {
+    let r_sc = std::array::from_fn(|k| p[0] * axes[0][k] + p[1] * axes[1][k] + p[2] * axes[2][k]);
+    Configuration { r_sc: r_sc.map(T::from_f64), axes: axes.map(|e| e.map(T::from_f64)) }
+}
+
+fn feature() -> impl Strategy<Value = Feature> {
+    prop_oneof![
+        Just(Feature::Face),
+        Just(Feature::Edge),
+        Just(Feature::Corner),
+        Just(Feature::Inside),
+        Just(Feature::Anywhere)
+    ]
+}
+
+/// Distance scale relative to R: exactly touching, 1 ± 1e-12, or far from the boundary.
+fn scale() -> impl Strategy<Value = f64> {
+    prop_oneof![Just(1.0), Just(1.0 - 1e-12), Just(1.0 + 1e-12), 0.0..3.0f64]
+}
+
+fn orientation() -> impl Strategy<Value = [[f64; 3]; 3]> {
+    let aligned = Just([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    let random = (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64)
+        .prop_filter("non-degenerate quaternion", |q| q.0 * q.0 + q.1 * q.1 + q.2 * q.2 + q.3 * q.3 > 1e-3)
+        .prop_map(|(w, x, y, z)| {
+            let n = (w * w + x * x + y * y + z * z).sqrt();
+            axes_from_quaternion([w / n, x / n, y / n, z / n])
+        });
+    prop_oneof![aligned, random]
+}
+
+fn unit_cube() -> impl Strategy<Value = [f64; 3]> {
+    [-1.0..=1.0f64, -1.0..=1.0f64, -1.0..=1.0f64]
+}
+
+fn signs() -> impl Strategy<Value = [f64; 3]> {
+    [prop_oneof![Just(-1.0), Just(1.0)], prop_oneof![Just(-1.0), Just(1.0)], prop_oneof![Just(-1.0), Just(1.0)]]
+}
+
+/// (half extents, R): T = 1 as in the papers (L*, W* up to 100, R* from 0.01 to 100), and also
+/// thin plates and needles where c_T is not the smallest.
+fn shape() -> impl Strategy<Value = ([f64; 3], f64)> {
+    let log_uniform = |lo: f64, hi: f64| (lo.ln()..hi.ln()).prop_map(f64::exp);
+    let reduced = (log_uniform(1.0, 100.0), log_uniform(1.0, 100.0), log_uniform(0.01, 100.0))
+        .prop_map(|(l, w, r)| ([0.5, l / 2.0, w / 2.0], r));
+    let general = (log_uniform(1e-3, 100.0), log_uniform(1e-3, 100.0), log_uniform(1e-3, 100.0), log_uniform(0.01, 100.0))
+        .prop_map(|(t, l, w, r)| ([t, l, w], r));
+    prop_oneof![reduced, general]
+}
+
+fn run_case<T: Real>(cases: &[(Feature, f64, [f64; 3], [f64; 3])], half: [f64; 3], radius: f64, axes: [[f64; 3]; 3]) -> Result<(), TestCaseError> {
+    let cfgs: Vec<Configuration<T>> = cases
+        .iter()
+        .map(|&(feature, scale, dir, signs)| configuration::<T>(place(feature, half, radius, scale, dir, signs), axes))
+        .collect();
+    check_all(&cfgs, &Cuboid { half: half.map(T::from_f64) }, T::from_f64(radius))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    /// Up to 40 configurations of one shape and orientation per case, so the batched kernel also
+    /// sees full blocks, partial blocks and more than one verdict word.
+    #[test]
+    fn every_algorithm_agrees_with_the_exact_oracle(
+        (half, radius) in shape(),
+        axes in orientation(),
+        cases in prop::collection::vec((feature(), scale(), unit_cube(), signs()), 1..40),
+    ) {
+        run_case::<f32>(&cases, half, radius, axes)?;
+        run_case::<f64>(&cases, half, radius, axes)?;
+    }
+}
+
+/// In f64 a margin of 1e-12·R² lies far outside the rounding band for these shapes: there the
+/// band is not an excuse and every algorithm must give the exact verdict.
+#[test]
+fn f64_resolves_a_relative_gap_of_1e_12() {
+    let axes = axes_from_quaternion([0.8, 0.2, -0.4, 0.4]);
+    let (half, radius) = ([0.5, 2.0, 4.0], 5.0);
+    for feature in [Feature::Face, Feature::Edge, Feature::Corner] {
+        for (scale, expected) in [(1.0 - 1e-12, true), (1.0 + 1e-12, false)] {
+            let cfg = configuration::<f64>(place(feature, half, radius, scale, [0.3, -0.2, 0.7], [1.0, -1.0, 1.0]), axes);
+            let cuboid = Cuboid { half };
+            let margin = exact_margin(&cfg, &cuboid, radius);
+            assert_eq!(!margin.is_positive(), expected, "{feature:?} {scale}: the oracle itself");
+            assert!(margin.to_f64().unwrap().abs() > rounding_band(&cfg, &cuboid, radius), "{feature:?}: inside the band");
+            for algorithm in Algorithm::ALL {
+                assert_eq!(overlaps(algorithm, &cfg, &cuboid, radius), expected, "{algorithm} at {feature:?} × {scale}");
+            }
+        }
+    }
+}
+
+/// The band is a bound, not a blanket: in f32 it must still be a small fraction of R².
+#[test]
+fn the_rounding_band_is_tight() {
+    let axes = axes_from_quaternion([0.8, 0.2, -0.4, 0.4]);
+    let cfg = configuration::<f32>(place(Feature::Corner, [0.5, 2.0, 4.0], 5.0, 1.0, [0.3, 0.2, 0.7], [1.0; 3]), axes);
+    let band = rounding_band(&cfg, &Cuboid { half: [0.5f32, 2.0, 4.0] }, 5.0f32);
+    assert!(band < 1e-4 * 25.0, "band {band} is not small against R² = 25");
+}
