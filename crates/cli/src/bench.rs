@@ -19,16 +19,16 @@ pub enum BenchCommand {
 #[derive(Args)]
 pub struct BenchOverlapArgs {
     /// Cuboid length in units of its thickness, L* = L/T.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     l_star: f64,
     /// Cuboid width in units of its thickness, W* = W/T.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     w_star: f64,
     /// Sphere radius in units of the cuboid thickness, R* = R/T.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     r_star: f64,
     /// Target fraction of non-overlapping configurations, in (0, 1).
-    #[arg(long, default_value_t = 0.4)]
+    #[arg(long, default_value_t = 0.4, allow_negative_numbers = true)]
     acceptance: f64,
     /// Configurations per set, N_c.
     #[arg(long, default_value_t = 2_000_000)]

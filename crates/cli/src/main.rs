@@ -29,7 +29,16 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(), // --help, --version
+        Err(e) => {
+            // clap's first line names the flag and the cause; the usage hint after it is noise.
+            let message = e.to_string();
+            eprintln!("{}", message.lines().next().unwrap_or("error: invalid arguments"));
+            return std::process::ExitCode::from(2);
+        }
+    };
     system::init_logging();
     let result = match cli.command {
         Command::Bench(command) => bench::run(command, cli.format),

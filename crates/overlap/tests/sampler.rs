@@ -3,6 +3,7 @@
 use overlap::batch::verdict_words;
 use overlap::protocol::count_overlaps;
 use overlap::sampler::{Spherocuboid, generate, sampling_radius, steiner_volume};
+use overlap::config::ConfigurationView;
 use overlap::{Algorithm, Cuboid};
 
 /// Acceptance measured by OCSI over 10^6 configurations: its standard error is
