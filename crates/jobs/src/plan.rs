@@ -1,0 +1,385 @@
+//! Plans: the TOML files that describe campaigns, expanded into validated jobs.
+//!
+//! ```toml
+//! name = "table1"          # default: the file's stem
+//! exclusive = true         # time one job at a time on a machine (default false)
+//! seed = 0                 # part of every overlap point's identity (default 0)
+//!
+//! [[overlap]]
+//! l_star = { from = 1, to = 20 }   # a scalar, a list, or a range {from, to, step = 1}
+//! r_star = [0.05, 0.5, 5.0]
+//! precision = ["f32", "f64"]
+//!
+//! [[noop]]
+//! count = 1000
+//! ```
+//!
+//! A sweep is the cartesian product of its keys' values; `algorithms` is one set per point,
+//! never expanded. A plan is parsed and validated completely before any job exists, and the
+//! first problem (in file order within a sweep) is reported as `FILE:LINE:COL: key `k`: reason`.
+//! Points that come out identical (same id) are kept once, at their first position.
+
+use std::collections::HashSet;
+use std::ops::Range;
+use std::path::Path;
+
+use overlap::{Algorithm, OverlapError, PointSpec, Precision};
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+use crate::spec::{JobSpec, NoopSpec};
+use crate::sweep::{Issue, Sweep, cartesian};
+
+/// A plan may not expand to more jobs than this: a campaign that large is a typo.
+pub const MAX_JOBS: usize = 1_000_000;
+/// More configurations per set than this do not fit a node's memory (48 B each in f64).
+pub const MAX_CONFIGURATIONS: u64 = 1_000_000_000;
+pub const MAX_REPEATS: u64 = 1000;
+/// Reduced lengths above this are below f32 resolution for a unit-thickness cuboid.
+pub const MAX_REDUCED_LENGTH: f64 = 10_000.0;
+/// One hour: a no-op job is for testing the orchestrator, not for occupying a core.
+pub const MAX_NOOP_DURATION_MS: u64 = 3_600_000;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    pub name: String,
+    /// The plan asks that no two timed jobs run on one machine at the same time.
+    pub exclusive_timing: bool,
+    /// Unique by id, in file order.
+    pub jobs: Vec<JobSpec>,
+}
+
+/// A plan that cannot be scheduled. Displays as one line: `FILE:LINE:COL: key `k`: reason`
+/// (without the key part for TOML syntax errors and plan-wide problems).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}:{line}:{column}: {}{message}", key.as_ref().map(|k| format!("key `{k}`: ")).unwrap_or_default())]
+pub struct PlanError {
+    pub file: String,
+    /// 1-based.
+    pub line: usize,
+    /// 1-based, in characters.
+    pub column: usize,
+    pub key: Option<String>,
+    pub message: String,
+}
+
+impl Plan {
+    /// Parses and validates `text`; `file_name` is used in error messages and as the default name.
+    pub fn parse(text: &str, file_name: &str) -> Result<Plan, PlanError> {
+        parse_document(text, file_name).map_err(|issue| locate(issue, text, file_name))
+    }
+
+    /// Sum of the jobs' [`JobSpec::estimate_seconds`] on one core.
+    pub fn estimate_seconds(&self) -> f64 {
+        self.jobs.iter().map(JobSpec::estimate_seconds).sum()
+    }
+}
+
+fn locate(issue: Issue, text: &str, file_name: &str) -> PlanError {
+    let before = text.get(..issue.span.start.min(text.len())).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    // One line whatever the source of the message.
+    let message = issue
+        .message
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    PlanError {
+        file: file_name.to_owned(),
+        line,
+        column,
+        key: issue.key,
+        message,
+    }
+}
+
+/// Plan-wide defaults a sweep may inherit.
+struct Defaults {
+    seed: u64,
+}
+
+/// How one `[[kind]]` table (at `header`) becomes jobs. Adding a job kind is: a [`JobSpec`]
+/// variant, one function of this type (reading its keys through [`Sweep`]), and a line in
+/// [`KINDS`].
+type Expand = fn(Range<usize>, &DeTable<'_>, &Defaults) -> Result<Vec<JobSpec>, Issue>;
+
+/// The sweep kinds, by their table name.
+const KINDS: &[(&str, Expand)] = &[
+    ("overlap", expand_overlap),
+    ("noop", expand_noop),
+    ("edmd", expand_edmd),
+];
+
+const TOP_LEVEL: &[&str] = &["name", "exclusive", "seed", "overlap", "noop", "edmd"];
+
+fn parse_document(text: &str, file_name: &str) -> Result<Plan, Issue> {
+    let document = DeTable::parse(text)
+        .map_err(|e| Issue::new(e.span().unwrap_or(0..0), None, e.message().to_owned()))?;
+    let document = document.get_ref();
+
+    let top = Sweep::new("the plan's top level", 0..0, document, TOP_LEVEL)?;
+
+    let name = match document.get("name") {
+        Some(value) => match value.get_ref() {
+            DeValue::String(s) if !s.trim().is_empty() => s.trim().to_owned(),
+            _ => {
+                return Err(Issue::new(
+                    value.span(),
+                    Some("name"),
+                    "must be a non-empty string",
+                ));
+            }
+        },
+        None => Path::new(file_name)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+    };
+    if name.is_empty() {
+        return Err(Issue::new(
+            0..0,
+            Some("name"),
+            "missing, and the file name gives none",
+        ));
+    }
+    let exclusive_timing = match document.get("exclusive") {
+        Some(value) => match value.get_ref() {
+            DeValue::Boolean(b) => *b,
+            other => {
+                return Err(Issue::new(
+                    value.span(),
+                    Some("exclusive"),
+                    format!("expected true or false, got {}", other.type_str()),
+                ));
+            }
+        },
+        None => false,
+    };
+    let defaults = Defaults {
+        seed: top.integer("seed", Some(0), &|_| Ok(()))?,
+    };
+
+    // Every sweep table, in file order, with its kind.
+    let mut sweeps: Vec<(Range<usize>, &DeTable<'_>, Expand)> = Vec::new();
+    for &(kind, expand) in KINDS {
+        let Some(value) = document.get(kind) else {
+            continue;
+        };
+        let tables: Vec<&Spanned<DeValue<'_>>> = match value.get_ref() {
+            DeValue::Array(array) => array.iter().collect(),
+            DeValue::Table(_) => vec![value],
+            other => {
+                return Err(Issue::new(
+                    value.span(),
+                    Some(kind),
+                    format!("expected [[{kind}]] tables, got {}", other.type_str()),
+                ));
+            }
+        };
+        for table in tables {
+            let DeValue::Table(t) = table.get_ref() else {
+                return Err(Issue::new(
+                    table.span(),
+                    Some(kind),
+                    format!("expected [[{kind}]] tables"),
+                ));
+            };
+            sweeps.push((table.span(), t, expand));
+        }
+    }
+    if sweeps.is_empty() {
+        return Err(Issue::new(
+            0..0,
+            None,
+            "the plan has no sweeps (add [[overlap]] or [[noop]] tables)",
+        ));
+    }
+    sweeps.sort_by_key(|(span, _, _)| span.start);
+
+    let mut jobs = Vec::new();
+    let mut seen = HashSet::new();
+    for (header, table, expand) in sweeps {
+        for job in expand(header.clone(), table, &defaults)? {
+            if seen.insert(job.id()) {
+                jobs.push(job);
+            }
+        }
+        if jobs.len() > MAX_JOBS {
+            return Err(Issue::new(
+                header,
+                None,
+                format!("the plan expands to more than {MAX_JOBS} jobs"),
+            ));
+        }
+    }
+    Ok(Plan {
+        name,
+        exclusive_timing,
+        jobs,
+    })
+}
+
+/// Fails when a sweep's product of value counts exceeds [`MAX_JOBS`], before building it.
+fn check_product(sweep: &Sweep<'_, '_>, lens: &[usize]) -> Result<(), Issue> {
+    let total = lens.iter().try_fold(1usize, |acc, &n| {
+        acc.checked_mul(n).filter(|&t| t <= MAX_JOBS)
+    });
+    match total {
+        Some(_) => Ok(()),
+        None => Err(Issue::new(
+            sweep.header(),
+            None,
+            format!("the sweep expands to more than {MAX_JOBS} jobs"),
+        )),
+    }
+}
+
+const OVERLAP_KEYS: &[&str] = &[
+    "l_star",
+    "w_star",
+    "r_star",
+    "acceptance",
+    "configurations",
+    "repeats",
+    "precision",
+    "algorithms",
+    "seed",
+];
+
+fn positive_length(x: f64) -> Result<(), String> {
+    if x <= 0.0 {
+        Err(format!("must be positive, got {x}"))
+    } else if x > MAX_REDUCED_LENGTH {
+        Err(format!("must be at most {MAX_REDUCED_LENGTH}, got {x}"))
+    } else {
+        Ok(())
+    }
+}
+
+fn at_least_one_up_to(max: u64) -> impl Fn(u64) -> Result<(), String> {
+    move |n| match n {
+        0 => Err("must be at least 1".to_owned()),
+        n if n > max => Err(format!("must be at most {max}, got {n}")),
+        _ => Ok(()),
+    }
+}
+
+/// Reason of an `overlap` naming error, without its key (the plan error names the key).
+fn reason(e: OverlapError) -> String {
+    match e {
+        OverlapError::Invalid { reason, .. } => reason,
+    }
+}
+
+fn expand_overlap(
+    header: Range<usize>,
+    table: &DeTable<'_>,
+    defaults: &Defaults,
+) -> Result<Vec<JobSpec>, Issue> {
+    let sweep = &Sweep::new("[[overlap]]", header, table, OVERLAP_KEYS)?;
+    let l_star = sweep.floats("l_star", None, &positive_length)?;
+    let w_star = sweep.floats("w_star", None, &positive_length)?;
+    let r_star = sweep.floats("r_star", None, &positive_length)?;
+    let acceptance = sweep.floats("acceptance", Some(0.4), &|x| {
+        if x > 0.0 && x < 1.0 {
+            Ok(())
+        } else {
+            Err(format!("must lie strictly between 0 and 1, got {x}"))
+        }
+    })?;
+    let configurations = sweep.integers(
+        "configurations",
+        Some(2_000_000),
+        &at_least_one_up_to(MAX_CONFIGURATIONS),
+    )?;
+    let repeats = sweep.integers("repeats", Some(3), &at_least_one_up_to(MAX_REPEATS))?;
+    let precision = sweep.names("precision", Precision::F32, &|s| s.parse().map_err(reason))?;
+    let algorithms = sweep.name_set("algorithms", Algorithm::ALL.to_vec(), &|s| {
+        s.parse().map_err(reason)
+    })?;
+    let seed = sweep.integers("seed", Some(defaults.seed), &|_| Ok(()))?;
+
+    let lens = [
+        seed.len(),
+        precision.len(),
+        r_star.len(),
+        l_star.len(),
+        w_star.len(),
+        acceptance.len(),
+        configurations.len(),
+        repeats.len(),
+    ];
+    check_product(sweep, &lens)?;
+    cartesian(&lens)
+        .map(|i| {
+            let point = PointSpec {
+                seed: seed[i[0]],
+                precision: precision[i[1]],
+                r_star: r_star[i[2]],
+                l_star: l_star[i[3]],
+                w_star: w_star[i[4]],
+                acceptance: acceptance[i[5]],
+                configurations: configurations[i[6]],
+                // Bounded by MAX_REPEATS above.
+                repeats: u32::try_from(repeats[i[7]]).unwrap_or(u32::MAX),
+                algorithms: algorithms.clone(),
+            };
+            // The kernel crate's own rules, so that a rule added there is enforced here too.
+            point
+                .validate()
+                .map_err(|OverlapError::Invalid { key, reason }| {
+                    Issue::new(sweep.span_of(key), Some(key), reason)
+                })?;
+            Ok(JobSpec::Overlap(point))
+        })
+        .collect()
+}
+
+fn expand_noop(
+    header: Range<usize>,
+    table: &DeTable<'_>,
+    _: &Defaults,
+) -> Result<Vec<JobSpec>, Issue> {
+    let sweep = &Sweep::new(
+        "[[noop]]",
+        header,
+        table,
+        &["count", "duration_ms", "fail_rate"],
+    )?;
+    let count = sweep.integer("count", None, &at_least_one_up_to(MAX_JOBS as u64))?;
+    let duration_ms = sweep.integers("duration_ms", Some(0), &|n| {
+        if n > MAX_NOOP_DURATION_MS {
+            Err(format!("must be at most {MAX_NOOP_DURATION_MS}, got {n}"))
+        } else {
+            Ok(())
+        }
+    })?;
+    let fail_rate = sweep.floats("fail_rate", Some(0.0), &|x| {
+        if (0.0..=1.0).contains(&x) {
+            Ok(())
+        } else {
+            Err(format!("must lie in [0, 1], got {x}"))
+        }
+    })?;
+    let lens = [
+        duration_ms.len(),
+        fail_rate.len(),
+        usize::try_from(count).unwrap_or(usize::MAX),
+    ];
+    check_product(sweep, &lens)?;
+    Ok(cartesian(&lens)
+        .map(|i| {
+            JobSpec::Noop(NoopSpec {
+                duration_ms: duration_ms[i[0]],
+                fail_rate: fail_rate[i[1]],
+                index: i[2] as u64,
+            })
+        })
+        .collect())
+}
+
+/// EDMD points are defined by the `edmd` crate, which is not wired in yet.
+fn expand_edmd(header: Range<usize>, _: &DeTable<'_>, _: &Defaults) -> Result<Vec<JobSpec>, Issue> {
+    Err(Issue::new(header, None, "edmd jobs: not supported yet"))
+}

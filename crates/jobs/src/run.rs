@@ -1,0 +1,187 @@
+//! Running one job on the calling thread and flattening its result into records.
+
+use std::thread::sleep;
+use std::time::Duration;
+
+use overlap::{OverlapError, PointSpec, run_point};
+use serde_json::{Map, Value, json};
+
+use crate::spec::{JobSpec, NoopSpec};
+
+/// One flat result record: field name → JSON scalar.
+pub type Record = Map<String, Value>;
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum JobError {
+    /// The overlap spec is out of its domain (it was not validated by a plan) or cannot run.
+    #[error("overlap: {0}")]
+    Overlap(#[from] OverlapError),
+    #[error("noop: fail_rate must lie in [0, 1], got {0}")]
+    NoopFailRate(f64),
+    /// The failure a no-op job was asked to produce.
+    #[error("noop job {index}: injected failure on attempt {attempt} (fail_rate {fail_rate})")]
+    Injected {
+        index: u64,
+        attempt: u32,
+        fail_rate: f64,
+    },
+}
+
+/// Runs `spec` on the calling thread (pin it first: the overlap loops are timed there) and
+/// returns its records. `attempt` counts from 0 or 1 as the caller likes; only no-op jobs use
+/// it, to decide their injected failure.
+///
+/// Records of an overlap job: one per (algorithm, repeat), in run order,
+/// `{"algorithm", "repeat", "ms", "ns_per_check", "acceptance"}` (acceptance as measured), then
+/// one point record, the only one without an `algorithm` key:
+/// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho"}`.
+/// A no-op job: one record `{"index", "duration_ms"}`.
+pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
+    match spec {
+        JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
+        JobSpec::Noop(noop) => run_noop(noop, &spec.id(), attempt),
+    }
+}
+
+fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, JobError> {
+    let seeded = PointSpec {
+        seed: generator_seed,
+        ..point.clone()
+    };
+    let report = run_point(&seeded, &mut |_| {})?;
+    let mut records: Vec<Record> = report
+        .timings
+        .iter()
+        .map(|t| {
+            record([
+                ("algorithm", json!(t.algorithm.name())),
+                ("repeat", json!(t.repeat)),
+                ("ms", json!(t.ms)),
+                ("ns_per_check", json!(t.ns_per_check)),
+                ("acceptance", json!(t.acceptance)),
+            ])
+        })
+        .collect();
+    records.push(record([
+        ("stream_ns_per_config", json!(report.stream_ns_per_config)),
+        ("generation_ms", json!(report.generation_ms)),
+        ("arrays_bytes", json!(report.arrays_bytes)),
+        ("rho", json!(report.rho)),
+    ]));
+    Ok(records)
+}
+
+fn run_noop(noop: &NoopSpec, id: &str, attempt: u32) -> Result<Vec<Record>, JobError> {
+    if !(0.0..=1.0).contains(&noop.fail_rate) {
+        return Err(JobError::NoopFailRate(noop.fail_rate));
+    }
+    sleep(Duration::from_millis(noop.duration_ms));
+    if unit_draw(id, attempt) < noop.fail_rate {
+        return Err(JobError::Injected {
+            index: noop.index,
+            attempt,
+            fail_rate: noop.fail_rate,
+        });
+    }
+    Ok(vec![record([
+        ("index", json!(noop.index)),
+        ("duration_ms", json!(noop.duration_ms)),
+    ])])
+}
+
+/// A number in [0, 1) fixed by (id, attempt): 53 bits of BLAKE3("id:attempt").
+fn unit_draw(id: &str, attempt: u32) -> f64 {
+    let hash = blake3::hash(format!("{id}:{attempt}").as_bytes());
+    let mut first = [0u8; 8];
+    first.copy_from_slice(&hash.as_bytes()[..8]);
+    (u64::from_le_bytes(first) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+fn record<const N: usize>(fields: [(&str, Value); N]) -> Record {
+    fields
+        .into_iter()
+        .map(|(key, value)| (key.to_owned(), value))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use overlap::{Algorithm, Precision};
+
+    fn noop(index: u64, fail_rate: f64) -> JobSpec {
+        JobSpec::Noop(NoopSpec {
+            index,
+            duration_ms: 0,
+            fail_rate,
+        })
+    }
+
+    #[test]
+    fn noop_failures_are_reproducible_and_near_the_rate() {
+        let mut failures = 0;
+        for index in 0..2000 {
+            let job = noop(index, 0.25);
+            let first = run(&job, 1);
+            assert_eq!(first, run(&job, 1), "same (id, attempt), same outcome");
+            failures += usize::from(first.is_err());
+        }
+        assert!(
+            (400..=600).contains(&failures),
+            "{failures} failures of 2000 at rate 0.25"
+        );
+        // A retry is a new draw: some job that failed on attempt 1 succeeds on attempt 2.
+        assert!((0..200).any(|i| run(&noop(i, 0.5), 1).is_err() && run(&noop(i, 0.5), 2).is_ok()));
+        assert!((0..200).all(|i| run(&noop(i, 0.0), 1).is_ok()));
+        assert!((0..200).all(|i| run(&noop(i, 1.0), 1).is_err()));
+        assert_eq!(run(&noop(0, 1.5), 1), Err(JobError::NoopFailRate(1.5)));
+    }
+
+    #[test]
+    fn noop_record() {
+        let records = run(&noop(7, 0.0), 0).expect("never fails at rate 0");
+        assert_eq!(
+            Value::Object(records[0].clone()),
+            json!({"index": 7, "duration_ms": 0})
+        );
+    }
+
+    #[test]
+    fn overlap_records_follow_the_convention() {
+        let job = JobSpec::Overlap(PointSpec {
+            l_star: 3.0,
+            w_star: 2.0,
+            r_star: 0.5,
+            acceptance: 0.4,
+            configurations: 20_000,
+            repeats: 2,
+            precision: Precision::F64,
+            algorithms: vec![Algorithm::Qri, Algorithm::OcsiBatch],
+            seed: 0,
+        });
+        let records = run(&job, 1).expect("a valid point runs");
+        assert_eq!(records.len(), 2 * 2 + 1);
+        for r in &records[..4] {
+            let keys: Vec<&str> = r.keys().map(String::as_str).collect();
+            for key in ["algorithm", "repeat", "ms", "ns_per_check", "acceptance"] {
+                assert!(keys.contains(&key), "{keys:?}");
+            }
+            let acceptance = r["acceptance"].as_f64().expect("a number");
+            assert!(
+                (acceptance - 0.4).abs() < 0.03,
+                "measured acceptance {acceptance}"
+            );
+        }
+        let point = &records[4];
+        assert!(!point.contains_key("algorithm"));
+        assert!(
+            point["stream_ns_per_config"]
+                .as_f64()
+                .is_some_and(|x| x > 0.0)
+        );
+        assert!(point["arrays_bytes"].as_u64().is_some_and(|b| b > 0));
+        // Same point, same configurations: verdicts (acceptances) are reproducible.
+        let again = run(&job, 2).expect("runs again");
+        assert_eq!(records[0]["acceptance"], again[0]["acceptance"]);
+    }
+}

@@ -1,0 +1,453 @@
+//! Plans: validation messages, expansion counts, identity rules.
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+
+use jobs::{JobSpec, Plan};
+use overlap::{Algorithm, Precision};
+use proptest::prelude::*;
+
+fn deploy_plan(name: &str) -> Plan {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../deploy/plans")
+        .join(name);
+    let text = std::fs::read_to_string(&path).expect("the deploy plans are in the repository");
+    Plan::parse(&text, name).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn ids(plan: &Plan) -> BTreeSet<String> {
+    plan.jobs.iter().map(JobSpec::id).collect()
+}
+
+fn parse(text: &str) -> Plan {
+    Plan::parse(text, "p.toml").unwrap_or_else(|e| panic!("{e}"))
+}
+
+const GOOD: &str = "l_star = 1\nw_star = 1\nr_star = 0.5\n";
+
+/// (plan, key named in the message, line of the error). `None`: the message names no key.
+const BAD: &[(&str, Option<&str>, usize)] = &[
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nfoo = 3\n",
+        Some("foo"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nacceptance = 1.5\n",
+        Some("acceptance"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nacceptance = 0\n",
+        Some("acceptance"),
+        5,
+    ),
+    (
+        "[[overlap]]\nacceptance = \"high\"\nl_star = 1\nw_star = 1\nr_star = 0.5\n",
+        Some("acceptance"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = -1\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = [1, 0]\nr_star = 0.5\n",
+        Some("w_star"),
+        3,
+    ),
+    (
+        "[[overlap]]\nl_star = 20000\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = nan\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = []\n",
+        Some("r_star"),
+        4,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = [0.5, [1]]\n",
+        Some("r_star"),
+        4,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\n\nr_star = 0.5\nconfigurations = 0\n",
+        Some("configurations"),
+        6,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 2_000_000_000\n",
+        Some("configurations"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = -5\n",
+        Some("configurations"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nrepeats = 0\n",
+        Some("repeats"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nrepeats = 2.5\n",
+        Some("repeats"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nalgorithms = [\"arvo\", \"gjk\"]\n",
+        Some("algorithms"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nalgorithms = [\"qri\", \"qri\"]\n",
+        Some("algorithms"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nalgorithms = []\n",
+        Some("algorithms"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nprecision = \"f16\"\n",
+        Some("precision"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = { from = 1, to = 20, step = 0 }\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = { from = 5, to = 1 }\nr_star = 0.5\n",
+        Some("w_star"),
+        3,
+    ),
+    (
+        "[[overlap]]\nl_star = { from = 1, upto = 3 }\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = { to = 3 }\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "[[overlap]]\nl_star = { from = 1, to = 1e9, step = 1e-3 }\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        2,
+    ),
+    (
+        "name = \"x\"\n\n[[overlap]]\nw_star = 1\nr_star = 0.5\n",
+        Some("l_star"),
+        3,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nseed = -1\n",
+        Some("seed"),
+        5,
+    ),
+    ("nmae = \"x\"\n[[noop]]\ncount = 1\n", Some("nmae"), 1),
+    (
+        "exclusive = \"yes\"\n[[noop]]\ncount = 1\n",
+        Some("exclusive"),
+        1,
+    ),
+    ("name = \"\"\n[[noop]]\ncount = 1\n", Some("name"), 1),
+    ("[[noop]]\ncount = 0\n", Some("count"), 2),
+    ("[[noop]]\ncount = [1, 2]\n", Some("count"), 2),
+    (
+        "[[noop]]\ncount = 10\nfail_rate = 1.5\n",
+        Some("fail_rate"),
+        3,
+    ),
+    (
+        "[[noop]]\ncount = 10\nduration_ms = -1\n",
+        Some("duration_ms"),
+        3,
+    ),
+    ("[[noop]]\ncount = 2000000\n", Some("count"), 2),
+    ("overlap = 3\n", Some("overlap"), 1),
+    (
+        "[[noop]]\ncount = 1\n\n[[edmd]]\nshape = \"sphere\"\n",
+        None,
+        4,
+    ),
+    ("[[noop]]\ncount = 1\nduration_ms = [1,\n", None, 3),
+    ("name = \"empty\"\n", None, 1),
+];
+
+#[test]
+fn bad_plans_name_the_key_and_the_line() {
+    assert!(BAD.len() >= 15);
+    for &(text, key, line) in BAD {
+        let error = Plan::parse(text, "bad.toml").expect_err(text).to_string();
+        assert!(!error.contains('\n'), "one line: {error}");
+        assert!(
+            error.starts_with(&format!("bad.toml:{line}:")),
+            "line {line} for {text:?}: {error}"
+        );
+        match key {
+            Some(key) => assert!(
+                error.contains(&format!("key `{key}`: ")),
+                "key `{key}` for {text:?}: {error}"
+            ),
+            None => assert!(!error.contains("key `"), "{error}"),
+        }
+    }
+}
+
+#[test]
+fn messages_read_as_documented() {
+    let text =
+        "name = \"t\"\n[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nacceptance = 1.5\n";
+    let error = Plan::parse(text, "t.toml").expect_err("acceptance 1.5 is out of range");
+    assert_eq!(
+        error.to_string(),
+        "t.toml:6:14: key `acceptance`: must lie strictly between 0 and 1, got 1.5"
+    );
+    assert_eq!(
+        (error.line, error.column, error.key.as_deref()),
+        (6, 14, Some("acceptance"))
+    );
+    let edmd = Plan::parse("[[edmd]]\nn = 256\n", "e.toml").expect_err("not wired");
+    assert_eq!(edmd.to_string(), "e.toml:1:1: edmd jobs: not supported yet");
+    let list = Plan::parse(
+        "[[overlap]]\nl_star = [1, 2, -3]\nw_star = 1\nr_star = 1\n",
+        "l.toml",
+    )
+    .expect_err("-3");
+    assert_eq!(
+        list.to_string(),
+        "l.toml:2:17: key `l_star`: must be positive, got -3"
+    );
+}
+
+#[test]
+fn deploy_plans_expand_to_the_papers_campaigns() {
+    let table1 = deploy_plan("table1.toml");
+    assert_eq!(table1.name, "table1");
+    assert!(table1.exclusive_timing);
+    assert_eq!(table1.jobs.len(), 20 * 20 * 3 * 2);
+    assert_eq!(
+        ids(&table1).len(),
+        2400,
+        "distinct points have distinct ids"
+    );
+    for job in &table1.jobs {
+        let JobSpec::Overlap(p) = job else {
+            panic!("overlap only")
+        };
+        assert_eq!(
+            (p.configurations, p.repeats, p.acceptance, p.seed),
+            (2_000_000, 3, 0.4, 0)
+        );
+        assert_eq!(p.algorithms, Algorithm::ALL);
+    }
+    // About 1.5 s per point on one core by the model: an hour in all; a sanity bound only.
+    assert!(
+        (1_000.0..10_000.0).contains(&table1.estimate_seconds()),
+        "{}",
+        table1.estimate_seconds()
+    );
+
+    let quick = deploy_plan("quick.toml");
+    assert_eq!(quick.jobs.len(), 4 * 4 * 3 * 2);
+    assert!(
+        quick.estimate_seconds() < 60.0,
+        "{} s",
+        quick.estimate_seconds()
+    );
+    let noop = deploy_plan("noop.toml");
+    assert_eq!(noop.jobs.len(), 1000);
+    assert_eq!(ids(&noop).len(), 1000);
+}
+
+#[test]
+fn defaults_and_name_from_file() {
+    let plan = Plan::parse(&format!("[[overlap]]\n{GOOD}"), "dir/my-plan.toml").expect("valid");
+    assert_eq!(plan.name, "my-plan");
+    assert!(!plan.exclusive_timing);
+    let [JobSpec::Overlap(p)] = &plan.jobs[..] else {
+        panic!("one point: {:?}", plan.jobs)
+    };
+    assert_eq!(
+        (p.configurations, p.repeats, p.acceptance, p.seed),
+        (2_000_000, 3, 0.4, 0)
+    );
+    assert_eq!(
+        (p.precision, p.algorithms.as_slice()),
+        (Precision::F32, &Algorithm::ALL[..])
+    );
+    // A float with no fractional part is a whole number.
+    let plan = parse(&format!("[[overlap]]\n{GOOD}configurations = 2e6\n"));
+    let JobSpec::Overlap(p) = &plan.jobs[0] else {
+        panic!()
+    };
+    assert_eq!(p.configurations, 2_000_000);
+}
+
+#[test]
+fn float_ranges_land_on_decimals() {
+    let plan = parse(
+        "[[overlap]]\nl_star = { from = 0.05, to = 1, step = 0.05 }\nw_star = 1\nr_star = { from = 0.1, to = 0.3, step = 0.1 }\n",
+    );
+    let mut l = BTreeSet::new();
+    let mut r = BTreeSet::new();
+    for job in &plan.jobs {
+        let JobSpec::Overlap(p) = job else { panic!() };
+        l.insert(p.l_star.to_bits());
+        r.insert(p.r_star.to_bits());
+    }
+    let expected_l: BTreeSet<u64> = (1..=20)
+        .map(|k| format!("{}", k as f64 * 0.05).parse::<f64>())
+        .map(|x| x.expect("a number"))
+        .map(|x| {
+            format!("{x:.11e}")
+                .parse::<f64>()
+                .expect("a number")
+                .to_bits()
+        })
+        .collect();
+    assert_eq!(l, expected_l);
+    assert!(
+        l.contains(&1.0f64.to_bits()) && l.contains(&0.15f64.to_bits()),
+        "0.15, not 0.15000000000000002"
+    );
+    let r_expected: BTreeSet<u64> = [0.1f64, 0.2, 0.3].iter().map(|x| x.to_bits()).collect();
+    assert_eq!(r, r_expected);
+    assert_eq!(plan.jobs.len(), 20 * 3);
+}
+
+#[test]
+fn ids_ignore_key_order_list_order_and_number_spelling() {
+    let a = parse(
+        "seed = 0\n[[overlap]]\nl_star = [4, 8]\nw_star = { from = 1, to = 3 }\nr_star = [0.05, 5]\n\
+         precision = [\"f32\", \"f64\"]\nalgorithms = [\"qri\", \"ocsi\"]\nconfigurations = 1000\n",
+    );
+    let b = parse(
+        "[[overlap]]\nconfigurations = 1_000\nalgorithms = [\"ocsi\", \"qri\"]\nprecision = [\"f64\", \"f32\"]\n\
+         r_star = [5.0, 0.05]\nw_star = [3.0, 2, 1]\nl_star = [8.0, 4.0]\nacceptance = 0.4\nrepeats = 3\n",
+    );
+    assert_eq!(a.jobs.len(), 2 * 3 * 2 * 2);
+    assert_eq!(ids(&a), ids(&b));
+    // The plan's seed is a parameter: another seed, other points (and other generator streams).
+    let c = parse(&a_with_seed(7));
+    assert!(ids(&a).is_disjoint(&ids(&c)));
+    let seeds: BTreeSet<u64> = a
+        .jobs
+        .iter()
+        .chain(&c.jobs)
+        .map(JobSpec::generator_seed)
+        .collect();
+    assert_eq!(seeds.len(), a.jobs.len() * 2);
+}
+
+fn a_with_seed(seed: u64) -> String {
+    format!(
+        "seed = {seed}\n[[overlap]]\nl_star = [4, 8]\nw_star = {{ from = 1, to = 3 }}\nr_star = [0.05, 5]\n\
+         precision = [\"f32\", \"f64\"]\nalgorithms = [\"qri\", \"ocsi\"]\nconfigurations = 1000\n"
+    )
+}
+
+#[test]
+fn adding_a_value_adds_exactly_the_new_points() {
+    let before = parse("[[overlap]]\nl_star = [1, 2]\nw_star = [1, 2]\nr_star = [0.05, 0.5]\n");
+    let after = parse("[[overlap]]\nl_star = [1, 2]\nw_star = [1, 2]\nr_star = [0.05, 0.5, 5]\n");
+    let only_new = parse("[[overlap]]\nl_star = [1, 2]\nw_star = [1, 2]\nr_star = 5\n");
+    let added: BTreeSet<String> = ids(&after).difference(&ids(&before)).cloned().collect();
+    assert!(ids(&before).is_subset(&ids(&after)));
+    assert_eq!(added, ids(&only_new));
+    assert_eq!(added.len(), 4);
+}
+
+#[test]
+fn identical_points_are_kept_once_and_seeds_expand() {
+    let twice = parse(&format!(
+        "[[overlap]]\n{GOOD}\n[[overlap]]\nl_star = 1\nw_star = 1.0\nr_star = [0.5, 1]\n"
+    ));
+    assert_eq!(twice.jobs.len(), 2, "{:?}", twice.jobs);
+    let replicas = parse(&format!("[[overlap]]\n{GOOD}seed = [0, 1, 2]\n"));
+    assert_eq!(ids(&replicas).len(), 3);
+    let noop = parse(
+        "[[noop]]\ncount = 5\nduration_ms = [0, 10]\nfail_rate = 0.1\n[[noop]]\ncount = 5\nfail_rate = 0.1\n",
+    );
+    assert_eq!(
+        noop.jobs.len(),
+        10,
+        "the second sweep repeats the first's duration_ms = 0 points"
+    );
+}
+
+/// Lines of plans, good and bad, for the fuzzer to combine.
+const FRAGMENTS: &[&str] = &[
+    "[[overlap]]",
+    "[[noop]]",
+    "[[edmd]]",
+    "[overlap]",
+    "name = \"f\"",
+    "exclusive = true",
+    "seed = 3",
+    "l_star = 1",
+    "l_star = [1, 2.5]",
+    "l_star = { from = 1, to = 3 }",
+    "l_star = { from = 3, to = 1 }",
+    "w_star = 2",
+    "w_star = { from = 0.1, to = 0.5, step = 0.1 }",
+    "w_star = { step = -1 }",
+    "r_star = 0.5",
+    "r_star = []",
+    "r_star = [[1]]",
+    "r_star = { from = 1, to = 1e300, step = 1e-300 }",
+    "acceptance = 0.4",
+    "acceptance = 1",
+    "acceptance = inf",
+    "configurations = 100",
+    "configurations = 1e30",
+    "configurations = -1",
+    "repeats = 1",
+    "repeats = 0x10",
+    "precision = [\"f32\", \"f64\"]",
+    "precision = 3",
+    "algorithms = [\"ocsi\"]",
+    "algorithms = \"x\"",
+    "count = 3",
+    "count = 1e2",
+    "duration_ms = 0",
+    "fail_rate = 0.5",
+    "fail_rate = [0, 2]",
+    "= 1",
+    "\"",
+    "[",
+    "x = {",
+    "é = 1",
+    "",
+];
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    #[test]
+    fn parsing_never_panics(lines in proptest::collection::vec(0..FRAGMENTS.len(), 0..14), noise in "\\PC{0,12}") {
+        let mut text: String = lines.iter().map(|&i| format!("{}\n", FRAGMENTS[i])).collect();
+        text.push_str(&noise);
+        match Plan::parse(&text, "fuzz.toml") {
+            Ok(plan) => prop_assert!(!plan.jobs.is_empty()),
+            Err(error) => {
+                let shown = error.to_string();
+                prop_assert!(!shown.contains('\n'), "{}", shown);
+                prop_assert!(error.line >= 1 && error.line <= text.lines().count().max(1) + 1, "{}", shown);
+            }
+        }
+    }
+}

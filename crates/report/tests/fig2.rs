@@ -1,0 +1,104 @@
+//! Figure 2 renders to PNG and SVG with the bundled font only.
+
+use report::{OverlapRow, ReportError, fig2};
+
+/// A synthetic campaign shaped like the papers' (20 × 20 × 3 points, six algorithms): QRI and
+/// QRF depend on the geometry, the vectorised kernels do not.
+fn campaign(precision: &str) -> Vec<OverlapRow> {
+    let mut rows = Vec::new();
+    for r_star in [0.05, 0.5, 5.0] {
+        for l in 1..=20 {
+            for w in 1..=20 {
+                let (l_star, w_star) = (f64::from(l), f64::from(w));
+                for (algorithm, mean_ms) in [
+                    ("arvo", 50.0 + r_star),
+                    ("qri", 20.0 + 3.0 * r_star + 10.0 / (l_star * w_star).sqrt()),
+                    ("qrf", 18.0 + 2.0 * r_star + 8.0 / (l_star + w_star)),
+                    ("sse", 11.7),
+                    ("ocsi", 11.5 + 0.01 * l_star),
+                    ("ocsi_batch", 2.6 + 0.001 * w_star),
+                ] {
+                    rows.push(OverlapRow {
+                        l_star,
+                        w_star,
+                        r_star,
+                        precision: precision.into(),
+                        algorithm: algorithm.into(),
+                        mean_ms,
+                        ns_per_check: mean_ms * 500.0,
+                        acceptance: 0.4,
+                        repeats: 3,
+                    });
+                }
+            }
+        }
+    }
+    rows
+}
+
+#[test]
+fn png_and_svg_are_drawn() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let mut rows = campaign("f32");
+    rows.extend(campaign("f64"));
+    // A hole in the grid (a point not measured yet) must not break the figure.
+    rows.retain(|r| !(r.l_star == 3.0 && r.w_star == 7.0 && r.algorithm == "qri"));
+
+    let png = dir.path().join("fig2.png");
+    fig2(&rows, "f32", &png).expect("the PNG renders");
+    let image = image::open(&png).expect("the PNG decodes").to_rgb8();
+    // 3 columns of 330 px + a 120 px colour bar; a 50 px title + 6 rows of 290 px.
+    assert_eq!(image.dimensions(), (1110, 1790));
+    let mut colours: Vec<[u8; 3]> = image.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(
+        colours.len() > 100,
+        "a heat map has many colours, got {}",
+        colours.len()
+    );
+    // Text was drawn: anti-aliased glyphs leave grey pixels in the title band.
+    let title_greys = (0..1110)
+        .flat_map(|x| (0..50).map(move |y| (x, y)))
+        .filter(|&(x, y)| {
+            let [r, g, b] = image.get_pixel(x, y).0;
+            r == g && g == b && r < 200
+        })
+        .count();
+    assert!(
+        title_greys > 200,
+        "the title's glyphs are in the PNG ({title_greys} dark pixels)"
+    );
+
+    let svg = dir.path().join("fig2.svg");
+    fig2(&rows, "f64", &svg).expect("the SVG renders");
+    let text = std::fs::read_to_string(&svg).expect("the SVG is text");
+    assert!(text.len() > 100_000, "{} bytes", text.len());
+    for label in [
+        "L*",
+        "W*",
+        "R* = 0.05",
+        "R* = 5",
+        "QRI",
+        "OCSI batch",
+        "ms",
+        "f64",
+    ] {
+        assert!(text.contains(label), "the SVG shows `{label}`");
+    }
+}
+
+#[test]
+fn unusable_requests_are_errors_and_write_nothing() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let rows = campaign("f32");
+    let path = dir.path().join("fig2.pdf");
+    assert!(matches!(
+        fig2(&rows, "f32", &path),
+        Err(ReportError::Extension { .. })
+    ));
+    let path = dir.path().join("fig2.png");
+    let error = fig2(&rows, "f64", &path).expect_err("no f64 rows");
+    assert_eq!(error.to_string(), "no f64 overlap results to plot");
+    assert!(!path.exists());
+}
