@@ -7,7 +7,7 @@ use overlap::kernels::batch::Isa;
 use overlap::{Algorithm, OverlapError, PointSpec, Precision};
 use serde::Serialize;
 
-use crate::output::{Format, print_json, print_table};
+use crate::output::{Format, print_json, print_table, write_csv};
 use crate::system;
 
 #[derive(Subcommand)]
@@ -120,6 +120,19 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
     };
     match format {
         Format::Json => print_json(&out),
+        Format::Csv => {
+            let columns = ["algorithm", "mean_ms", "ns_per_check", "acceptance", "stream_ns_per_config"].map(String::from);
+            let rows = out.results.iter().map(|r| {
+                vec![
+                    r.algorithm.to_string(),
+                    r.mean_ms.to_string(),
+                    r.ns_per_check.to_string(),
+                    r.acceptance.to_string(),
+                    out.stream_ns_per_config.to_string(),
+                ]
+            });
+            write_csv(&columns, rows)
+        }
         Format::Table => {
             let rows: Vec<Vec<String>> = out
                 .results

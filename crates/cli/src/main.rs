@@ -1,8 +1,13 @@
 //! `sweep`: the command line. Thin: parse, call the library crates, print.
 
 mod bench;
+mod campaign;
+mod db;
+mod local;
 mod output;
 mod overlap_cmd;
+mod plan_cmd;
+mod remote;
 mod system;
 
 use clap::{Parser, Subcommand};
@@ -12,7 +17,7 @@ use crate::output::Format;
 #[derive(Parser)]
 #[command(name = "sweep", version, about = "Benchmark campaigns for hard-body collision algorithms")]
 struct Cli {
-    /// How results are printed: an aligned table, or JSON on stdout (logs stay on stderr).
+    /// How results are printed: an aligned table, JSON, or CSV (export, query, report); logs go to stderr.
     #[arg(long, global = true, value_enum, default_value_t = Format::Table)]
     format: Format,
     #[command(subcommand)]
@@ -26,6 +31,28 @@ enum Command {
     Bench(bench::BenchCommand),
     /// Verdict of every overlap algorithm and the minimum distance for each configuration of a CSV file.
     Overlap(overlap_cmd::OverlapArgs),
+    /// Validate a plan and print how many points it expands to, with an estimate of their cost.
+    Plan(plan_cmd::PlanArgs),
+    /// Local mode: run a plan on this machine, one job per core, resumable.
+    Run(local::RunArgs),
+    /// Job counts of a campaign: total, queued, running, done, failed.
+    Status(db::StatusArgs),
+    /// The papers' tables and figures from a result database.
+    Report(db::ReportArgs),
+    /// Read-only SQL over a result database.
+    Query(db::QueryArgs),
+    /// Every result record with its job, campaign, kind, attempt and worker.
+    Export(db::ExportArgs),
+    /// Serve campaigns to workers over gRPC, holding the result database.
+    Coordinator(remote::CoordinatorArgs),
+    /// Run jobs from a coordinator, one per pinned core.
+    Worker(remote::WorkerArgs),
+    /// Send a plan to a coordinator; prints the campaign id.
+    Submit(remote::SubmitArgs),
+    /// Cancel a campaign's queued points.
+    Cancel(remote::CancelArgs),
+    /// The workers a coordinator knows.
+    Workers(remote::WorkersArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -43,6 +70,17 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Bench(command) => bench::run(command, cli.format),
         Command::Overlap(args) => overlap_cmd::run(&args, cli.format),
+        Command::Plan(args) => plan_cmd::run(&args, cli.format),
+        Command::Run(args) => local::run(&args, cli.format),
+        Command::Status(args) => db::status(&args, cli.format),
+        Command::Report(args) => db::report(&args, cli.format),
+        Command::Query(args) => db::query(&args, cli.format),
+        Command::Export(args) => db::export(&args, cli.format),
+        Command::Coordinator(args) => remote::coordinator(&args),
+        Command::Worker(args) => remote::worker(&args),
+        Command::Submit(args) => remote::submit(&args, cli.format),
+        Command::Cancel(args) => remote::cancel(&args, cli.format),
+        Command::Workers(args) => remote::workers(&args, cli.format),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

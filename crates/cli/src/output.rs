@@ -6,6 +6,7 @@ use serde::Serialize;
 pub enum Format {
     Table,
     Json,
+    Csv,
 }
 
 pub fn print_json(value: &impl Serialize) -> anyhow::Result<()> {
@@ -29,4 +30,15 @@ pub fn print_table(header: &[&str], rows: &[Vec<String>]) {
     for row in rows {
         line(row.iter().map(String::as_str).collect());
     }
+}
+
+/// CSV on stdout: a header row, then `rows`.
+pub fn write_csv(columns: &[String], rows: impl Iterator<Item = Vec<String>>) -> anyhow::Result<()> {
+    let mut writer = csv::Writer::from_writer(std::io::stdout().lock());
+    writer.write_record(columns)?;
+    for row in rows {
+        writer.write_record(&row)?;
+    }
+    writer.flush()?;
+    Ok(())
 }

@@ -8,7 +8,7 @@ use overlap::config::axes_from_quaternion;
 use overlap::{Algorithm, Configuration, Cuboid, OverlapError, Precision, Real, min_distance, overlaps};
 use serde::Serialize;
 
-use crate::output::{Format, print_json, print_table};
+use crate::output::{Format, print_json, print_table, write_csv};
 
 #[derive(Args)]
 pub struct OverlapArgs {
@@ -44,22 +44,20 @@ pub fn run(args: &OverlapArgs, format: Format) -> anyhow::Result<()> {
         Precision::F32 => cases.iter().enumerate().map(|(row, c)| evaluate::<f32>(row, c)).collect(),
         Precision::F64 => cases.iter().enumerate().map(|(row, c)| evaluate::<f64>(row, c)).collect(),
     };
+    let mut header = vec!["row"];
+    header.extend(Algorithm::ALL.map(Algorithm::name));
+    header.push("distance");
+    let rows = verdicts.iter().map(|v| {
+        let mut cells = vec![v.row.to_string()];
+        cells.extend(Algorithm::ALL.map(|a| v.overlaps[a.name()].to_string()));
+        cells.push(format!("{:.9e}", v.distance));
+        cells
+    });
     match format {
         Format::Json => print_json(&verdicts),
+        Format::Csv => write_csv(&header.iter().map(|h| h.to_string()).collect::<Vec<_>>(), rows),
         Format::Table => {
-            let mut header = vec!["row"];
-            header.extend(Algorithm::ALL.map(Algorithm::name));
-            header.push("distance");
-            let rows: Vec<Vec<String>> = verdicts
-                .iter()
-                .map(|v| {
-                    let mut cells = vec![v.row.to_string()];
-                    cells.extend(Algorithm::ALL.map(|a| v.overlaps[a.name()].to_string()));
-                    cells.push(format!("{:.9e}", v.distance));
-                    cells
-                })
-                .collect();
-            print_table(&header, &rows);
+            print_table(&header, &rows.collect::<Vec<_>>());
             Ok(())
         }
     }

@@ -40,3 +40,50 @@ pub fn peak_rss_bytes() -> Option<u64> {
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
 }
+
+/// Every core this process may run on.
+pub fn available_cores() -> anyhow::Result<Vec<usize>> {
+    let ids = core_affinity::get_core_ids().context("cannot list this machine's cores")?;
+    Ok(ids.into_iter().map(|c| c.id).collect())
+}
+
+/// A `--cores` value. A newtype, because clap reads `Option<Vec<_>>` as "several values".
+#[derive(Clone, Debug)]
+pub struct CoreList(pub Vec<usize>);
+
+/// The cores to use: the list given, or every core available to this process.
+pub fn cores_or_all(list: &Option<CoreList>) -> anyhow::Result<Vec<usize>> {
+    match list {
+        Some(CoreList(cores)) => Ok(cores.clone()),
+        None => available_cores(),
+    }
+}
+
+/// `0,2-3` → [0, 2, 3]: core lists as `taskset` and Slurm write them.
+pub fn parse_core_list(s: &str) -> Result<CoreList, String> {
+    let mut cores = Vec::new();
+    for part in s.split(',').map(str::trim) {
+        let number = |x: &str| x.trim().parse::<usize>().map_err(|_| format!("`{x}` is not a core number"));
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (number(a)?, number(b)?);
+                if a > b {
+                    return Err(format!("`{part}`: the range runs backwards"));
+                }
+                cores.extend(a..=b);
+            }
+            None => cores.push(number(part)?),
+        }
+    }
+    cores.sort_unstable();
+    cores.dedup();
+    if cores.is_empty() {
+        return Err("no cores given".into());
+    }
+    Ok(CoreList(cores))
+}
+
+/// Whether process `pid` exists on this machine (Linux: its `/proc` entry).
+pub fn process_alive(pid: u32) -> bool {
+    std::path::Path::new(&format!("/proc/{pid}")).exists()
+}

@@ -1,0 +1,41 @@
+//! A plan file becomes a campaign: read, validated completely, hashed. Shared by local mode and
+//! by the coordinator's Submit, so a bad plan gets the same message on both paths.
+
+use std::path::Path;
+
+use anyhow::Context;
+use coordinator::{NewCampaign, NewJob};
+use jobs::Plan;
+
+pub struct Campaign {
+    pub plan: Plan,
+    pub campaign: NewCampaign,
+    pub jobs: Vec<NewJob>,
+}
+
+pub fn read_plan_file(path: &Path) -> anyhow::Result<(String, String)> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok((text, path.display().to_string()))
+}
+
+/// Parses and validates `text`; nothing is written anywhere before this succeeds.
+pub fn from_plan(text: &str, file_name: &str) -> Result<Campaign, jobs::PlanError> {
+    let plan = Plan::parse(text, file_name)?;
+    let jobs: Vec<NewJob> = plan
+        .jobs
+        .iter()
+        .map(|spec| NewJob {
+            id: spec.id(),
+            kind: spec.kind().to_string(),
+            params_json: spec.canonical_json(),
+            estimate_s: spec.estimate_seconds(),
+            exclusive: plan.exclusive_timing,
+        })
+        .collect();
+    // The campaign is its name and its set of points: the same plan is the same campaign.
+    let mut ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
+    ids.sort_unstable();
+    let digest = blake3::hash(format!("{}\n{}", plan.name, ids.join("\n")).as_bytes());
+    let campaign = NewCampaign { id: digest.to_hex()[..16].to_string(), name: plan.name.clone(), plan_text: text.to_string() };
+    Ok(Campaign { plan, campaign, jobs })
+}

@@ -1,0 +1,192 @@
+//! Commands that read a result database: `status`, `report`, `query`, `export`.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::Args;
+use coordinator::Store;
+use report::{OverlapRow, TableFormat};
+
+use crate::local::report_status;
+use crate::output::{Format, print_json, print_table, write_csv};
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    Ok(tokio::runtime::Builder::new_current_thread().enable_all().build()?)
+}
+
+/// Opens `db` read-only: reading never creates, migrates or changes the file.
+async fn open_read_only(db: &Path) -> anyhow::Result<Store> {
+    if !db.exists() {
+        bail!("{}: no such database", db.display());
+    }
+    Store::open_read_only(db).await.with_context(|| format!("cannot open {}", db.display()))
+}
+
+#[derive(Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["db", "coordinator"])))]
+pub struct StatusArgs {
+    /// Read a result database directly.
+    #[arg(long)]
+    db: Option<PathBuf>,
+    /// Ask a running coordinator.
+    #[arg(long)]
+    coordinator: Option<String>,
+    #[command(flatten)]
+    auth: crate::remote::AuthArgs,
+    #[arg(long)]
+    ca: Option<PathBuf>,
+    /// One campaign (default: everything).
+    #[arg(long)]
+    campaign: Option<String>,
+}
+
+pub fn status(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
+    let campaign = args.campaign.as_deref();
+    match (&args.db, &args.coordinator) {
+        (Some(db), _) => runtime()?.block_on(async {
+            let status = open_read_only(db).await?.status(campaign).await?;
+            report_status(campaign.unwrap_or("(all)"), &status, format)
+        }),
+        (None, Some(url)) => {
+            let client = crate::remote::ClientArgs::new(url.clone(), args.auth.clone(), args.ca.clone());
+            crate::remote::remote_status(&client, campaign, format)
+        }
+        (None, None) => bail!("give --db FILE or --coordinator URL"),
+    }
+}
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64).
+    name: String,
+    #[arg(long)]
+    db: PathBuf,
+    /// Write here instead of stdout; the extension picks the format (.md .csv .tex .json .png .svg).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    let rows: Vec<OverlapRow> = runtime()?.block_on(async {
+        let store = open_read_only(&args.db).await?;
+        let rows = store.overlap_rows().await?;
+        anyhow::Ok(
+            rows.into_iter()
+                .map(|r| OverlapRow {
+                    l_star: r.l_star,
+                    w_star: r.w_star,
+                    r_star: r.r_star,
+                    precision: r.precision,
+                    algorithm: r.algorithm,
+                    mean_ms: r.mean_ms,
+                    ns_per_check: r.ns_per_check,
+                    acceptance: r.acceptance,
+                    repeats: r.repeats,
+                })
+                .collect(),
+        )
+    })?;
+    let (kind, precision) = match args.name.as_str() {
+        "table1" => ("table", "f32"),
+        "table2" => ("table", "f64"),
+        "fig2" => ("figure", "f32"),
+        "fig3" => ("figure", "f64"),
+        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3)"),
+    };
+    if kind == "figure" {
+        let out = args.out.as_deref().with_context(|| format!("report {}: give --out FILE.png or FILE.svg", args.name))?;
+        report::fig2(&rows, precision, out)?;
+        eprintln!("wrote {}", out.display());
+        return Ok(());
+    }
+    let table = report::table1(&rows, precision);
+    if table.is_empty() {
+        bail!("report {}: no {precision} overlap results in {}", args.name, args.db.display());
+    }
+    match &args.out {
+        Some(out) => {
+            let text = report::render_table(&table, TableFormat::from_path(out)?)?;
+            std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
+            eprintln!("wrote {}", out.display());
+        }
+        None => {
+            let format = match format {
+                Format::Json => TableFormat::Json,
+                Format::Csv => TableFormat::Csv,
+                Format::Table => TableFormat::Markdown,
+            };
+            print!("{}", report::render_table(&table, format)?);
+        }
+    }
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct QueryArgs {
+    /// SQL over the results, e.g. `SELECT algorithm, avg(ns_per_check) FROM overlap_timings GROUP BY 1`.
+    sql: String,
+    #[arg(long)]
+    db: PathBuf,
+}
+
+fn cell(value: &serde_json::Value) -> String {
+    match value {
+        serde_json::Value::Null => String::new(),
+        serde_json::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+pub fn query(args: &QueryArgs, format: Format) -> anyhow::Result<()> {
+    let result = runtime()?.block_on(async { anyhow::Ok(open_read_only(&args.db).await?.query_read_only(&args.sql).await?) })?;
+    match format {
+        Format::Json => {
+            let objects: Vec<serde_json::Map<String, serde_json::Value>> =
+                result.rows.iter().map(|row| result.columns.iter().cloned().zip(row.iter().cloned()).collect()).collect();
+            print_json(&objects)
+        }
+        Format::Csv => write_csv(&result.columns, result.rows.iter().map(|r| r.iter().map(cell).collect())),
+        Format::Table => {
+            let header: Vec<&str> = result.columns.iter().map(String::as_str).collect();
+            let rows: Vec<Vec<String>> = result.rows.iter().map(|r| r.iter().map(cell).collect()).collect();
+            print_table(&header, &rows);
+            Ok(())
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct ExportArgs {
+    #[arg(long)]
+    db: PathBuf,
+}
+
+/// One row per result record: the identifying columns first, then the union of all fields.
+pub fn export(args: &ExportArgs, format: Format) -> anyhow::Result<()> {
+    let rows = runtime()?.block_on(async { anyhow::Ok(open_read_only(&args.db).await?.export().await?) })?;
+    let flat: Vec<serde_json::Map<String, serde_json::Value>> = rows
+        .into_iter()
+        .map(|row| {
+            let mut out = serde_json::Map::new();
+            out.insert("job_id".into(), row.job_id.into());
+            out.insert("campaign".into(), row.campaign.into());
+            out.insert("kind".into(), row.kind.into());
+            out.insert("attempt".into(), row.attempt.into());
+            out.insert("worker".into(), row.worker.into());
+            out.insert("core_id".into(), row.core_id.into());
+            out.extend(row.fields);
+            out
+        })
+        .collect();
+    match format {
+        Format::Json => print_json(&flat),
+        Format::Csv | Format::Table => {
+            let fixed = ["job_id", "campaign", "kind", "attempt", "worker", "core_id"];
+            let extra: BTreeSet<&String> = flat.iter().flat_map(|r| r.keys()).filter(|k| !fixed.contains(&k.as_str())).collect();
+            let columns: Vec<String> = fixed.iter().map(|s| s.to_string()).chain(extra.into_iter().cloned()).collect();
+            let rows = flat.iter().map(|r| columns.iter().map(|c| r.get(c).map(cell).unwrap_or_default()).collect());
+            write_csv(&columns, rows)
+        }
+    }
+}

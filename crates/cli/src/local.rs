@@ -1,0 +1,132 @@
+//! `sweep run PLAN.toml`: local mode. The coordinator embedded in this process schedules the
+//! plan's points to one worker slot per core; the database makes the run resumable.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::Args;
+use coordinator::{Config, Coordinator, Status, Store, SystemClock};
+use indicatif::{ProgressBar, ProgressStyle};
+use worker::{Embedded, Slots, WorkerOptions};
+
+use crate::campaign::{from_plan, read_plan_file};
+use crate::output::{Format, print_json};
+use crate::system;
+
+#[derive(Args)]
+pub struct RunArgs {
+    plan: PathBuf,
+    /// The result database (created if missing).
+    #[arg(long, default_value = "sweep.db")]
+    db: PathBuf,
+    /// Cores to run on, e.g. `0,1` or `0-3` (default: every core available to this process).
+    #[arg(long, value_parser = system::parse_core_list)]
+    cores: Option<system::CoreList>,
+}
+
+/// Local leases are short: after a crash, a resumed run waits at most this long for the jobs
+/// that were running.
+const LOCAL_LEASE: Duration = Duration::from_secs(10);
+
+pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
+    let (text, name) = read_plan_file(&args.plan)?;
+    let campaign = from_plan(&text, &name)?;
+    let cores = system::cores_or_all(&args.cores)?;
+    system::start_thread_pool()?;
+    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let coordinator = runtime.block_on(async {
+        let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
+        let config = Config { lease_for: LOCAL_LEASE, max_attempts: 3 };
+        anyhow::Ok(Coordinator::new(store, config, Arc::new(SystemClock))?)
+    })?;
+    let submitted = runtime.block_on(coordinator.submit(&campaign.campaign, &campaign.jobs))?;
+    tracing::info!(campaign = %submitted.campaign_id, new = submitted.new_jobs, known = submitted.already_known, "submitted");
+
+    let prefix = format!("local:{}:", worker::provenance::hostname());
+    let worker_id = format!("{prefix}{}", std::process::id());
+    // An earlier local run on this host whose process is gone cannot finish its jobs: take them
+    // back now rather than after its leases expire.
+    runtime.block_on(async {
+        for w in coordinator.store().workers().await? {
+            let pid = w.info.id.strip_prefix(&prefix).and_then(|p| p.parse::<u32>().ok());
+            if w.running > 0 && pid.is_some_and(|pid| !system::process_alive(pid)) {
+                let reclaimed = coordinator.reclaim(&w.info.id).await?;
+                tracing::info!(worker = %w.info.id, reclaimed, "took back the jobs of a dead local run");
+            }
+        }
+        anyhow::Ok(())
+    })?;
+    runtime.block_on(coordinator.register(&worker::provenance::worker_info(worker_id.clone(), &cores)))?;
+    let reaper = {
+        let _guard = runtime.enter();
+        coordinator.spawn_reaper(Duration::from_secs(1))
+    };
+    let queue = Arc::new(Embedded { coordinator: coordinator.clone(), worker_id });
+    let options =
+        WorkerOptions { cores, heartbeat_every: LOCAL_LEASE / 4, idle_poll: Duration::from_millis(50), lease_batch: 1 };
+    let slots = Slots::start(queue, options, runtime.handle().clone())?;
+
+    let bar = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(campaign.jobs.len() as u64) };
+    bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} points, {elapsed} elapsed, ETA {eta}")?);
+    bar.set_message(campaign.plan.name.clone());
+    let id = submitted.campaign_id.clone();
+    let interrupted = runtime.block_on(async {
+        let mut ticker = tokio::time::interval(Duration::from_millis(200));
+        loop {
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => return Ok::<_, anyhow::Error>(true),
+                _ = ticker.tick() => {
+                    let status = coordinator.status(Some(&id)).await?;
+                    bar.set_position(status.done + status.failed + status.cancelled);
+                    if status.queued == 0 && status.running == 0 {
+                        return Ok(false);
+                    }
+                }
+            }
+        }
+    })?;
+    if interrupted {
+        bar.suspend(|| eprintln!("interrupted: finishing the jobs in hand, then stopping (rerun to resume)"));
+    }
+    slots.stop();
+    slots.join();
+    reaper.abort();
+    bar.finish_and_clear();
+    let status = runtime.block_on(coordinator.status(Some(&id)))?;
+    runtime.block_on(coordinator.store().close());
+    match format {
+        Format::Json => print_json(&serde_json::json!({
+            "campaign": id,
+            "new_jobs": submitted.new_jobs,
+            "requeued": submitted.requeued,
+            "already_known": submitted.already_known,
+            "status": status,
+        }))?,
+        _ => {
+            println!("{} new points, {} already known", submitted.new_jobs, submitted.already_known);
+            report_status(&id, &status, format)?;
+        }
+    }
+    if interrupted {
+        anyhow::bail!("interrupted with {} of {} points left", status.queued + status.running, status.total);
+    }
+    if status.failed > 0 {
+        anyhow::bail!("{} points failed: see `sweep status --db {}`", status.failed, args.db.display());
+    }
+    Ok(())
+}
+
+pub fn report_status(campaign: &str, status: &Status, format: Format) -> anyhow::Result<()> {
+    match format {
+        Format::Json => print_json(&serde_json::json!({ "campaign": campaign, "status": status })),
+        _ => {
+            println!(
+                "campaign {campaign}: {} points: {} done, {} failed, {} queued, {} running, {} cancelled",
+                status.total, status.done, status.failed, status.queued, status.running, status.cancelled
+            );
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,58 @@
+//! `sweep plan PLAN.toml`: what a plan expands to, before anything runs.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+
+use crate::campaign::{from_plan, read_plan_file};
+use crate::output::{Format, print_json};
+
+#[derive(Args)]
+pub struct PlanArgs {
+    plan: PathBuf,
+}
+
+#[derive(Serialize)]
+struct PlanSummary {
+    name: String,
+    campaign: String,
+    points: usize,
+    by_kind: BTreeMap<String, usize>,
+    exclusive: bool,
+    estimate_s: f64,
+}
+
+pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
+    let (text, name) = read_plan_file(&args.plan)?;
+    let campaign = from_plan(&text, &name)?;
+    let mut by_kind = BTreeMap::new();
+    for job in &campaign.jobs {
+        *by_kind.entry(job.kind.clone()).or_insert(0) += 1;
+    }
+    let summary = PlanSummary {
+        name: campaign.plan.name.clone(),
+        campaign: campaign.campaign.id.clone(),
+        points: campaign.jobs.len(),
+        by_kind,
+        exclusive: campaign.plan.exclusive_timing,
+        estimate_s: campaign.plan.estimate_seconds(),
+    };
+    match format {
+        Format::Json => print_json(&summary),
+        _ => {
+            let kinds: Vec<String> = summary.by_kind.iter().map(|(k, n)| format!("{n} {k}")).collect();
+            println!(
+                "{}: {} points ({}), campaign {}, estimated {:.0} s of job time{}",
+                summary.name,
+                summary.points,
+                kinds.join(", "),
+                summary.campaign,
+                summary.estimate_s,
+                if summary.exclusive { ", exclusive timing" } else { "" }
+            );
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,316 @@
+//! The distributed commands: `coordinator`, `worker`, `submit`, `status --coordinator`,
+//! `cancel`, `workers`. Every one that talks to a coordinator takes `--token-file` or
+//! `SWEEP_TOKEN`.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use coordinator::grpc::{ExpandPlan, ServeOptions};
+use coordinator::{Config, Coordinator, Store, SystemClock};
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
+use wire::auth::{Token, WithToken};
+use wire::v1 as pb;
+use wire::v1::admin_client::AdminClient;
+use worker::remote::Remote;
+use worker::{Slots, WorkerOptions};
+
+use crate::campaign::{from_plan, read_plan_file};
+use crate::output::{Format, print_json, print_table};
+use crate::system;
+
+#[derive(Args, Clone)]
+pub struct AuthArgs {
+    /// File holding the bearer token shared by coordinator and workers.
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    /// The bearer token itself (prefer --token-file: the environment of a process can be read).
+    #[arg(long = "token", env = "SWEEP_TOKEN", hide_env_values = true, hide = true)]
+    token: Option<String>,
+}
+
+impl AuthArgs {
+    fn token(&self) -> anyhow::Result<Option<Token>> {
+        let secret = match (&self.token_file, &self.token) {
+            (Some(file), _) => std::fs::read_to_string(file).with_context(|| format!("--token-file {}", file.display()))?,
+            (None, Some(secret)) => secret.clone(),
+            (None, None) => return Ok(None),
+        };
+        Ok(Some(Token::new(&secret).context("--token-file")?))
+    }
+}
+
+#[derive(Args, Clone)]
+pub struct ClientArgs {
+    /// The coordinator, e.g. http://10.0.0.5:7070 (https:// with --ca).
+    #[arg(long)]
+    coordinator: String,
+    #[command(flatten)]
+    auth: AuthArgs,
+    /// CA certificate (PEM) that signed the coordinator's TLS certificate.
+    #[arg(long)]
+    ca: Option<PathBuf>,
+}
+
+impl ClientArgs {
+    pub fn new(coordinator: String, auth: AuthArgs, ca: Option<PathBuf>) -> Self {
+        Self { coordinator, auth, ca }
+    }
+
+    fn ca_pem(&self) -> anyhow::Result<Option<Vec<u8>>> {
+        self.ca.as_ref().map(|p| std::fs::read(p).with_context(|| format!("--ca {}", p.display()))).transpose()
+    }
+
+    async fn admin(&self) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
+        let mut endpoint = Endpoint::from_shared(self.coordinator.clone())
+            .with_context(|| format!("--coordinator {}", self.coordinator))?
+            .connect_timeout(Duration::from_secs(5))
+            .timeout(Duration::from_secs(60));
+        if let Some(ca) = self.ca_pem()? {
+            endpoint = endpoint.tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))?;
+        }
+        let channel = endpoint.connect().await.with_context(|| format!("cannot reach {}", self.coordinator))?;
+        Ok(AdminClient::with_interceptor(channel, WithToken::new(self.auth.token()?)))
+    }
+}
+
+/// A refused call as one line: the server's message, not tonic's wrapping.
+fn rpc_error(status: tonic::Status) -> anyhow::Error {
+    match status.code() {
+        tonic::Code::InvalidArgument => anyhow::anyhow!("{}", status.message()),
+        tonic::Code::Unauthenticated => anyhow::anyhow!("refused by the coordinator: {}", status.message()),
+        code => anyhow::anyhow!("coordinator: {code:?}: {}", status.message()),
+    }
+}
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    Ok(tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?)
+}
+
+#[derive(Args)]
+pub struct CoordinatorArgs {
+    /// Address to listen on, e.g. 127.0.0.1:7070 or 0.0.0.0:7070 (the latter needs a token).
+    #[arg(long)]
+    listen: SocketAddr,
+    #[arg(long)]
+    db: PathBuf,
+    #[command(flatten)]
+    auth: AuthArgs,
+    /// TLS certificate chain (PEM); with --tls-key, serve TLS.
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+    /// Seconds a lease lasts without a heartbeat.
+    #[arg(long, default_value_t = 30)]
+    lease_secs: u64,
+    /// Attempts (failures or lost leases) before a job is failed.
+    #[arg(long, default_value_t = 3)]
+    max_attempts: u32,
+}
+
+pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
+    let token = args.auth.token()?;
+    let tls = match (&args.tls_cert, &args.tls_key) {
+        (Some(cert), Some(key)) => Some((
+            std::fs::read(cert).with_context(|| format!("--tls-cert {}", cert.display()))?,
+            std::fs::read(key).with_context(|| format!("--tls-key {}", key.display()))?,
+        )),
+        _ => None,
+    };
+    if token.is_none() && !args.listen.ip().is_loopback() {
+        bail!("--listen {}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)", args.listen);
+    }
+    let expand: ExpandPlan = Arc::new(|text: &str, file: &str| {
+        from_plan(text, file).map(|c| (c.campaign, c.jobs)).map_err(|e| e.to_string())
+    });
+    runtime()?.block_on(async {
+        let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
+        let config = Config { lease_for: Duration::from_secs(args.lease_secs.max(1)), max_attempts: args.max_attempts };
+        let coordinator = Coordinator::new(store, config, Arc::new(SystemClock))?;
+        let listener = tokio::net::TcpListener::bind(args.listen).await.with_context(|| format!("--listen {}", args.listen))?;
+        // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.
+        println!("listening on {}", listener.local_addr()?);
+        let options = ServeOptions { listen: args.listen, token, tls };
+        coordinator::grpc::serve(coordinator.clone(), expand, options, listener, shutdown_signal()).await?;
+        coordinator.store().close().await;
+        anyhow::Ok(())
+    })
+}
+
+/// SIGINT or SIGTERM.
+async fn shutdown_signal() {
+    let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+        Ok(term) => term,
+        Err(error) => {
+            tracing::warn!(%error, "cannot listen for SIGTERM; only Ctrl-C stops this process");
+            let _ = tokio::signal::ctrl_c().await;
+            return;
+        }
+    };
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        _ = term.recv() => {}
+    }
+}
+
+#[derive(Args)]
+pub struct WorkerArgs {
+    #[command(flatten)]
+    client: ClientArgs,
+    /// Cores to run on, e.g. `0,1` or `0-3` (default: every core available to this process).
+    #[arg(long, value_parser = system::parse_core_list)]
+    cores: Option<system::CoreList>,
+    /// Jobs leased per call (larger amortises round trips of short jobs).
+    #[arg(long, default_value_t = 1)]
+    lease_batch: u32,
+}
+
+pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
+    let cores = system::cores_or_all(&args.cores)?;
+    system::start_thread_pool()?;
+    let runtime = runtime()?;
+    let worker_id = format!("{}:{}", worker::provenance::hostname(), std::process::id());
+    let info = worker::provenance::worker_info(worker_id.clone(), &cores);
+    let remote = {
+        let _guard = runtime.enter();
+        Remote::new(&args.client.coordinator, args.client.auth.token()?, args.client.ca_pem()?, worker_id)?
+    };
+    // Register with backoff: a worker may start before its coordinator.
+    let lease_for = runtime.block_on(async {
+        let mut wait = Duration::from_millis(100);
+        loop {
+            match remote.register(&info).await {
+                Ok(lease_for) => return anyhow::Ok(lease_for),
+                Err(error @ worker::WorkerError::Refused(_)) => bail!("{error}"),
+                Err(error) => {
+                    tracing::warn!(%error, "coordinator not reachable; retrying");
+                    tokio::time::sleep(wait).await;
+                    wait = (wait * 2).min(Duration::from_secs(5));
+                }
+            }
+        }
+    })?;
+    let options = WorkerOptions {
+        cores,
+        heartbeat_every: (lease_for / 4).max(Duration::from_millis(100)),
+        idle_poll: Duration::from_millis(200),
+        lease_batch: args.lease_batch.max(1),
+    };
+    let slots = Slots::start(Arc::new(remote), options, runtime.handle().clone())?;
+    runtime.block_on(shutdown_signal());
+    tracing::info!("stopping: finishing the jobs in hand, returning the rest");
+    slots.stop();
+    slots.join();
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct SubmitArgs {
+    plan: PathBuf,
+    #[command(flatten)]
+    client: ClientArgs,
+}
+
+pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
+    let (text, name) = read_plan_file(&args.plan)?;
+    let response = runtime()?.block_on(async {
+        let mut admin = args.client.admin().await?;
+        let request = pb::SubmitRequest { plan_toml: text, file_name: name };
+        anyhow::Ok(admin.submit(request).await.map_err(rpc_error)?.into_inner())
+    })?;
+    match format {
+        Format::Json => print_json(&serde_json::json!({
+            "campaign": response.campaign_id,
+            "new_jobs": response.new_jobs,
+            "already_known": response.already_known,
+        })),
+        _ => {
+            println!("{}", response.campaign_id);
+            eprintln!("{} new points, {} already known", response.new_jobs, response.already_known);
+            Ok(())
+        }
+    }
+}
+
+pub fn remote_status(client: &ClientArgs, campaign: Option<&str>, format: Format) -> anyhow::Result<()> {
+    let s = runtime()?.block_on(async {
+        let mut admin = client.admin().await?;
+        let request = pb::StatusRequest { campaign_id: campaign.unwrap_or_default().to_string() };
+        anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
+    })?;
+    let status = coordinator::Status {
+        total: s.total,
+        queued: s.queued,
+        running: s.running,
+        done: s.done,
+        failed: s.failed,
+        cancelled: s.cancelled,
+        estimate_s_remaining: s.estimate_s_remaining,
+    };
+    crate::local::report_status(campaign.unwrap_or("(all)"), &status, format)
+}
+
+#[derive(Args)]
+pub struct CancelArgs {
+    campaign: String,
+    #[command(flatten)]
+    client: ClientArgs,
+}
+
+pub fn cancel(args: &CancelArgs, format: Format) -> anyhow::Result<()> {
+    let cancelled = runtime()?.block_on(async {
+        let mut admin = args.client.admin().await?;
+        let request = pb::CancelRequest { campaign_id: args.campaign.clone() };
+        anyhow::Ok(admin.cancel(request).await.map_err(rpc_error)?.into_inner().cancelled)
+    })?;
+    match format {
+        Format::Json => print_json(&serde_json::json!({ "campaign": args.campaign, "cancelled": cancelled })),
+        _ => {
+            println!("cancelled {cancelled} queued points of {}", args.campaign);
+            Ok(())
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct WorkersArgs {
+    #[command(flatten)]
+    client: ClientArgs,
+}
+
+pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
+    let workers = runtime()?.block_on(async {
+        let mut admin = args.client.admin().await?;
+        anyhow::Ok(admin.workers(pb::WorkersRequest {}).await.map_err(rpc_error)?.into_inner().workers)
+    })?;
+    let rows: Vec<serde_json::Value> = workers
+        .iter()
+        .map(|e| {
+            let w = e.worker.clone().unwrap_or_default();
+            serde_json::json!({
+                "id": w.id, "hostname": w.hostname, "cores": w.cores, "cpu_model": w.cpu_model,
+                "git_commit": w.git_commit, "running": e.running, "last_seen_at": e.last_seen_at,
+            })
+        })
+        .collect();
+    match format {
+        Format::Json => print_json(&rows),
+        _ => {
+            let table: Vec<Vec<String>> = workers
+                .iter()
+                .map(|e| {
+                    let w = e.worker.clone().unwrap_or_default();
+                    let cores: Vec<String> = w.cores.iter().map(u32::to_string).collect();
+                    vec![w.id, cores.join(","), e.running.to_string(), w.cpu_model, w.git_commit]
+                })
+                .collect();
+            print_table(&["worker", "cores", "running", "cpu", "commit"], &table);
+            Ok(())
+        }
+    }
+}

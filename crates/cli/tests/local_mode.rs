@@ -1,0 +1,143 @@
+//! Local mode as a user meets it: `sweep run` on real plans and a real database file, killed,
+//! resumed, extended, and fed bad plans.
+
+use std::collections::HashSet;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn sweep(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sweep")).args(args).output().expect("the sweep binary runs")
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+fn run_plan(plan: &str, db: &str) -> serde_json::Value {
+    let out = sweep(&["run", plan, "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "sweep run failed: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("JSON status")
+}
+
+/// (job_id, attempt) of every exported record of kind noop.
+fn exported_noops(db: &str) -> Vec<(String, u64)> {
+    let out = sweep(&["export", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    rows.iter()
+        .filter(|r| r["kind"] == "noop")
+        .map(|r| (r["job_id"].as_str().unwrap().to_string(), r["attempt"].as_u64().unwrap()))
+        .collect()
+}
+
+fn noop_plan(count: u32, duration_ms: u32) -> String {
+    format!("name = \"noops\"\n[[noop]]\ncount = {count}\nduration_ms = {duration_ms}\n")
+}
+
+#[test]
+fn a_rerun_schedules_nothing_and_an_extension_only_the_new_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("r.db").to_str().unwrap().to_string();
+    let first = run_plan(&write(dir.path(), "a.toml", &noop_plan(20, 0)), &db);
+    assert_eq!(first["new_jobs"], 20, "{first}");
+    assert_eq!(exported_noops(&db).len(), 20);
+
+    let again = run_plan(&write(dir.path(), "a.toml", &noop_plan(20, 0)), &db);
+    assert_eq!(again["new_jobs"], 0, "{again}");
+    assert_eq!(again["already_known"], 20, "{again}");
+    assert_eq!(exported_noops(&db).len(), 20, "a rerun ran jobs again");
+
+    let extended = run_plan(&write(dir.path(), "b.toml", &noop_plan(30, 0)), &db);
+    assert_eq!(extended["new_jobs"], 10, "{extended}");
+    let rows = exported_noops(&db);
+    let ids: HashSet<&String> = rows.iter().map(|(id, _)| id).collect();
+    assert_eq!((rows.len(), ids.len()), (30, 30), "every point exactly once");
+}
+
+/// kill -9 in the middle of a run, then a rerun: every point has exactly one result row.
+#[test]
+fn a_killed_run_resumes_without_duplicates_or_losses() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("k.db").to_str().unwrap().to_string();
+    let plan = write(dir.path(), "slow.toml", &noop_plan(40, 50));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(["run", &plan, "--db", &db, "--format", "json"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until some, but not all, results are in; then kill without warning.
+    let started = Instant::now();
+    loop {
+        std::thread::sleep(Duration::from_millis(50));
+        let done = if Path::new(&db).exists() { exported_noops(&db).len() } else { 0 };
+        if done >= 5 {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(30), "no progress");
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let before = exported_noops(&db).len();
+    assert!(before < 40, "the run finished before it could be killed");
+
+    let resumed = run_plan(&plan, &db);
+    assert_eq!(resumed["status"]["done"], 40, "{resumed}");
+    let rows = exported_noops(&db);
+    let ids: HashSet<&String> = rows.iter().map(|(id, _)| id).collect();
+    assert_eq!(rows.len(), 40, "lost or duplicated rows");
+    assert_eq!(ids.len(), 40);
+}
+
+/// Bad plans fail before the database is touched: byte for byte the same afterwards.
+#[test]
+fn bad_plans_name_the_key_and_leave_the_database_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("b.db").to_str().unwrap().to_string();
+    run_plan(&write(dir.path(), "ok.toml", &noop_plan(3, 0)), &db);
+    let snapshot = |db: &str| -> Vec<(String, Vec<u8>)> {
+        let mut files: Vec<_> = std::fs::read_dir(Path::new(db).parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.to_str().unwrap().starts_with(db))
+            .map(|p| (p.display().to_string(), std::fs::read(&p).unwrap()))
+            .collect();
+        files.sort();
+        files
+    };
+    let before = snapshot(&db);
+    let overlap = |line: &str| format!("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 1000\n{line}\n");
+    let cases: Vec<(String, &str)> = vec![
+        (overlap("acceptance = 1.5"), "acceptance"),
+        (overlap("acceptance = 0"), "acceptance"),
+        (overlap("repeats = 0"), "repeats"),
+        (overlap("precision = \"f16\""), "precision"),
+        (overlap("algorithms = [\"ocsi\", \"fast\"]"), "algorithms"),
+        (overlap("colour = \"red\""), "colour"),
+        (overlap("seed = \"abc\""), "seed"),
+        ("[[overlap]]\nl_star = -1\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
+        ("[[overlap]]\nl_star = 1\nw_star = 0\nr_star = 0.5\n".into(), "w_star"),
+        ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = nan\n".into(), "r_star"),
+        ("[[overlap]]\nl_star = { from = 5, to = 1 }\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
+        ("[[overlap]]\nl_star = { from = 1, to = 5, step = 0 }\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
+        ("[[overlap]]\nl_star = []\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
+        ("[[overlap]]\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
+        ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 0\n".into(), "configurations"),
+        ("[[noop]]\ncount = -3\n".into(), "count"),
+        ("[[noop]]\ncount = 3\nfail_rate = 2\n".into(), "fail_rate"),
+        ("[[noop]]\ncount = 3\nduration_ms = \"slow\"\n".into(), "duration_ms"),
+    ];
+    assert!(cases.len() >= 15);
+    for (i, (plan, key)) in cases.iter().enumerate() {
+        let path = write(dir.path(), &format!("bad{i}.toml"), plan);
+        let out = sweep(&["run", &path, "--db", &db]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "accepted:\n{plan}");
+        assert!(err.contains(&format!("bad{i}.toml:")) && err.contains(key), "case {i}: `{key}` not named: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "case {i}: not one line: {err}");
+        assert!(snapshot(&db) == before, "case {i} changed the database");
+    }
+}

@@ -1,0 +1,240 @@
+//! The gRPC face of the [`Coordinator`]: the `sweep.v1` Worker and Admin services. Each call is
+//! one coordinator operation, hence one committed SQLite transaction, before it is answered.
+//! What a plan means is not known here: the application injects an [`ExpandPlan`] function.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use tonic::transport::{Identity, Server, ServerTlsConfig};
+use tonic::{Request, Response, Status};
+use wire::auth::{RequireToken, Token};
+use wire::v1 as pb;
+use wire::v1::admin_server::{Admin, AdminServer};
+use wire::v1::worker_server::{Worker, WorkerServer};
+
+use crate::{CompleteOutcome, Completion, Coordinator, Error, FailOutcome, LeaseRef, NewCampaign, NewJob, WorkerInfo};
+
+/// Plan text and file name → the campaign and its jobs, or the one-line error a user sees.
+pub type ExpandPlan = Arc<dyn Fn(&str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    #[error("refusing to listen on {0} without a token: set --token-file or SWEEP_TOKEN, or listen on loopback")]
+    NoTokenOffLoopback(SocketAddr),
+    #[error("TLS: {0}")]
+    Tls(String),
+    #[error("serving: {0}")]
+    Transport(#[from] tonic::transport::Error),
+}
+
+fn status(error: Error) -> Status {
+    match error {
+        Error::Store(store::Error::InvalidRecord { .. }) => Status::invalid_argument(error.to_string()),
+        other => {
+            tracing::error!(error = %other, "coordinator operation failed");
+            Status::internal(other.to_string())
+        }
+    }
+}
+
+fn lease_ref(held: pb::HeldLease) -> LeaseRef {
+    LeaseRef { job_id: held.job_id, token: held.token }
+}
+
+#[derive(Clone)]
+struct Services {
+    coordinator: Coordinator,
+    expand: ExpandPlan,
+}
+
+#[tonic::async_trait]
+impl Worker for Services {
+    async fn register(&self, request: Request<pb::RegisterRequest>) -> Result<Response<pb::RegisterResponse>, Status> {
+        let w = request.into_inner().worker.ok_or_else(|| Status::invalid_argument("register: no worker"))?;
+        if w.id.is_empty() {
+            return Err(Status::invalid_argument("register: empty worker id"));
+        }
+        let info = WorkerInfo {
+            id: w.id,
+            hostname: w.hostname,
+            cores: w.cores,
+            cpu_model: w.cpu_model,
+            cpu_flags: w.cpu_flags,
+            rustc: w.rustc,
+            git_commit: w.git_commit,
+            profile: w.profile,
+        };
+        self.coordinator.register(&info).await.map_err(status)?;
+        let lease_ms = self.coordinator.config().lease_for.as_millis() as u64;
+        Ok(Response::new(pb::RegisterResponse { heartbeat_interval_ms: lease_ms / 4, lease_ms }))
+    }
+
+    async fn lease(&self, request: Request<pb::LeaseRequest>) -> Result<Response<pb::LeaseResponse>, Status> {
+        let r = request.into_inner();
+        let leases = self.coordinator.lease(&r.worker_id, r.max_jobs, true).await.map_err(status)?;
+        let leases = leases
+            .into_iter()
+            .map(|l| pb::Lease {
+                job_id: l.job_id,
+                kind: l.kind,
+                params_json: l.params_json,
+                attempt: l.attempt,
+                token: l.token,
+                exclusive: l.exclusive,
+            })
+            .collect();
+        Ok(Response::new(pb::LeaseResponse { leases }))
+    }
+
+    async fn heartbeat(&self, request: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
+        let r = request.into_inner();
+        let held: Vec<LeaseRef> = r.leases.into_iter().map(lease_ref).collect();
+        let valid = self.coordinator.heartbeat(&r.worker_id, &held).await.map_err(status)?;
+        let lost = held
+            .into_iter()
+            .filter(|l| !valid.contains(l))
+            .map(|l| pb::HeldLease { job_id: l.job_id, token: l.token })
+            .collect();
+        Ok(Response::new(pb::HeartbeatResponse { lost }))
+    }
+
+    async fn complete(&self, request: Request<pb::CompleteRequest>) -> Result<Response<pb::CompleteResponse>, Status> {
+        use pb::complete_response::Outcome;
+        let r = request.into_inner();
+        let completions: Vec<Completion> = r
+            .completions
+            .into_iter()
+            .map(|c| Completion { job_id: c.job_id, token: c.token, core_id: Some(c.core_id), records: c.records_json })
+            .collect();
+        let outcomes = self.coordinator.complete_batch(&r.worker_id, &completions).await.map_err(status)?;
+        let outcomes = outcomes
+            .into_iter()
+            .map(|o| match o {
+                CompleteOutcome::Accepted => Outcome::Accepted as i32,
+                CompleteOutcome::Late => Outcome::Late as i32,
+                CompleteOutcome::AlreadyDone => Outcome::AlreadyDone as i32,
+            })
+            .collect();
+        Ok(Response::new(pb::CompleteResponse { outcomes }))
+    }
+
+    async fn fail(&self, request: Request<pb::FailRequest>) -> Result<Response<pb::FailResponse>, Status> {
+        use pb::fail_response::Outcome;
+        let r = request.into_inner();
+        let outcome = self.coordinator.fail(&r.worker_id, &r.job_id, r.token, &r.error).await.map_err(status)?;
+        let outcome = match outcome {
+            FailOutcome::Requeued => Outcome::Requeued,
+            FailOutcome::Failed => Outcome::Failed,
+            FailOutcome::Late => Outcome::Late,
+        };
+        Ok(Response::new(pb::FailResponse { outcome: outcome as i32 }))
+    }
+
+    async fn release(&self, request: Request<pb::ReleaseRequest>) -> Result<Response<pb::ReleaseResponse>, Status> {
+        let r = request.into_inner();
+        let held: Vec<LeaseRef> = r.leases.into_iter().map(lease_ref).collect();
+        self.coordinator.release(&r.worker_id, &held).await.map_err(status)?;
+        Ok(Response::new(pb::ReleaseResponse {}))
+    }
+}
+
+fn status_to_wire(s: &crate::Status) -> pb::StatusResponse {
+    pb::StatusResponse {
+        total: s.total,
+        queued: s.queued,
+        running: s.running,
+        done: s.done,
+        failed: s.failed,
+        cancelled: s.cancelled,
+        estimate_s_remaining: s.estimate_s_remaining,
+    }
+}
+
+#[tonic::async_trait]
+impl Admin for Services {
+    async fn submit(&self, request: Request<pb::SubmitRequest>) -> Result<Response<pb::SubmitResponse>, Status> {
+        let r = request.into_inner();
+        // A bad plan is refused before anything is written, with the message `sweep run` gives.
+        let (campaign, jobs) = (self.expand)(&r.plan_toml, &r.file_name).map_err(Status::invalid_argument)?;
+        let outcome = self.coordinator.submit(&campaign, &jobs).await.map_err(status)?;
+        Ok(Response::new(pb::SubmitResponse {
+            campaign_id: outcome.campaign_id,
+            new_jobs: outcome.new_jobs + outcome.requeued,
+            already_known: outcome.already_known,
+        }))
+    }
+
+    async fn status(&self, request: Request<pb::StatusRequest>) -> Result<Response<pb::StatusResponse>, Status> {
+        let campaign = request.into_inner().campaign_id;
+        let campaign = (!campaign.is_empty()).then_some(campaign);
+        let s = self.coordinator.status(campaign.as_deref()).await.map_err(status)?;
+        Ok(Response::new(status_to_wire(&s)))
+    }
+
+    async fn cancel(&self, request: Request<pb::CancelRequest>) -> Result<Response<pb::CancelResponse>, Status> {
+        let cancelled = self.coordinator.cancel(&request.into_inner().campaign_id).await.map_err(status)?;
+        Ok(Response::new(pb::CancelResponse { cancelled }))
+    }
+
+    async fn workers(&self, _: Request<pb::WorkersRequest>) -> Result<Response<pb::WorkersResponse>, Status> {
+        let workers = self.coordinator.store().workers().await.map_err(|e| status(e.into()))?;
+        let workers = workers
+            .into_iter()
+            .map(|w| pb::workers_response::Entry {
+                worker: Some(pb::WorkerInfo {
+                    id: w.info.id,
+                    hostname: w.info.hostname,
+                    cores: w.info.cores,
+                    cpu_model: w.info.cpu_model,
+                    cpu_flags: w.info.cpu_flags,
+                    rustc: w.info.rustc,
+                    git_commit: w.info.git_commit,
+                    profile: w.info.profile,
+                }),
+                last_seen_at: w.last_seen_at,
+                running: w.running,
+            })
+            .collect();
+        Ok(Response::new(pb::WorkersResponse { workers }))
+    }
+}
+
+/// Where and how to listen.
+pub struct ServeOptions {
+    pub listen: SocketAddr,
+    pub token: Option<Token>,
+    /// PEM certificate chain and key: serve TLS.
+    pub tls: Option<(Vec<u8>, Vec<u8>)>,
+}
+
+/// Serves both services until `shutdown` resolves, reaping expired leases meanwhile. A
+/// non-loopback address without a token is refused: anyone on the network could submit work.
+pub async fn serve(
+    coordinator: Coordinator,
+    expand: ExpandPlan,
+    options: ServeOptions,
+    listener: tokio::net::TcpListener,
+    shutdown: impl std::future::Future<Output = ()> + Send,
+) -> Result<(), ServeError> {
+    if options.token.is_none() && !options.listen.ip().is_loopback() {
+        return Err(ServeError::NoTokenOffLoopback(options.listen));
+    }
+    let reaper = coordinator.spawn_reaper(Duration::from_secs(1).min(coordinator.config().lease_for / 4));
+    let services = Services { coordinator, expand };
+    let auth = RequireToken::new(options.token);
+    let mut server = Server::builder().timeout(Duration::from_secs(30));
+    if let Some((cert, key)) = options.tls {
+        server = server
+            .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
+            .map_err(|e| ServeError::Tls(e.to_string()))?;
+    }
+    let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener);
+    let result = server
+        .add_service(WorkerServer::with_interceptor(services.clone(), auth.clone()))
+        .add_service(AdminServer::with_interceptor(services, auth))
+        .serve_with_incoming_shutdown(incoming, shutdown)
+        .await;
+    reaper.abort();
+    Ok(result?)
+}

@@ -1,0 +1,242 @@
+//! The scheduling core of sweep: hands jobs to workers under leases, takes their reports, retries
+//! failures, reaps lost leases and keeps exclusive jobs alone. It knows no physics (jobs are opaque
+//! JSON) and no transport: the same [`Coordinator`] is called directly by the worker slots of local
+//! mode (`sweep run`) and wrapped by the gRPC service of `sweep coordinator`.
+//!
+//! Map of the crate:
+//! - [`Coordinator`] (this file): the operations a worker or an admin needs, each a thin layer over
+//!   one [`store`] transaction that supplies the time and the retry policy.
+//! - [`clock`]: [`SystemClock`] for production, [`ManualClock`] for tests that advance time.
+//! - [`grpc`]: the `sweep.v1` Worker and Admin services over this coordinator, with auth and TLS.
+//!
+//! Where the guarantees live: exactly-once results, fencing tokens and the exclusive-job rule are
+//! enforced inside the store's transactions, so they hold across processes sharing one database, not
+//! only inside one coordinator.
+
+pub mod clock;
+pub mod grpc;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+use tokio::task::JoinHandle;
+
+pub use clock::{Clock, ManualClock, SystemClock};
+pub use store::{
+    CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, NewCampaign, NewJob, Status, Store,
+    SubmitOutcome, WorkerInfo,
+};
+
+/// Errors of the coordinator.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("invalid coordinator configuration: {0}")]
+    Config(&'static str),
+    #[error(transparent)]
+    Store(#[from] store::Error),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Scheduling policy.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Config {
+    /// How long a lease lasts without a heartbeat. Workers should heartbeat several times per lease.
+    pub lease_for: Duration,
+    /// Attempts (failures or lost leases) before a job is marked failed.
+    pub max_attempts: u32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            lease_for: Duration::from_secs(60),
+            max_attempts: 3,
+        }
+    }
+}
+
+/// The scheduler: a [`Store`] plus policy and clock. Cheap to clone; clones share everything.
+#[derive(Clone)]
+pub struct Coordinator {
+    store: Store,
+    config: Config,
+    clock: Arc<dyn Clock>,
+}
+
+impl std::fmt::Debug for Coordinator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Coordinator")
+            .field("config", &self.config)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Coordinator {
+    /// A coordinator over `store`. Fails on a zero lease duration or zero attempts, which would make
+    /// every job expire or fail at once.
+    pub fn new(store: Store, config: Config, clock: Arc<dyn Clock>) -> Result<Self> {
+        if config.lease_for.is_zero() {
+            return Err(Error::Config("lease_for must be positive"));
+        }
+        if config.max_attempts == 0 {
+            return Err(Error::Config("max_attempts must be at least 1"));
+        }
+        Ok(Coordinator {
+            store,
+            config,
+            clock,
+        })
+    }
+
+    /// The underlying store, for reads (reports, export, queries).
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    pub fn config(&self) -> Config {
+        self.config
+    }
+
+    /// Registers a worker (or refreshes a re-registration with identical provenance).
+    pub async fn register(&self, worker: &WorkerInfo) -> Result<()> {
+        Ok(self.store.register_worker(worker, self.clock.now()).await?)
+    }
+
+    /// Leases up to `max_jobs` jobs to `worker_id` for [`Config::lease_for`]. `exclusive_ok` says the
+    /// worker may take a job that must run alone (see [`Store::lease`] for the exclusive rule).
+    pub async fn lease(
+        &self,
+        worker_id: &str,
+        max_jobs: u32,
+        exclusive_ok: bool,
+    ) -> Result<Vec<Lease>> {
+        let now = self.clock.now();
+        Ok(self
+            .store
+            .lease(
+                worker_id,
+                max_jobs,
+                self.config.lease_for,
+                now,
+                exclusive_ok,
+            )
+            .await?)
+    }
+
+    /// Extends the worker's leases by [`Config::lease_for`] from now; returns those still valid.
+    /// A lease missing from the answer was lost: the worker should drop that job.
+    pub async fn heartbeat(&self, worker_id: &str, leases: &[LeaseRef]) -> Result<Vec<LeaseRef>> {
+        let now = self.clock.now();
+        let extend_to = now + self.config.lease_for.as_secs_f64();
+        Ok(self
+            .store
+            .heartbeat(worker_id, leases, extend_to, now)
+            .await?)
+    }
+
+    /// Reports a job's result records (each a JSON object); see [`CompleteOutcome`].
+    pub async fn complete(
+        &self,
+        worker_id: &str,
+        job_id: &str,
+        token: i64,
+        core_id: Option<u32>,
+        records: &[String],
+    ) -> Result<CompleteOutcome> {
+        let now = self.clock.now();
+        Ok(self
+            .store
+            .complete(worker_id, job_id, token, core_id, records, now)
+            .await?)
+    }
+
+    /// Reports many jobs of one worker in one transaction (see [`Store::complete_batch`]): the way to
+    /// sustain thousands of short jobs per second. Outcomes are in input order.
+    pub async fn complete_batch(
+        &self,
+        worker_id: &str,
+        completions: &[Completion],
+    ) -> Result<Vec<CompleteOutcome>> {
+        let now = self.clock.now();
+        Ok(self
+            .store
+            .complete_batch(worker_id, completions, now)
+            .await?)
+    }
+
+    /// Reports a failed attempt; the job is retried until [`Config::max_attempts`].
+    pub async fn fail(
+        &self,
+        worker_id: &str,
+        job_id: &str,
+        token: i64,
+        error: &str,
+    ) -> Result<FailOutcome> {
+        let now = self.clock.now();
+        Ok(self
+            .store
+            .fail(
+                worker_id,
+                job_id,
+                token,
+                error,
+                self.config.max_attempts,
+                now,
+            )
+            .await?)
+    }
+
+    /// Gives unstarted leases back without counting an attempt (a worker shutting down).
+    pub async fn release(&self, worker_id: &str, leases: &[LeaseRef]) -> Result<u64> {
+        Ok(self.store.release(worker_id, leases, self.clock.now()).await?)
+    }
+
+    /// Ends every lease of a worker known to be dead, so its jobs run again at once.
+    pub async fn reclaim(&self, worker_id: &str) -> Result<u64> {
+        Ok(self.store.reclaim(worker_id, self.clock.now(), self.config.max_attempts).await?)
+    }
+
+    /// Reaps expired leases (their jobs are retried, or failed after [`Config::max_attempts`]).
+    /// Returns how many were reaped. Called periodically, e.g. by [`Coordinator::spawn_reaper`].
+    pub async fn tick(&self) -> Result<u64> {
+        Ok(self
+            .store
+            .expire_leases(self.clock.now(), self.config.max_attempts)
+            .await?)
+    }
+
+    /// Runs [`Coordinator::tick`] every `every` until the returned task is aborted. Errors are logged,
+    /// not fatal: a busy database at one tick is retried at the next.
+    pub fn spawn_reaper(&self, every: Duration) -> JoinHandle<()> {
+        let coordinator = self.clone();
+        tokio::spawn(async move {
+            let mut interval = tokio::time::interval(every);
+            interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            loop {
+                interval.tick().await;
+                match coordinator.tick().await {
+                    Ok(0) => {}
+                    Ok(reaped) => tracing::info!(reaped, "expired leases reaped"),
+                    Err(error) => tracing::warn!(%error, "reaping expired leases failed"),
+                }
+            }
+        })
+    }
+
+    /// Submits a campaign; only jobs not known yet are scheduled (see [`Store::submit`]).
+    pub async fn submit(&self, campaign: &NewCampaign, jobs: &[NewJob]) -> Result<SubmitOutcome> {
+        Ok(self.store.submit(campaign, jobs, self.clock.now()).await?)
+    }
+
+    /// Job counts of one campaign, or of everything with `None`.
+    pub async fn status(&self, campaign: Option<&str>) -> Result<Status> {
+        Ok(self.store.status(campaign).await?)
+    }
+
+    /// Cancels a campaign's queued jobs; returns how many were cancelled.
+    pub async fn cancel(&self, campaign_id: &str) -> Result<u64> {
+        Ok(self.store.cancel(campaign_id, self.clock.now()).await?)
+    }
+}

@@ -1,0 +1,158 @@
+//! Opening a store: connection options, pools, migrations.
+//!
+//! One writer connection serialises all writes of this process (SQLite allows one writer anyway, and
+//! queueing in the pool is cheaper than spinning on the busy handler); every write transaction still
+//! starts with `BEGIN IMMEDIATE` so that writers in *other* processes wait on `busy_timeout` instead of
+//! failing with "database is locked" when a deferred transaction tries to upgrade its lock.
+//! Readers use separate read-only connections: WAL lets them run while the writer commits, and an
+//! accidental write through them is refused by SQLite itself.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use sqlx::sqlite::{
+    SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
+};
+use sqlx::{Row, Sqlite, Transaction};
+
+use crate::error::{Error, Result};
+
+/// The schema, embedded at compile time from `/migrations`.
+static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations");
+
+const BUSY_TIMEOUT: Duration = Duration::from_secs(5);
+const READERS: u32 = 4;
+
+/// A sweep database. Cheap to clone (pools are reference counted).
+#[derive(Debug, Clone)]
+pub struct Store {
+    /// `None` when opened with [`Store::open_read_only`].
+    writer: Option<SqlitePool>,
+    pub(crate) reader: SqlitePool,
+}
+
+impl Store {
+    /// Opens (creating it if missing) the database at `path` and applies pending migrations.
+    ///
+    /// Two processes creating the same new file at the same instant may race on switching it to WAL;
+    /// opening an existing database concurrently is safe.
+    pub async fn open(path: impl AsRef<Path>) -> Result<Store> {
+        let path = path.as_ref();
+        let open_err = |source| Error::Open {
+            path: path.to_owned(),
+            source,
+        };
+        let writer_options = SqliteConnectOptions::new()
+            .filename(path)
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(SqliteSynchronous::Normal)
+            .busy_timeout(BUSY_TIMEOUT)
+            .foreign_keys(true);
+        let writer = SqlitePoolOptions::new()
+            .max_connections(1)
+            .min_connections(1)
+            .connect_with(writer_options)
+            .await
+            .map_err(open_err)?;
+        MIGRATOR
+            .run(&writer)
+            .await
+            .map_err(|source| Error::Migrate {
+                path: path.to_owned(),
+                source,
+            })?;
+        let reader = reader_pool(path).await.map_err(open_err)?;
+        Ok(Store {
+            writer: Some(writer),
+            reader,
+        })
+    }
+
+    /// Opens an existing database for reading only (`sweep query`, reports): never creates or modifies
+    /// the file, and every write statement fails. The schema must be up to date.
+    pub async fn open_read_only(path: impl AsRef<Path>) -> Result<Store> {
+        let path = path.as_ref();
+        let reader = reader_pool(path).await.map_err(|source| Error::Open {
+            path: path.to_owned(),
+            source,
+        })?;
+        check_schema(&reader, path).await?;
+        Ok(Store {
+            writer: None,
+            reader,
+        })
+    }
+
+    /// Closes all connections. Readers close first so that the writer is the last connection, which
+    /// checkpoints the WAL into the database file and removes it.
+    pub async fn close(&self) {
+        self.reader.close().await;
+        if let Some(writer) = &self.writer {
+            writer.close().await;
+        }
+    }
+
+    /// Starts a write transaction that holds SQLite's write lock from its first statement.
+    pub(crate) async fn begin_write(&self) -> Result<Transaction<'static, Sqlite>> {
+        let writer = self.writer.as_ref().ok_or(Error::ReadOnly)?;
+        Ok(writer.begin_with("BEGIN IMMEDIATE").await?)
+    }
+}
+
+/// Read-only connections, with `query_only` as a second lock on the door.
+async fn reader_pool(path: &Path) -> std::result::Result<SqlitePool, sqlx::Error> {
+    let options = SqliteConnectOptions::new()
+        .filename(path)
+        .read_only(true)
+        .create_if_missing(false)
+        .busy_timeout(BUSY_TIMEOUT)
+        .pragma("query_only", "ON");
+    SqlitePoolOptions::new()
+        .max_connections(READERS)
+        .min_connections(1)
+        .connect_with(options)
+        .await
+}
+
+/// A read-only store cannot migrate, so it refuses a database that lacks any embedded migration.
+async fn check_schema(reader: &SqlitePool, path: &Path) -> Result<()> {
+    let outdated = |version| Error::SchemaOutdated {
+        path: PathBuf::from(path),
+        version,
+    };
+    let first = MIGRATOR.iter().next().map_or(0, |m| m.version);
+    let applied: Vec<(i64, Vec<u8>)> =
+        match sqlx::query("SELECT version, checksum FROM _sqlx_migrations WHERE success = 1")
+            .fetch_all(reader)
+            .await
+        {
+            Ok(rows) => rows
+                .iter()
+                .map(|row| Ok((row.try_get(0)?, row.try_get(1)?)))
+                .collect::<std::result::Result<_, sqlx::Error>>()?,
+            Err(sqlx::Error::Database(e)) if e.message().contains("no such table") => {
+                return Err(outdated(first));
+            }
+            Err(e) => return Err(e.into()),
+        };
+    for migration in MIGRATOR
+        .iter()
+        .filter(|m| !m.migration_type.is_down_migration())
+    {
+        match applied
+            .iter()
+            .find(|(version, _)| *version == migration.version)
+        {
+            Some((_, checksum)) if checksum[..] == migration.checksum[..] => {}
+            Some(_) => {
+                return Err(Error::Corrupt(format!(
+                    "migration {} was applied from a different SQL text",
+                    migration.version
+                )));
+            }
+            None => return Err(outdated(migration.version)),
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,36 @@
+//! SQLite persistence for sweep: campaigns, jobs and their leases, results, worker provenance, and the
+//! queries reports are built from. The store knows no physics: job parameters and result records are
+//! opaque JSON objects (only the SQL views in `/migrations` name their fields, for humans and reports).
+//!
+//! Map of the crate:
+//! - `connect`: [`Store::open`] (read-write, applies migrations) and [`Store::open_read_only`];
+//!   the writer/reader pools and pragmas.
+//! - `campaigns`: [`Store::submit`] and [`Store::cancel`].
+//! - `workers`: [`Store::register_worker`], [`Store::touch_worker`].
+//! - `leases`: the job life cycle — [`Store::lease`], [`Store::heartbeat`], [`Store::complete`],
+//!   [`Store::complete_batch`], [`Store::fail`], [`Store::expire_leases`]; the exclusive-job rule
+//!   and exactly-once results live here.
+//! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
+//!   [`Store::export`], [`Store::overlap_rows`], [`Store::query_read_only`].
+//! - [`types`] and [`error`]: the plain data and error types of the API.
+//!
+//! Invariants: every write is one `BEGIN IMMEDIATE` transaction on the single writer connection; a
+//! job's results are written exactly once, in the transaction that marks it done, and only by the
+//! lease (fencing token) that currently owns it; times are caller-supplied Unix seconds, so the
+//! scheduler's clock can be simulated.
+
+mod campaigns;
+mod connect;
+pub mod error;
+mod leases;
+mod read;
+pub mod types;
+mod workers;
+
+pub use connect::Store;
+pub use error::{Error, Result};
+pub use types::{
+    CampaignInfo, CompleteOutcome, Completion, ExportRow, FailOutcome, JobInfo, JobState, Lease,
+    LeaseRef, NewCampaign, NewJob, OverlapRow, QueryResult, Status, SubmitOutcome, WorkerInfo,
+    WorkerRecord,
+};

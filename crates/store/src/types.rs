@@ -1,0 +1,237 @@
+//! Plain data types of the store API. They carry no behaviour and derive serde so that a transport
+//! (gRPC, JSON output of the CLI) can map them one to one.
+
+use serde::{Deserialize, Serialize};
+
+/// A campaign as submitted: its id is a hash of the plan, computed by the caller.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NewCampaign {
+    pub id: String,
+    pub name: String,
+    pub plan_text: String,
+}
+
+/// A job (one point of a sweep) as submitted. `id` must be a hash of `kind` and the canonical
+/// `params_json` so that resubmitting a point finds the existing job.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NewJob {
+    pub id: String,
+    pub kind: String,
+    /// A JSON object; opaque to the store.
+    pub params_json: String,
+    /// Expected run time, used for the ETA of [`Status::estimate_s_remaining`].
+    pub estimate_s: f64,
+    /// Run this job only while no other job runs anywhere (memory-bound timings disturb each other).
+    pub exclusive: bool,
+}
+
+/// What [`crate::Store::submit`] did.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SubmitOutcome {
+    pub campaign_id: String,
+    /// Jobs that did not exist and are now queued.
+    pub new_jobs: u64,
+    /// Known jobs that had failed or been cancelled and are queued again with attempts reset.
+    pub requeued: u64,
+    /// Known jobs left as they are (queued, running or done): they are only linked to the campaign.
+    pub already_known: u64,
+}
+
+/// Who a worker is: provenance recorded with every result it produces.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct WorkerInfo {
+    pub id: String,
+    pub hostname: String,
+    /// The core ids this worker pins its job slots to.
+    pub cores: Vec<u32>,
+    pub cpu_model: String,
+    pub cpu_flags: String,
+    pub rustc: String,
+    pub git_commit: String,
+    /// Cargo build profile (`release`, `dev`, ...).
+    pub profile: String,
+}
+
+/// A registered worker, as listed by [`crate::Store::workers`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkerRecord {
+    pub info: WorkerInfo,
+    pub registered_at: f64,
+    pub last_seen_at: f64,
+    /// Jobs this worker holds leases on now.
+    pub running: u32,
+}
+
+/// A job handed to a worker. The worker must quote `job_id` and `token` when it reports.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Lease {
+    pub job_id: String,
+    pub kind: String,
+    pub params_json: String,
+    /// 1 for the first attempt.
+    pub attempt: u32,
+    /// Fencing token: unique per lease, never reused, so a report from an older lease is recognised.
+    pub token: i64,
+    pub expires_at: f64,
+    /// The job must run alone on the machine (exclusive timing).
+    pub exclusive: bool,
+}
+
+/// A reference to a lease held by a worker (for heartbeats).
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct LeaseRef {
+    pub job_id: String,
+    pub token: i64,
+}
+
+/// One job's report in [`crate::Store::complete_batch`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Completion {
+    pub job_id: String,
+    pub token: i64,
+    /// The core the job ran on, for provenance.
+    pub core_id: Option<u32>,
+    /// Result records, each a JSON object.
+    pub records: Vec<String>,
+}
+
+/// What became of a completion report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CompleteOutcome {
+    /// Results stored and the job is done.
+    Accepted,
+    /// The lease was no longer this worker's (expired and reaped, re-leased, cancelled, or done by
+    /// another lease): recorded in `late_reports`, results not written.
+    Late,
+    /// This very lease already completed the job (a retried report): nothing written.
+    AlreadyDone,
+}
+
+/// What became of a failure report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FailOutcome {
+    /// Attempts remain: the job is queued again.
+    Requeued,
+    /// `max_attempts` reached: the job is failed with this error as `last_error`.
+    Failed,
+    /// The lease was no longer this worker's: recorded in `late_reports`, the job is untouched.
+    Late,
+}
+
+/// Job counts by state and the estimated work left.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Status {
+    pub total: u64,
+    pub queued: u64,
+    pub running: u64,
+    pub done: u64,
+    pub failed: u64,
+    pub cancelled: u64,
+    /// Sum of `estimate_s` over queued and running jobs (CPU seconds, not wall time).
+    pub estimate_s_remaining: f64,
+}
+
+/// A campaign with its progress, as listed by [`crate::Store::campaigns`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CampaignInfo {
+    pub id: String,
+    pub name: String,
+    pub created_at: f64,
+    pub cancelled_at: Option<f64>,
+    pub status: Status,
+}
+
+/// One results row with the identity of its job, for `sweep export`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExportRow {
+    pub job_id: String,
+    /// The ids of all campaigns that contain the job, oldest campaign first, joined by `,`
+    /// (a job shared by several plans is measured once and belongs to each of them).
+    pub campaign: String,
+    pub kind: String,
+    pub attempt: u32,
+    pub worker: String,
+    pub core_id: Option<u32>,
+    pub fields: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Mean over the repeats of one overlap job (point) and algorithm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OverlapRow {
+    pub job_id: String,
+    pub l_star: f64,
+    pub w_star: f64,
+    pub r_star: f64,
+    pub acceptance_target: f64,
+    pub configurations: i64,
+    pub precision: String,
+    pub algorithm: String,
+    pub mean_ms: f64,
+    pub ns_per_check: f64,
+    /// Measured acceptance (mean over repeats).
+    pub acceptance: f64,
+    pub repeats: u32,
+}
+
+/// Result of an ad-hoc read-only query: column names and rows of JSON values
+/// (INTEGER → number, REAL → number or null if not finite, TEXT → string, BLOB → lowercase hex string).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct QueryResult {
+    pub columns: Vec<String>,
+    pub rows: Vec<Vec<serde_json::Value>>,
+}
+
+/// Life cycle of a job: `queued → running → done`, or back to `queued` on failure or lease expiry until
+/// `max_attempts`, then `failed`. `cancelled` comes from cancelling the campaign while queued.
+/// Resubmitting a failed or cancelled job queues it again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JobState {
+    Queued,
+    Running,
+    Done,
+    Failed,
+    Cancelled,
+}
+
+impl JobState {
+    /// The spelling used in the `jobs.state` column.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Done => "done",
+            JobState::Failed => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+
+    pub(crate) fn parse(s: &str) -> Option<JobState> {
+        Some(match s {
+            "queued" => JobState::Queued,
+            "running" => JobState::Running,
+            "done" => JobState::Done,
+            "failed" => JobState::Failed,
+            "cancelled" => JobState::Cancelled,
+            _ => return None,
+        })
+    }
+}
+
+/// One job as stored, for diagnosis (`sweep status` of a single job, tests).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JobInfo {
+    pub id: String,
+    pub kind: String,
+    pub params_json: String,
+    pub estimate_s: f64,
+    pub exclusive: bool,
+    pub state: JobState,
+    pub attempts: u32,
+    pub lease_owner: Option<String>,
+    pub lease_expires_at: Option<f64>,
+    pub last_error: Option<String>,
+    pub started_at: Option<f64>,
+    pub finished_at: Option<f64>,
+    pub created_at: f64,
+}

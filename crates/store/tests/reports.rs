@@ -1,0 +1,170 @@
+//! Report queries over a campaign of the size of the paper's Table 1 / Figure 2:
+//! 20 × 20 (L*, W*) × 3 R* × 2 precisions = 2,400 points, × 6 algorithms × 3 repeats = 43,200 rows.
+
+mod common;
+
+use common::*;
+use std::time::{Duration, Instant};
+use store::{NewJob, Store};
+
+const ALGORITHMS: [&str; 6] = ["arvo", "qri", "qrf", "sse", "ocsi", "ocsi_batch"];
+const REPEATS: usize = 3;
+
+fn overlap_jobs() -> Vec<NewJob> {
+    let mut jobs = Vec::new();
+    for precision in ["f32", "f64"] {
+        for r_star in [0.05, 0.5, 5.0] {
+            for l in 1..=20 {
+                for w in 1..=20 {
+                    let params = serde_json::json!({
+                        "l_star": f64::from(l), "w_star": f64::from(w), "r_star": r_star,
+                        "acceptance": 0.4, "configurations": 2_000_000, "repeats": REPEATS,
+                        "precision": precision, "algorithms": ALGORITHMS, "seed": 123,
+                    });
+                    jobs.push(NewJob {
+                        id: format!("ov-{precision}-{r_star}-{l}-{w}"),
+                        kind: "overlap".to_owned(),
+                        params_json: params.to_string(),
+                        estimate_s: 2.0,
+                        exclusive: false,
+                    });
+                }
+            }
+        }
+    }
+    jobs
+}
+
+/// Timing of (algorithm a, repeat r): 1 + a + r/10 ms, so the mean over repeats is 1.1 + a.
+fn records() -> Vec<String> {
+    let mut records = Vec::new();
+    for (a, algorithm) in ALGORITHMS.iter().enumerate() {
+        for repeat in 0..REPEATS {
+            let ms = 1.0 + a as f64 + repeat as f64 / 10.0;
+            records.push(
+                serde_json::json!({"algorithm": algorithm, "repeat": repeat, "ms": ms,
+                                   "ns_per_check": ms / 2.0, "acceptance": 0.4})
+                .to_string(),
+            );
+        }
+    }
+    records
+}
+
+async fn filled_store() -> (tempfile::TempDir, std::path::PathBuf, Store) {
+    let (dir, path, store) = temp_store().await;
+    store.register_worker(&worker("w1"), T0).await.unwrap();
+    let jobs = overlap_jobs();
+    store.submit(&campaign("table1"), &jobs, T0).await.unwrap();
+    store
+        .submit(&campaign("table1-again"), &jobs[..10], T0 + 1.0)
+        .await
+        .unwrap();
+    let records = records();
+    loop {
+        let leases = store
+            .lease("w1", 256, Duration::from_secs(60), T0, true)
+            .await
+            .unwrap();
+        if leases.is_empty() {
+            break;
+        }
+        for lease in leases {
+            store
+                .complete("w1", &lease.job_id, lease.token, Some(2), &records, T0)
+                .await
+                .unwrap();
+        }
+    }
+    (dir, path, store)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn overlap_rows_and_export_of_43200_results() {
+    let (_dir, path, store) = filled_store().await;
+    store.close().await;
+    let store = Store::open_read_only(&path).await.unwrap();
+    assert_eq!(
+        count(&store, "SELECT count(*) FROM overlap_timings").await,
+        43_200
+    );
+
+    let started = Instant::now();
+    let rows = store.overlap_rows().await.unwrap();
+    let elapsed = started.elapsed();
+    println!(
+        "overlap_rows: {} rows from 43,200 results in {elapsed:?}",
+        rows.len()
+    );
+    // SQLite is compiled without optimisation in debug builds; the 1 s budget is for release.
+    let budget = if cfg!(debug_assertions) {
+        Duration::from_secs(5)
+    } else {
+        Duration::from_secs(1)
+    };
+    assert!(elapsed < budget, "overlap_rows took {elapsed:?}");
+
+    assert_eq!(rows.len(), 2_400 * ALGORITHMS.len());
+    let first = &rows[0];
+    assert_eq!(
+        (
+            first.precision.as_str(),
+            first.r_star,
+            first.l_star,
+            first.w_star
+        ),
+        ("f32", 0.05, 1.0, 1.0)
+    );
+    assert_eq!(
+        (
+            first.algorithm.as_str(),
+            first.repeats,
+            first.configurations
+        ),
+        ("arvo", 3, 2_000_000)
+    );
+    for row in &rows {
+        let a = ALGORITHMS.iter().position(|a| *a == row.algorithm).unwrap() as f64;
+        assert!((row.mean_ms - (1.1 + a)).abs() < 1e-9, "{row:?}");
+        assert!((row.ns_per_check - (1.1 + a) / 2.0).abs() < 1e-9);
+        assert!((row.acceptance - 0.4).abs() < 1e-12 && row.acceptance_target == 0.4);
+    }
+
+    let started = Instant::now();
+    let export = store.export().await.unwrap();
+    println!("export: {} rows in {:?}", export.len(), started.elapsed());
+    assert_eq!(export.len(), 43_200);
+    assert_eq!(export[0].campaign, "table1,table1-again");
+    assert_eq!(export[0].fields["algorithm"], "arvo");
+    assert_eq!(export.last().unwrap().campaign, "table1");
+    assert!(
+        export
+            .iter()
+            .all(|r| r.kind == "overlap" && r.attempt == 1 && r.worker == "w1")
+    );
+}
+
+#[tokio::test]
+async fn overlap_rows_refuse_a_record_without_timing() {
+    let (_dir, _path, store) = temp_store().await;
+    store.register_worker(&worker("w1"), T0).await.unwrap();
+    store
+        .submit(&campaign("c"), &overlap_jobs()[..1], T0)
+        .await
+        .unwrap();
+    let lease = store
+        .lease("w1", 1, Duration::from_secs(60), T0, true)
+        .await
+        .unwrap()
+        .remove(0);
+    let record =
+        r#"{"algorithm":"ocsi","repeat":0,"ns_per_check":1.0,"acceptance":0.4}"#.to_owned();
+    store
+        .complete("w1", &lease.job_id, lease.token, None, &[record], T0)
+        .await
+        .unwrap();
+    assert!(matches!(
+        store.overlap_rows().await,
+        Err(store::Error::Corrupt(_))
+    ));
+}

@@ -1,0 +1,149 @@
+//! A [`JobQueue`] over gRPC: the worker side of `sweep worker --coordinator URL`. The channel
+//! connects lazily and reconnects by itself; the slots' backoff covers a coordinator that is away.
+
+use std::time::Duration;
+
+use coordinator::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, WorkerInfo};
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
+use wire::auth::{Token, WithToken};
+use wire::v1 as pb;
+use wire::v1::worker_client::WorkerClient;
+
+use crate::{JobQueue, WorkerError};
+
+/// Every call carries this deadline: a hung coordinator must not hang a slot.
+const DEADLINE: Duration = Duration::from_secs(10);
+
+pub struct Remote {
+    client: WorkerClient<InterceptedService<Channel, WithToken>>,
+    worker_id: String,
+}
+
+fn transport(status: tonic::Status) -> WorkerError {
+    match status.code() {
+        tonic::Code::Unauthenticated | tonic::Code::PermissionDenied => WorkerError::Refused(status.message().to_string()),
+        code => WorkerError::Transport(format!("{code:?}: {}", status.message())),
+    }
+}
+
+fn request<T>(message: T) -> tonic::Request<T> {
+    let mut request = tonic::Request::new(message);
+    request.set_timeout(DEADLINE);
+    request
+}
+
+fn held(lease: &LeaseRef) -> pb::HeldLease {
+    pb::HeldLease { job_id: lease.job_id.clone(), token: lease.token }
+}
+
+pub fn worker_info_to_wire(info: &WorkerInfo) -> pb::WorkerInfo {
+    pb::WorkerInfo {
+        id: info.id.clone(),
+        hostname: info.hostname.clone(),
+        cores: info.cores.clone(),
+        cpu_model: info.cpu_model.clone(),
+        cpu_flags: info.cpu_flags.clone(),
+        rustc: info.rustc.clone(),
+        git_commit: info.git_commit.clone(),
+        profile: info.profile.clone(),
+    }
+}
+
+impl Remote {
+    /// `url` like `http://host:port` or `https://…` (then `ca_pem` verifies the coordinator).
+    pub fn new(url: &str, token: Option<Token>, ca_pem: Option<Vec<u8>>, worker_id: String) -> Result<Remote, WorkerError> {
+        let bad = |e: tonic::transport::Error| WorkerError::Transport(format!("{url}: {e}"));
+        let mut endpoint = Endpoint::from_shared(url.to_string())
+            .map_err(bad)?
+            .connect_timeout(Duration::from_secs(5))
+            .tcp_nodelay(true);
+        if let Some(ca) = ca_pem {
+            endpoint = endpoint.tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca))).map_err(bad)?;
+        }
+        let channel = endpoint.connect_lazy();
+        Ok(Remote { client: WorkerClient::with_interceptor(channel, WithToken::new(token)), worker_id })
+    }
+
+    /// Registers this worker; answers the coordinator's lease duration.
+    pub async fn register(&self, info: &WorkerInfo) -> Result<Duration, WorkerError> {
+        let response = self
+            .client
+            .clone()
+            .register(request(pb::RegisterRequest { worker: Some(worker_info_to_wire(info)) }))
+            .await
+            .map_err(transport)?
+            .into_inner();
+        Ok(Duration::from_millis(response.lease_ms))
+    }
+
+}
+
+impl JobQueue for Remote {
+    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, WorkerError> {
+        let message = pb::LeaseRequest { worker_id: self.worker_id.clone(), max_jobs };
+        let leases = self.client.clone().lease(request(message)).await.map_err(transport)?.into_inner().leases;
+        Ok(leases
+            .into_iter()
+            .map(|l| Lease {
+                job_id: l.job_id,
+                kind: l.kind,
+                params_json: l.params_json,
+                attempt: l.attempt,
+                token: l.token,
+                // The coordinator tracks expiry; the worker only heartbeats.
+                expires_at: f64::NAN,
+                exclusive: l.exclusive,
+            })
+            .collect())
+    }
+
+    async fn heartbeat(&self, leases: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, WorkerError> {
+        let message = pb::HeartbeatRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(held).collect() };
+        let lost = self.client.clone().heartbeat(request(message)).await.map_err(transport)?.into_inner().lost;
+        Ok(leases.into_iter().filter(|l| !lost.iter().any(|x| x.job_id == l.job_id && x.token == l.token)).collect())
+    }
+
+    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, WorkerError> {
+        use pb::complete_response::Outcome;
+        let message = pb::CompleteRequest {
+            worker_id: self.worker_id.clone(),
+            completions: completions
+                .into_iter()
+                .map(|c| pb::Completion {
+                    job_id: c.job_id,
+                    token: c.token,
+                    core_id: c.core_id.unwrap_or_default(),
+                    records_json: c.records,
+                })
+                .collect(),
+        };
+        let response = self.client.clone().complete(request(message)).await.map_err(transport)?.into_inner();
+        response
+            .outcomes()
+            .map(|o| match o {
+                Outcome::Accepted => Ok(CompleteOutcome::Accepted),
+                Outcome::Late => Ok(CompleteOutcome::Late),
+                Outcome::AlreadyDone => Ok(CompleteOutcome::AlreadyDone),
+                Outcome::Unspecified => Err(WorkerError::Transport("complete: no outcome".into())),
+            })
+            .collect()
+    }
+
+    async fn fail(&self, lease: &Lease, error: String) -> Result<FailOutcome, WorkerError> {
+        let message =
+            pb::FailRequest { worker_id: self.worker_id.clone(), job_id: lease.job_id.clone(), token: lease.token, error };
+        match self.client.clone().fail(request(message)).await.map_err(transport)?.into_inner().outcome() {
+            pb::fail_response::Outcome::Requeued => Ok(FailOutcome::Requeued),
+            pb::fail_response::Outcome::Failed => Ok(FailOutcome::Failed),
+            pb::fail_response::Outcome::Late => Ok(FailOutcome::Late),
+            pb::fail_response::Outcome::Unspecified => Err(WorkerError::Transport("fail: no outcome".into())),
+        }
+    }
+
+    async fn release(&self, leases: Vec<LeaseRef>) -> Result<(), WorkerError> {
+        let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(held).collect() };
+        self.client.clone().release(request(message)).await.map_err(transport)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,243 @@
+//! End to end: a real coordinator and real workers, separate processes on loopback (port 0, so
+//! the OS picks free ports), driven by the `sweep` CLI as a user would. Processes are killed with
+//! SIGKILL to check that nothing is lost or counted twice.
+
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const SWEEP: &str = env!("CARGO_BIN_EXE_sweep");
+
+/// A child process killed when dropped, so a failing test leaves nothing running.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+impl Proc {
+    fn kill9(&mut self) {
+        self.0.kill().expect("SIGKILL");
+        self.0.wait().expect("reaped");
+    }
+}
+
+struct Cluster {
+    dir: tempfile::TempDir,
+    db: PathBuf,
+    token_file: PathBuf,
+}
+
+impl Cluster {
+    fn new() -> Cluster {
+        let dir = tempfile::tempdir().unwrap();
+        let token_file = dir.path().join("token");
+        std::fs::write(&token_file, "e2e-secret-token\n").unwrap();
+        let db = dir.path().join("campaign.db");
+        Cluster { dir, db, token_file }
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    fn token(&self) -> &str {
+        self.token_file.to_str().unwrap()
+    }
+
+    /// Starts a coordinator on `listen` and returns it with its URL, read from its stdout.
+    fn coordinator(&self, listen: &str) -> (Proc, String) {
+        let mut child = Command::new(SWEEP)
+            .args(["coordinator", "--listen", listen, "--db", self.db.to_str().unwrap()])
+            .args(["--token-file", self.token(), "--lease-secs", "1", "--max-attempts", "5"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let addr = line.trim().strip_prefix("listening on ").unwrap_or_else(|| panic!("unexpected: {line:?}")).to_string();
+        (Proc(child), format!("http://{addr}"))
+    }
+
+    fn worker(&self, url: &str, core: &str, token_file: Option<&str>) -> Proc {
+        let mut cmd = Command::new(SWEEP);
+        cmd.args(["worker", "--coordinator", url, "--cores", core]).env_remove("SWEEP_TOKEN");
+        if let Some(token) = token_file {
+            cmd.args(["--token-file", token]);
+        }
+        Proc(cmd.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap())
+    }
+
+    fn sweep(&self, args: &[&str]) -> Output {
+        Command::new(SWEEP).args(args).env_remove("SWEEP_TOKEN").output().unwrap()
+    }
+
+    fn plan(&self, name: &str, text: &str) -> String {
+        let path = self.path(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    }
+
+    fn submit(&self, url: &str, plan: &str) -> serde_json::Value {
+        let out = self.sweep(&["submit", plan, "--coordinator", url, "--token-file", self.token(), "--format", "json"]);
+        assert!(out.status.success(), "submit: {}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    }
+
+    fn status(&self, url: &str) -> serde_json::Value {
+        let out = self.sweep(&["status", "--coordinator", url, "--token-file", self.token(), "--format", "json"]);
+        assert!(out.status.success(), "status: {}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()["status"].clone()
+    }
+
+    fn wait_done(&self, url: &str, total: u64, within: Duration) {
+        let started = Instant::now();
+        loop {
+            let status = self.status(url);
+            if status["done"] == total {
+                return;
+            }
+            assert!(started.elapsed() < within, "not done in {within:?}: {status}");
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    /// Result rows per job id, read from the database (read-only, while the coordinator runs).
+    fn rows_per_job(&self) -> HashMap<String, usize> {
+        let out = self.sweep(&["export", "--db", self.db.to_str().unwrap(), "--format", "json"]);
+        assert!(out.status.success(), "export: {}", String::from_utf8_lossy(&out.stderr));
+        let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+        let mut counts = HashMap::new();
+        for row in rows {
+            *counts.entry(row["job_id"].as_str().unwrap().to_string()).or_default() += 1;
+        }
+        counts
+    }
+}
+
+fn noop_plan(count: u32, duration_ms: u32) -> String {
+    format!("name = \"e2e\"\n[[noop]]\ncount = {count}\nduration_ms = {duration_ms}\n")
+}
+
+fn assert_exactly_once(cluster: &Cluster, total: usize) {
+    let rows = cluster.rows_per_job();
+    assert_eq!(rows.len(), total, "jobs with results");
+    assert!(rows.values().all(|&n| n == 1), "a job has several result rows: {rows:?}");
+}
+
+#[test]
+fn two_workers_run_a_campaign_to_completion() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let _a = cluster.worker(&url, "0", Some(cluster.token()));
+    let _b = cluster.worker(&url, "1", Some(cluster.token()));
+    let submitted = cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(200, 2)));
+    assert_eq!(submitted["new_jobs"], 200);
+    cluster.wait_done(&url, 200, Duration::from_secs(60));
+    assert_exactly_once(&cluster, 200);
+    let again = cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(200, 2)));
+    assert_eq!(again["new_jobs"], 0, "resubmission scheduled work");
+}
+
+#[test]
+fn a_worker_killed_mid_job_loses_nothing() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let mut doomed = cluster.worker(&url, "0", Some(cluster.token()));
+    cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(30, 150)));
+    // Let the doomed worker take jobs, then kill it while it holds one.
+    let started = Instant::now();
+    while cluster.status(&url)["done"].as_u64().unwrap() < 3 {
+        assert!(started.elapsed() < Duration::from_secs(30), "no progress");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    doomed.kill9();
+    let _survivor = cluster.worker(&url, "1", Some(cluster.token()));
+    cluster.wait_done(&url, 30, Duration::from_secs(60));
+    assert_exactly_once(&cluster, 30);
+}
+
+#[test]
+fn a_coordinator_killed_mid_campaign_resumes_from_its_database() {
+    let cluster = Cluster::new();
+    let (mut coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let addr = url.trim_start_matches("http://").to_string();
+    let _a = cluster.worker(&url, "0", Some(cluster.token()));
+    let _b = cluster.worker(&url, "1", Some(cluster.token()));
+    cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(60, 50)));
+    let started = Instant::now();
+    while cluster.status(&url)["done"].as_u64().unwrap() < 10 {
+        assert!(started.elapsed() < Duration::from_secs(30), "no progress");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    coordinator.kill9();
+    std::thread::sleep(Duration::from_millis(500));
+    // Same database, same address: the workers reconnect by themselves.
+    let (_restarted, url2) = cluster.coordinator(&addr);
+    assert_eq!(url, url2);
+    cluster.wait_done(&url, 60, Duration::from_secs(90));
+    assert_exactly_once(&cluster, 60);
+}
+
+#[test]
+fn workers_without_the_right_token_are_refused_and_run_nothing() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(5, 0)));
+    let wrong = cluster.path("wrong");
+    std::fs::write(&wrong, "not-the-token").unwrap();
+    for token in [Some(wrong.to_str().unwrap()), None] {
+        let worker = cluster.worker(&url, "0", token);
+        let out = worker_output(worker, Duration::from_secs(20));
+        assert!(!out.status.success(), "a worker with token {token:?} kept running");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("refused"), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    assert_eq!(cluster.status(&url)["done"], 0);
+    assert!(cluster.rows_per_job().is_empty());
+    // An admin call without the token is refused too.
+    let out = cluster.sweep(&["status", "--coordinator", &url]);
+    assert!(!out.status.success());
+}
+
+/// Waits for a worker to exit by itself (it should, when refused).
+fn worker_output(mut worker: Proc, within: Duration) -> Output {
+    let started = Instant::now();
+    while worker.0.try_wait().unwrap().is_none() {
+        assert!(started.elapsed() < within, "the worker did not exit");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mut stderr = String::new();
+    if let Some(pipe) = worker.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut BufReader::new(pipe), &mut stderr);
+    }
+    Output { status: worker.0.wait().unwrap(), stdout: Vec::new(), stderr: stderr.into_bytes() }
+}
+
+#[test]
+fn a_bad_plan_is_refused_remotely_with_the_local_message_and_writes_nothing() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let plan = cluster.plan("bad.toml", "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nacceptance = 1.5\n");
+    let local = cluster.sweep(&["plan", &plan]);
+    let remote = cluster.sweep(&["submit", &plan, "--coordinator", &url, "--token-file", cluster.token()]);
+    assert!(!local.status.success() && !remote.status.success());
+    let (local, remote) = (String::from_utf8_lossy(&local.stderr), String::from_utf8_lossy(&remote.stderr));
+    assert!(local.contains("acceptance"), "{local}");
+    assert_eq!(local, remote, "the remote refusal differs from the local one");
+    assert_eq!(cluster.status(&url)["total"], 0, "a refused plan left jobs behind");
+}
+
+#[test]
+fn a_coordinator_will_not_listen_off_loopback_without_a_token() {
+    let cluster = Cluster::new();
+    let out = cluster.sweep(&["coordinator", "--listen", "0.0.0.0:0", "--db", cluster.db.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
+    assert!(!Path::new(&cluster.db).exists(), "the database was created anyway");
+}
