@@ -3,6 +3,7 @@
 mod bench;
 mod campaign;
 mod db;
+mod edmd_cmd;
 mod local;
 mod output;
 mod overlap_cmd;
@@ -31,6 +32,8 @@ enum Command {
     Bench(bench::BenchCommand),
     /// Verdict of every overlap algorithm and the minimum distance for each configuration of a CSV file.
     Overlap(overlap_cmd::OverlapArgs),
+    /// One event-driven MD simulation of hard bodies, no database.
+    Edmd(edmd_cmd::EdmdArgs),
     /// Validate a plan and print how many points it expands to, with an estimate of their cost.
     Plan(plan_cmd::PlanArgs),
     /// Local mode: run a plan on this machine, one job per core, resumable.
@@ -70,6 +73,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Bench(command) => bench::run(command, cli.format),
         Command::Overlap(args) => overlap_cmd::run(&args, cli.format),
+        Command::Edmd(args) => edmd_cmd::run(&args, cli.format),
         Command::Plan(args) => plan_cmd::run(&args, cli.format),
         Command::Run(args) => local::run(&args, cli.format),
         Command::Status(args) => db::status(&args, cli.format),

@@ -1,1 +1,44 @@
-fn main() {}
+//! τ_c, the wall time per collision (Eq. 69), as criterion sees it: one iteration = one collision.
+//! Preparing and equilibrating the configuration is untimed (the engine times its measured run).
+//!
+//! `cargo bench -p edmd --bench tau_c` (targets: spheres ≤ 1 µs, ellipsoids X0 = 2 NNL ≤ 25 µs).
+
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use edmd::{Neighbours, Scene, ShapeKind, run};
+
+fn tau_c(c: &mut Criterion, name: &str, base: Scene) {
+    let mut g = c.benchmark_group("tau_c");
+    g.sample_size(10).warm_up_time(Duration::from_millis(100)).measurement_time(Duration::from_secs(5));
+    g.bench_function(name, |b| {
+        b.iter_custom(|iters| {
+            let mut s = base.clone();
+            // Short runs are dominated by the start-up transient: measure at least 2000 collisions.
+            s.collisions = iters.max(2_000);
+            let r = run(&s, &mut |_| {}).expect("run");
+            assert_eq!(r.overlaps, 0);
+            Duration::from_secs_f64(r.tau_c_us * 1e-6 * iters as f64)
+        })
+    });
+    g.finish();
+}
+
+fn benches(c: &mut Criterion) {
+    let mut s = Scene::new(ShapeKind::Sphere, 256, 0.45);
+    s.equilibrate = 20_000;
+    tau_c(c, "sphere_n256_phi0.45_ll", s);
+
+    for nb in [Neighbours::Nnl, Neighbours::Ll] {
+        let mut s = Scene::new(ShapeKind::Ellipsoid, 256, 0.5);
+        s.x0 = 2.0;
+        s.eps_d = 1e-5;
+        s.neighbours = nb;
+        s.equilibrate = 2_000;
+        let name = format!("ellipsoid_x0_2_phi0.5_n256_{}", if nb == Neighbours::Nnl { "nnl" } else { "ll" });
+        tau_c(c, &name, s);
+    }
+}
+
+criterion_group!(group, benches);
+criterion_main!(group);

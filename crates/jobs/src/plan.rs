@@ -379,7 +379,45 @@ fn expand_noop(
         .collect())
 }
 
-/// EDMD points are defined by the `edmd` crate, which is not wired in yet.
-fn expand_edmd(header: Range<usize>, _: &DeTable<'_>, _: &Defaults) -> Result<Vec<JobSpec>, Issue> {
-    Err(Issue::new(header, None, "edmd jobs: not supported yet"))
+/// EDMD points: every key of a scene (the `edmd` crate defines them, their defaults and their
+/// checks); each may be a list or a range, and the sweep is their cartesian product.
+fn expand_edmd(header: Range<usize>, table: &DeTable<'_>, defaults: &Defaults) -> Result<Vec<JobSpec>, Issue> {
+    let keys = edmd_keys();
+    let known: Vec<&str> = keys.iter().map(String::as_str).collect();
+    let sweep = &Sweep::new("[[edmd]]", header.clone(), table, &known)?;
+    let mut columns: Vec<(&str, Vec<toml::Value>)> = Vec::new();
+    for key in &known {
+        if let Some(values) = sweep.values(key)? {
+            columns.push((key, values));
+        }
+    }
+    if !columns.iter().any(|(k, _)| *k == "seed") {
+        columns.push(("seed", vec![toml::Value::Integer(defaults.seed as i64)]));
+    }
+    let lens: Vec<usize> = columns.iter().map(|(_, v)| v.len()).collect();
+    check_product(sweep, &lens)?;
+    cartesian(&lens)
+        .map(|i| {
+            let table: toml::Table =
+                columns.iter().zip(&i).map(|((key, values), &k)| (key.to_string(), values[k].clone())).collect();
+            let scene: edmd::Scene = toml::Value::Table(table)
+                .try_into()
+                .map_err(|e: toml::de::Error| Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message())))?;
+            scene.validate().map_err(|e| match e {
+                edmd::SceneError::Invalid { key, reason, .. } => Issue::new(sweep.span_of(key), Some(key), reason),
+                other => Issue::new(header.clone(), None, other.to_string()),
+            })?;
+            Ok(JobSpec::Edmd(scene))
+        })
+        .collect()
+}
+
+/// The keys of a scene, read off a serialised default one, so this list cannot drift from the
+/// `edmd` crate.
+fn edmd_keys() -> Vec<String> {
+    let scene = edmd::Scene::new(edmd::ShapeKind::Sphere, 2, 0.1);
+    match toml::Table::try_from(&scene) {
+        Ok(table) => table.keys().cloned().collect(),
+        Err(_) => Vec::new(),
+    }
 }

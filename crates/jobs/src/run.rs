@@ -16,6 +16,8 @@ pub enum JobError {
     /// The overlap spec is out of its domain (it was not validated by a plan) or cannot run.
     #[error("overlap: {0}")]
     Overlap(#[from] OverlapError),
+    #[error("edmd: {0}")]
+    Edmd(String),
     #[error("noop: fail_rate must lie in [0, 1], got {0}")]
     NoopFailRate(f64),
     /// The failure a no-op job was asked to produce.
@@ -36,10 +38,21 @@ pub enum JobError {
 /// one point record, the only one without an `algorithm` key:
 /// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho"}`.
 /// A no-op job: one record `{"index", "duration_ms"}`.
+/// An EDMD job: one record, the fields of `edmd::RunReport`.
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     match spec {
         JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
         JobSpec::Noop(noop) => run_noop(noop, &spec.id(), attempt),
+        JobSpec::Edmd(scene) => run_edmd(scene),
+    }
+}
+
+/// An EDMD job: one record, the run report (`collisions`, `tau_c_us`, `pressure_z`, …).
+fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
+    let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
+    match serde_json::to_value(report) {
+        Ok(Value::Object(record)) => Ok(vec![record]),
+        _ => Err(JobError::Edmd("the run report is not a JSON object".into())),
     }
 }
 

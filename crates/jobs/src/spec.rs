@@ -15,6 +15,8 @@ pub enum JobSpec {
     Overlap(PointSpec),
     /// A job that only sleeps, and fails on purpose, to test the orchestrator.
     Noop(NoopSpec),
+    /// One event-driven MD simulation (its scene carries its own seed).
+    Edmd(edmd::Scene),
 }
 
 /// A no-op job: sleeps `duration_ms`, then fails with probability `fail_rate`, decided by a hash
@@ -34,6 +36,7 @@ impl JobSpec {
         match self {
             Self::Overlap(_) => "overlap",
             Self::Noop(_) => "noop",
+            Self::Edmd(_) => "edmd",
         }
     }
 
@@ -83,6 +86,12 @@ impl JobSpec {
                 per_config_ns * p.configurations as f64 * f64::from(p.repeats) * 1e-9
             }
             Self::Noop(n) => n.duration_ms as f64 * 1e-3,
+            // Rough costs per collision measured on this project's reference machine: the
+            // analytic sphere path and the Newton–Raphson ellipsoid path.
+            Self::Edmd(scene) => {
+                let per_collision = if scene.shape == edmd::ShapeKind::Sphere { 2e-6 } else { 2e-4 };
+                (scene.collisions + scene.equilibrate) as f64 * per_collision
+            }
         }
     }
 }

@@ -147,6 +147,42 @@ impl<'a, 'i> Sweep<'a, 'i> {
         Ok(out)
     }
 
+    /// An expandable key of any scalar type, as TOML values: for kinds whose keys and checks are
+    /// defined elsewhere (the `edmd` crate's scenes). A range gives integers when `from`, `to` and
+    /// `step` are all integers, else reals. `None` when the key is absent.
+    pub fn values(&self, key: &str) -> Result<Option<Vec<toml::Value>>, Issue> {
+        let Some(value) = self.get(key) else {
+            return Ok(None);
+        };
+        let fail = |span: Range<usize>, message: String| Issue::new(span, Some(key), message);
+        let mut out = Vec::new();
+        for (span, item) in items(value, key)? {
+            match item {
+                Item::Scalar(v) => out.push(match v {
+                    DeValue::String(s) => toml::Value::String(s.to_string()),
+                    DeValue::Boolean(b) => toml::Value::Boolean(*b),
+                    DeValue::Integer(_) => {
+                        let n = toml_integer(v).unwrap_or(Ok(0)).map_err(|m| fail(span.clone(), m))?;
+                        toml::Value::Integer(i64::try_from(n).map_err(|_| fail(span.clone(), format!("{n} is out of range")))?)
+                    }
+                    DeValue::Float(_) => toml::Value::Float(real(v).map_err(|m| fail(span.clone(), m))?),
+                    other => return Err(fail(span, format!("expected a single value, got {}", other.type_str()))),
+                }),
+                Item::Range(table) => {
+                    let integral = table.values().all(|v| matches!(v.get_ref(), DeValue::Integer(_)));
+                    if integral {
+                        for n in integer_range(table, span.clone(), key)? {
+                            out.push(toml::Value::Integer(i64::try_from(n).map_err(|_| fail(span.clone(), format!("{n} is out of range")))?));
+                        }
+                    } else {
+                        out.extend(float_range(table, span.clone(), key)?.into_iter().map(toml::Value::Float));
+                    }
+                }
+            }
+        }
+        Ok(Some(out))
+    }
+
     /// A non-negative integer key that takes one value (no list, no range).
     pub fn integer(
         &self,

@@ -220,8 +220,8 @@ fn messages_read_as_documented() {
         (error.line, error.column, error.key.as_deref()),
         (6, 14, Some("acceptance"))
     );
-    let edmd = Plan::parse("[[edmd]]\nn = 256\n", "e.toml").expect_err("not wired");
-    assert_eq!(edmd.to_string(), "e.toml:1:1: edmd jobs: not supported yet");
+    let edmd = Plan::parse("[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = [0.3, 0.95]\n", "e.toml").expect_err("φ above close packing");
+    assert!(edmd.to_string().starts_with("e.toml:4:7: key `phi`: "), "{edmd}");
     let list = Plan::parse(
         "[[overlap]]\nl_star = [1, 2, -3]\nw_star = 1\nr_star = 1\n",
         "l.toml",
@@ -387,6 +387,32 @@ fn identical_points_are_kept_once_and_seeds_expand() {
         10,
         "the second sweep repeats the first's duration_ms = 0 points"
     );
+}
+
+/// `[[edmd]]` sweeps expand every list-valued scene key, and the `edmd` crate's own checks name
+/// the key and its line.
+#[test]
+fn edmd_sweeps_expand_and_are_checked_by_the_engine() {
+    let plan = Plan::parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = [0.3, 0.4]\nx0 = { from = 1, to = 3 }\nneighbours = [\"ll\", \"nnl\"]\ncollisions = 1000\n",
+        "e.toml",
+    )
+    .unwrap();
+    assert_eq!(plan.jobs.len(), 2 * 3 * 2);
+    let ids: std::collections::HashSet<String> = plan.jobs.iter().map(|j| j.id()).collect();
+    assert_eq!(ids.len(), 12);
+    assert!(plan.jobs.iter().all(|j| j.kind() == "edmd"));
+    for (text, needle) in [
+        ("[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = [2, 0]\n", "e.toml:5:6: key `x0`"),
+        ("[[edmd]]\nshape = \"sphere\"\nn = 1\nphi = 0.3\n", "e.toml:3:5: key `n`"),
+        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\neps_d = -1e-5\n", "e.toml:5:9: key `eps_d`"),
+        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncolour = 1\n", "e.toml:5:1: key `colour`"),
+        ("[[edmd]]\nshape = \"cube\"\nn = 8\nphi = 0.3\n", "e.toml:1:1"),
+        ("[[edmd]]\nshape = \"sphere\"\nphi = 0.3\n", "missing field `n`"),
+    ] {
+        let err = Plan::parse(text, "e.toml").expect_err(text).to_string();
+        assert!(err.contains(needle), "expected `{needle}` in `{err}`");
+    }
 }
 
 /// Lines of plans, good and bad, for the fuzzer to combine.

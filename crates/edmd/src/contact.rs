@@ -1,0 +1,449 @@
+//! Contact time of two moving bodies (Sec. 2.4): bounding-sphere bracketing, stepping with the
+//! overestimate ḋ_max (Eqs. 32, 39), quadratic interpolation and Brent's method for grazing
+//! encounters, and Newton–Raphson on Eqs. (30)–(31) for the exact time and point.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::distance::{Distance, Guess, SolverStats, Tolerances, distance, solve5};
+use crate::geometry::{Placed, Surface, V3};
+use crate::rigid::{Body, ddot_max};
+
+/// Everything the contact search needs besides the solver tolerances.
+#[derive(Clone, Copy, Debug)]
+pub struct ContactParams {
+    /// ε_d of Eq. (39).
+    pub eps_d: f64,
+    /// Absolute accuracy of Brent's minimisation of d(t), in units of length.
+    pub brent_tol: f64,
+    pub tol: Tolerances,
+}
+
+/// A predicted collision: time after the bodies' common current time, contact point, unit normal
+/// pointing from A to B.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f64,
+    pub xc: V3,
+    pub n: V3,
+}
+
+/// Steps allowed in one search before it is abandoned as a solver failure.
+const MAX_STEPS: u32 = 1_000_000;
+
+/// First contact of A and B within `horizon` after their common current time (both bodies
+/// must be at the same time; B's position already carries the periodic image shift).
+pub fn predict<S: Surface>(
+    sa: &S,
+    a: &Body,
+    sb: &S,
+    b: &Body,
+    horizon: f64,
+    p: &ContactParams,
+    stats: &mut SolverStats,
+) -> Option<Hit> {
+    stats.searches += 1;
+    let (la, lb) = (sa.bounding_radius(), sb.bounding_radius());
+    let (t1, t2) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), la + lb)?;
+    let t2 = t2.min(horizon);
+    if t1 > t2 {
+        return None;
+    }
+    let ddmax = ddot_max(a, b, la, lb);
+    if ddmax == 0.0 {
+        return None;
+    }
+    let mut search = Search { sa, a, sb, b, p, stats };
+    let mut t = t1;
+    let mut cur = search.dist(t, None);
+    if let Some(d0) = cur
+        && d0.d <= 0.0
+        && approaching(sa, a, b, &d0, t)
+    {
+        // Touching or overlapping (by rounding) and still approaching: collide at once.
+        return Some(search.hit_from_distance(&d0, t));
+    }
+    // The last successful evaluation: a failed one in between must not hide a sign change.
+    let mut last = cur.map(|d| (t, d));
+    let mut failures = 0;
+    for _ in 0..MAX_STEPS {
+        if t > t2 {
+            return None;
+        }
+        let dt = match cur {
+            Some(c) if c.d > p.eps_d => c.d / ddmax,
+            _ => p.eps_d / ddmax,
+        };
+        let tn = t + dt;
+        let next = search.dist(tn, last.as_ref().map(|l| &l.1));
+        match (last, next) {
+            (Some((tl, l)), Some(n)) if l.d >= 0.0 && n.d < 0.0 => {
+                return search.refine(tl, &l, tn, &n);
+            }
+            (Some((tl, l)), Some(n)) if tl == t && l.d > 0.0 && n.d > 0.0 && l.d < p.eps_d && n.d < p.eps_d => {
+                if let Some(h) = search.grazing(t, &l, tn, &n) {
+                    return Some(h);
+                }
+            }
+            (Some((tl, l)), Some(n)) if tl == t && n.d > p.eps_d && n.d < l.d => {
+                // Speculative secant step (not in the paper): the Eq. (39) steps approach a contact
+                // geometrically at the rate ḋ/ḋ_max, slow when rotation inflates ḋ_max. Aim 50 %
+                // past the secant estimate of the crossing; only a sign change found there is used,
+                // and a bracket of d > 0 at `tn` and d < 0 beyond cannot hide an earlier contact
+                // unless the bodies pass through each other within it.
+                let ts = tn + 1.5 * n.d * (tn - t) / (l.d - n.d);
+                if ts <= t2
+                    && let Some(sd) = search.dist(ts, Some(&n))
+                    && sd.d < 0.0
+                {
+                    return search.refine(tn, &n, ts, &sd);
+                }
+            }
+            (_, None) => {
+                failures += 1;
+                if failures > 50 {
+                    return None;
+                }
+            }
+            _ => {}
+        }
+        t = tn;
+        cur = next;
+        if let Some(n) = next {
+            last = Some((tn, n));
+        }
+    }
+    search.stats.failures += 1;
+    None
+}
+
+/// [t1, t2] during which the bounding spheres (radii summing to `sigma`) overlap (Sec. 2.4.2).
+pub fn bounding_sphere_window(r: &V3, v: &V3, sigma: f64) -> Option<(f64, f64)> {
+    let c = r.norm_squared() - sigma * sigma;
+    let b = r.dot(v);
+    let vv = v.norm_squared();
+    if c < 0.0 {
+        if vv == 0.0 {
+            return Some((0.0, f64::INFINITY));
+        }
+        let disc = b * b - vv * c;
+        return Some((0.0, (-b + disc.sqrt()) / vv));
+    }
+    if b >= 0.0 {
+        return None;
+    }
+    let disc = b * b - vv * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let q = -b + disc.sqrt();
+    Some((c / q, q / vv))
+}
+
+/// Whether the contact points approach along A's outward normal at the closest point.
+fn approaching<S: Surface>(sa: &S, a: &Body, b: &Body, d: &Distance, t: f64) -> bool {
+    let pa = a.pose_after(t);
+    let pb = b.pose_after(t);
+    let n = sa.place(&pa).grad(&d.xa);
+    let xc = (d.xa + d.xb) * 0.5;
+    let u = (a.v + a.w.cross(&(xc - pa.r))) - (b.v + b.w.cross(&(xc - pb.r)));
+    u.dot(&n) > 0.0
+}
+
+struct Search<'a, S: Surface> {
+    sa: &'a S,
+    a: &'a Body,
+    sb: &'a S,
+    b: &'a Body,
+    p: &'a ContactParams,
+    stats: &'a mut SolverStats,
+}
+
+impl<S: Surface> Search<'_, S> {
+    fn dist(&mut self, t: f64, warm: Option<&Distance>) -> Option<Distance> {
+        let pa = self.a.pose_after(t);
+        let pb = self.b.pose_after(t);
+        // Successive times are close, so the previous closest point is a good start as it stands.
+        let g: Option<Guess> = warm.map(|w| Guess { xa_body: pa.to_body(&w.xa), alpha: w.alpha, beta: w.beta });
+        distance(self.sa, &pa, self.sb, &pb, g.as_ref(), &self.p.tol, self.stats)
+    }
+
+    fn dist_value(&mut self, t: f64, warm: &mut Distance) -> f64 {
+        match self.dist(t, Some(warm)) {
+            Some(d) => {
+                *warm = d;
+                d.d
+            }
+            None => f64::NAN,
+        }
+    }
+
+    /// Steps 5 and 6a: the bracket [t_lo, t_hi] holds a sign change of d.
+    fn refine(&mut self, t_lo: f64, d_lo: &Distance, t_hi: f64, d_hi: &Distance) -> Option<Hit> {
+        let tm = 0.5 * (t_lo + t_hi);
+        let mut w = *d_lo;
+        let dm = self.dist_value(tm, &mut w);
+        let tz = if dm.is_finite() {
+            first_zero_of_parabola(t_lo, d_lo.d, tm, dm, t_hi, d_hi.d)
+        } else {
+            None
+        }
+        .unwrap_or(t_lo + (t_hi - t_lo) * d_lo.d / (d_lo.d - d_hi.d));
+        let mut w = *d_lo;
+        let dz = self.dist_value(tz, &mut w);
+        let start = if dz.is_finite() { w } else { *d_lo };
+        if let Some(h) = self.newton_contact(&start, tz, t_lo, t_hi) {
+            return Some(h);
+        }
+        self.stats.contact_fallbacks += 1;
+        self.bisect(t_lo, d_lo, t_hi)
+    }
+
+    /// Step 6: both ends closer than ε_d; look for a negative minimum in between.
+    fn grazing(&mut self, t0: f64, d0: &Distance, t2: f64, d2: &Distance) -> Option<Hit> {
+        let t1 = 0.5 * (t0 + t2);
+        let mut w = *d0;
+        let d1 = self.dist_value(t1, &mut w);
+        if !d1.is_finite() {
+            return None;
+        }
+        if d1 < 0.0 {
+            return self.refine(t0, d0, t1, &w);
+        }
+        let h = 0.5 * (t2 - t0);
+        let curv = (d0.d - 2.0 * d1 + d2.d) / (2.0 * h * h);
+        if curv <= 0.0 {
+            return None; // (c) no minimum
+        }
+        let slope = (4.0 * d1 - 3.0 * d0.d - d2.d) / (2.0 * h);
+        let sm = -slope / (2.0 * curv);
+        if !(0.0..=2.0 * h).contains(&sm) {
+            return None;
+        }
+        let tm = t0 + sm;
+        let pm = d0.d - slope * slope / (4.0 * curv);
+        if pm < 0.0 {
+            // (a) the parabola dips below zero: check the true distance at its minimum.
+            let mut wm = *d0;
+            let dm = self.dist_value(tm, &mut wm);
+            if dm < 0.0 {
+                return self.refine(t0, d0, tm, &wm);
+            }
+        }
+        // (b) minimise d(t) with Brent's method, as accurately as the scene asks.
+        let mut wb = *d0;
+        let (tb, db) = brent_min(t0, tm, t2, self.p.brent_tol / ddot_scale(self), |t| {
+            self.dist_value(t, &mut wb)
+        });
+        if db < 0.0 {
+            let mut wz = *d0;
+            let dz = self.dist_value(tb, &mut wz);
+            if dz < 0.0 {
+                return self.refine(t0, d0, tb, &wz);
+            }
+        }
+        None
+    }
+
+    /// Newton–Raphson on Eqs. (30) with the Jacobian of Eq. (31); unknowns (x, α, t).
+    fn newton_contact(&mut self, start: &Distance, t0: f64, t_lo: f64, t_hi: f64) -> Option<Hit> {
+        let (a, b) = (self.a, self.b);
+        let mut x = (start.xa + start.xb) * 0.5;
+        let mut alpha = start.alpha;
+        let mut t = t0;
+        let tol = self.p.tol;
+        let slack = 1e-9 * (t_hi - t_lo) + 1e-15 * t_hi.abs();
+        for _ in 0..tol.nr_max_iter {
+            self.stats.nr_iterations += 1;
+            let pa = a.pose_after(t);
+            let pb = b.pose_after(t);
+            let ea = self.sa.place(&pa).eval(&x);
+            let eb = self.sb.place(&pb).eval(&x);
+            let ua = a.v + a.w.cross(&(x - pa.r));
+            let ub = b.v + b.w.cross(&(x - pb.r));
+            let a2 = alpha * alpha;
+            let f1 = ea.grad + eb.grad * a2;
+            let fxn = ea.grad.norm();
+            if f1.norm() <= tol.nr_tol * fxn && ea.f.abs() <= tol.nr_tol && eb.f.abs() <= tol.nr_tol {
+                if t < t_lo - slack || t > t_hi + slack {
+                    return None;
+                }
+                return Some(Hit { t: t.clamp(0.0, f64::INFINITY), xc: x, n: ea.grad / fxn });
+            }
+            // ∂f/∂t = −f_x·u and ∂f_x/∂t = w × f_x − H u, with u the velocity of the material point.
+            let ft = -ea.grad.dot(&ua);
+            let gt = -eb.grad.dot(&ub);
+            let fxt = a.w.cross(&ea.grad) - ea.hess * ua;
+            let gxt = b.w.cross(&eb.grad) - eb.hess * ub;
+            let mut j = SMatrix::<f64, 5, 5>::zeros();
+            j.fixed_view_mut::<3, 3>(0, 0).copy_from(&(ea.hess + eb.hess * a2));
+            j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(eb.grad * (2.0 * alpha)));
+            j.fixed_view_mut::<3, 1>(0, 4).copy_from(&(fxt + gxt * a2));
+            j.fixed_view_mut::<1, 3>(3, 0).copy_from(&ea.grad.transpose());
+            j.fixed_view_mut::<1, 3>(4, 0).copy_from(&eb.grad.transpose());
+            j[(3, 4)] = ft;
+            j[(4, 4)] = gt;
+            let rhs = SVector::<f64, 5>::new(-f1.x, -f1.y, -f1.z, -ea.f, -eb.f);
+            let s = solve5(&j, &rhs)?;
+            let mut xi: f64 = 1.0;
+            let da2 = (2.0 * alpha * s[3]).abs();
+            if da2 > tol.nr_relax * a2 {
+                xi = tol.nr_relax * a2 / da2;
+            }
+            x += s.fixed_rows::<3>(0) * xi;
+            alpha = (alpha + xi * s[3]).abs();
+            t += xi * s[4];
+            if !(t.is_finite() && alpha.is_finite() && alpha > 0.0) {
+                return None;
+            }
+        }
+        None
+    }
+
+    /// Fallback when Newton–Raphson on Eqs. (30) fails: bisection of d(t) to the Brent tolerance.
+    fn bisect(&mut self, mut lo: f64, d_lo: &Distance, mut hi: f64) -> Option<Hit> {
+        let mut w = *d_lo;
+        let mut best = *d_lo;
+        let dt_tol = self.p.brent_tol / ddot_scale(self);
+        while hi - lo > dt_tol {
+            let m = 0.5 * (lo + hi);
+            let dm = self.dist_value(m, &mut w);
+            if !dm.is_finite() {
+                return None;
+            }
+            if dm > 0.0 {
+                lo = m;
+                best = w;
+            } else {
+                hi = m;
+            }
+        }
+        Some(self.hit_from_distance(&best, lo))
+    }
+
+    fn hit_from_distance(&self, d: &Distance, t: f64) -> Hit {
+        let pa = self.a.pose_after(t);
+        let xc = (d.xa + d.xb) * 0.5;
+        let g = self.sa.place(&pa).grad(&d.xa);
+        Hit { t, xc, n: g.normalize() }
+    }
+}
+
+fn ddot_scale<S: Surface>(s: &Search<'_, S>) -> f64 {
+    ddot_max(s.a, s.b, s.sa.bounding_radius(), s.sb.bounding_radius())
+}
+
+/// First zero in [t0, t2] of the parabola through three points (t1 the midpoint).
+pub fn first_zero_of_parabola(t0: f64, d0: f64, t1: f64, d1: f64, t2: f64, d2: f64) -> Option<f64> {
+    let h = t1 - t0;
+    let a = (d0 - 2.0 * d1 + d2) / (2.0 * h * h);
+    let b = (4.0 * d1 - 3.0 * d0 - d2) / (2.0 * h);
+    let c = d0;
+    let roots = if a.abs() < 1e-300 {
+        if b == 0.0 {
+            return None;
+        }
+        [-c / b, f64::NAN]
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if disc < 0.0 {
+            return None;
+        }
+        let q = -0.5 * (b + b.signum() * disc.sqrt());
+        [q / a, c / q]
+    };
+    roots
+        .into_iter()
+        .filter(|s| s.is_finite() && *s >= 0.0 && *s <= t2 - t0)
+        .fold(None, |m: Option<f64>, s| Some(m.map_or(s, |m| m.min(s))))
+        .map(|s| t0 + s)
+}
+
+/// Brent's minimisation on [a, c] starting from b (Numerical Recipes' `brent`), to absolute `tol`.
+pub fn brent_min(a: f64, b: f64, c: f64, tol: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    const CGOLD: f64 = 0.381_966_011_250_105;
+    let (mut lo, mut hi) = (a.min(c), a.max(c));
+    let (mut x, mut w, mut v) = (b, b, b);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e): (f64, f64) = (0.0, 0.0);
+    for _ in 0..200 {
+        let xm = 0.5 * (lo + hi);
+        let tol1 = tol + 1e-12 * x.abs();
+        let tol2 = 2.0 * tol1;
+        if (x - xm).abs() <= tol2 - 0.5 * (hi - lo) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol1 {
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let etemp = e;
+            e = d;
+            if !(p.abs() >= (0.5 * q * etemp).abs() || p <= q * (lo - x) || p >= q * (hi - x)) {
+                d = p / q;
+                let u = x + d;
+                if u - lo < tol2 || hi - u < tol2 {
+                    d = tol1.copysign(xm - x);
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= xm { lo - x } else { hi - x };
+            d = CGOLD * e;
+        }
+        let u = if d.abs() >= tol1 { x + d } else { x + tol1.copysign(d) };
+        let fu = f(u);
+        if !fu.is_finite() {
+            break;
+        }
+        if fu <= fx {
+            if u >= x {
+                lo = x;
+            } else {
+                hi = x;
+            }
+            (v, w, x) = (w, x, u);
+            (fv, fw, fx) = (fw, fx, fu);
+        } else {
+            if u < x {
+                lo = u;
+            } else {
+                hi = u;
+            }
+            if fu <= fw || w == x {
+                (v, w) = (w, u);
+                (fv, fw) = (fw, fu);
+            } else if fu <= fv || v == x || v == w {
+                v = u;
+                fv = fu;
+            }
+        }
+    }
+    (x, fx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn brent_finds_parabola_minimum() {
+        let (x, fx) = brent_min(0.0, 0.3, 1.0, 1e-12, |t| (t - 0.7) * (t - 0.7) + 1e-9);
+        assert!((x - 0.7).abs() < 1e-6);
+        assert!((fx - 1e-9).abs() < 1e-12);
+    }
+
+    #[test]
+    fn parabola_zero() {
+        // d(t) = 1 − t² on [0, 2]: first zero at 1.
+        let z = first_zero_of_parabola(0.0, 1.0, 1.0, 0.0, 2.0, -3.0).unwrap();
+        assert!((z - 1.0).abs() < 1e-14);
+    }
+}

@@ -1,0 +1,108 @@
+//! Hard ellipsoid: f(x') = Σ x'_k²/s_k² − 1 (Eq. 42 with X = diag(s_k⁻²), Eqs. 43–44).
+
+use crate::geometry::{LabEval, M3, Placed, Pose, Surface, V3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ellipsoid {
+    /// Semi-axes (a, b, c) along body axes 0, 1, 2.
+    pub s: V3,
+    inv2: V3,
+}
+
+impl Ellipsoid {
+    pub fn new(a: f64, b: f64, c: f64) -> Self {
+        let s = V3::new(a, b, c);
+        Ellipsoid {
+            s,
+            inv2: V3::new(1.0 / (a * a), 1.0 / (b * b), 1.0 / (c * c)),
+        }
+    }
+
+    /// The shape matrix X(0) = diag(s⁻²) of Eq. (44).
+    pub fn x_body(&self) -> M3 {
+        M3::from_diagonal(&self.inv2)
+    }
+
+    /// Σ s_k² u_k u_kᵀ in the lab frame: the matrix A of the Perram–Wertheim function.
+    pub fn a_lab(&self, rot: &M3) -> M3 {
+        let s2 = self.s.component_mul(&self.s);
+        rot.transpose() * M3::from_diagonal(&s2) * rot
+    }
+}
+
+/// An ellipsoid at a pose: f = ½ dᵀ H d − 1 with d = x − r and the constant lab Hessian H = 2 Rᵀ X(0) R.
+#[derive(Clone, Copy, Debug)]
+pub struct PlacedEllipsoid {
+    r: V3,
+    h: M3,
+}
+
+impl Placed for PlacedEllipsoid {
+    fn eval(&self, x: &V3) -> LabEval {
+        let d = x - self.r;
+        let grad = self.h * d;
+        LabEval { f: 0.5 * d.dot(&grad) - 1.0, grad, hess: self.h }
+    }
+    fn f(&self, x: &V3) -> f64 {
+        let d = x - self.r;
+        0.5 * d.dot(&(self.h * d)) - 1.0
+    }
+    fn grad(&self, x: &V3) -> V3 {
+        self.h * (x - self.r)
+    }
+}
+
+impl Surface for Ellipsoid {
+    type Placed = PlacedEllipsoid;
+    fn place(&self, p: &Pose) -> PlacedEllipsoid {
+        PlacedEllipsoid { r: p.r, h: p.rot.transpose() * M3::from_diagonal(&(2.0 * self.inv2)) * p.rot }
+    }
+    fn f(&self, x: &V3) -> f64 {
+        x.component_mul(x).dot(&self.inv2) - 1.0
+    }
+    fn grad(&self, x: &V3) -> V3 {
+        2.0 * x.component_mul(&self.inv2)
+    }
+    fn hessian(&self, _x: &V3) -> M3 {
+        M3::from_diagonal(&(2.0 * self.inv2))
+    }
+    fn bounding_radius(&self) -> f64 {
+        self.s.max()
+    }
+    fn ray_point(&self, dir: &V3) -> V3 {
+        dir / dir.component_mul(dir).dot(&self.inv2).sqrt()
+    }
+    fn support(&self, n: &V3) -> f64 {
+        let sn = self.s.component_mul(n);
+        sn.norm()
+    }
+    fn semi_axes(&self) -> V3 {
+        self.s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gradient_and_hessian_match_finite_differences() {
+        let e = Ellipsoid::new(1.3, 0.4, 0.7);
+        let x = V3::new(0.3, -0.2, 0.5);
+        let h = 1e-6;
+        let g = e.grad(&x);
+        let hs = e.hessian(&x);
+        for k in 0..3 {
+            let mut dx = V3::zeros();
+            dx[k] = h;
+            let fd = (e.f(&(x + dx)) - e.f(&(x - dx))) / (2.0 * h);
+            assert!((fd - g[k]).abs() < 1e-8);
+            let gd = (e.grad(&(x + dx)) - e.grad(&(x - dx))) / (2.0 * h);
+            assert!((gd - hs.column(k)).norm() < 1e-8);
+        }
+        let p = e.ray_point(&V3::new(1.0, 2.0, -1.0));
+        assert!(e.f(&p).abs() < 1e-14);
+        // The support along an axis is that semi-axis.
+        assert!((e.support(&V3::new(0.0, 1.0, 0.0)) - 0.4).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,730 @@
+//! The event loop (Secs. 2.7 and 3.5): collisions, cell crossings, neighbour-list rebuilds,
+//! lazy free flight, measurements (Eq. 69, collision virial) and the final overlap audit.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::EdmdError;
+use crate::calendar::{Calendar, Event, Kind};
+use crate::cells::Cells;
+use crate::contact::{ContactParams, bounding_sphere_window, predict};
+use crate::distance::{SolverStats, Tolerances, distance};
+use crate::ellipsoid::Ellipsoid;
+use crate::geometry::V3;
+use crate::init::{Geom, initial_configuration, min_image};
+use crate::nnl::{Obp, escape_time, overlap};
+use crate::rigid::{Body, Inertia, collide, ddot_max};
+use crate::rng::Rng;
+use crate::scene::{Neighbours, Scene, ShapeKind};
+use crate::sphere;
+
+/// What one particle kind costs to simulate: the analytic sphere, or the general rigid body.
+trait Model {
+    /// Stored with a predicted collision (contact point and normal for rigid bodies).
+    type Extra: Copy + Default;
+    /// Whether bodies rotate, i.e. whether contact searches are costly enough to be ordered.
+    const ROTATES: bool;
+    fn surface(&self) -> Ellipsoid;
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, Self::Extra)>;
+    /// Applies the collision; returns the impulse given to `b`, or `None` if the bodies separate.
+    fn collide(&self, a: &mut Body, b: &mut Body, x: &Self::Extra) -> Option<V3>;
+    fn stats(&self) -> SolverStats;
+    /// A lower bound on the contact time of two bodies whose bounding spheres overlap.
+    fn lower_bound(&mut self, a: &Body, b: &Body) -> f64;
+}
+
+/// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
+struct SphereModel {
+    sigma: f64,
+}
+
+impl Model for SphereModel {
+    type Extra = ();
+    const ROTATES: bool = false;
+    fn surface(&self) -> Ellipsoid {
+        let r = 0.5 * self.sigma;
+        Ellipsoid::new(r, r, r)
+    }
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, ())> {
+        sphere::contact_time(&(b.r - a.r), &(b.v - a.v), self.sigma)
+            .filter(|&t| t <= horizon)
+            .map(|t| (t, ()))
+    }
+    fn collide(&self, a: &mut Body, b: &mut Body, _: &()) -> Option<V3> {
+        let n = (b.r - a.r).normalize();
+        let un = (a.v - b.v).dot(&n);
+        if un <= 0.0 {
+            return None;
+        }
+        // Equal unit masses: Eq. (41) reduces to Δp = u·n.
+        a.v -= n * un;
+        b.v += n * un;
+        Some(n * un)
+    }
+    fn stats(&self) -> SolverStats {
+        SolverStats::default()
+    }
+    fn lower_bound(&mut self, _: &Body, _: &Body) -> f64 {
+        0.0
+    }
+}
+
+/// Hard ellipsoids through the general algorithm of Sec. 2 (works for any X0, including 1).
+struct EllipsoidModel {
+    e: Ellipsoid,
+    params: ContactParams,
+    inertia: Inertia,
+    stats: SolverStats,
+}
+
+impl Model for EllipsoidModel {
+    type Extra = (V3, V3);
+    const ROTATES: bool = true;
+    fn surface(&self) -> Ellipsoid {
+        self.e
+    }
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
+        predict(&self.e, a, &self.e, b, horizon, &self.params, &mut self.stats).map(|h| (h.t, (h.xc, h.n)))
+    }
+    fn collide(&self, a: &mut Body, b: &mut Body, x: &(V3, V3)) -> Option<V3> {
+        collide(a, b, &x.0, &x.1, self.inertia, self.inertia)
+    }
+    fn stats(&self) -> SolverStats {
+        self.stats
+    }
+    fn lower_bound(&mut self, a: &Body, b: &Body) -> f64 {
+        let l = self.e.s.max();
+        let pa = a.pose_after(0.0);
+        let pb = b.pose_after(0.0);
+        match distance(&self.e, &pa, &self.e, &pb, None, &self.params.tol, &mut self.stats) {
+            Some(d) if d.d > 0.0 => d.d / ddot_max(a, b, l, l),
+            _ => 0.0,
+        }
+    }
+}
+
+enum Neighbourhood {
+    Ll { cells: Cells, cell_of: Vec<usize>, img: Vec<[i32; 3]> },
+    Nnl { obps: Vec<Obp>, lists: Vec<Vec<(u32, [i8; 3])>>, t_r: f64, epoch: u32, delta: f64, eps: f64 },
+}
+
+struct Engine<M: Model> {
+    m: M,
+    l: f64,
+    bodies: Vec<Body>,
+    count: Vec<u32>,
+    cal: Calendar<M::Extra>,
+    t: f64,
+    inv_i: f64,
+    nb: Neighbourhood,
+    scratch: Vec<(u32, [i32; 3])>,
+    order: Vec<(f64, u32, [i32; 3])>,
+    acc: Accounting,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Accounting {
+    collisions: u64,
+    virial: f64,
+    ke_trans: f64,
+    ke_int: f64,
+    t_last: f64,
+    separating: u64,
+    crossings: u64,
+    rebuilds: u64,
+}
+
+impl<M: Model> Engine<M> {
+    fn new(m: M, l: f64, bodies: Vec<Body>, inv_i: f64, scene: &Scene) -> Result<Self, EdmdError> {
+        let n = bodies.len();
+        let lb = m.surface().s.max();
+        let nb = match scene.neighbours {
+            Neighbours::Ll => {
+                let cells = Cells::new(l, 2.0 * lb).ok_or(EdmdError::BoxTooSmall {
+                    l,
+                    needed: 6.0 * lb,
+                    why: "linked cells need 3 cells of bounding-sphere size per side; use neighbours = \"nnl\" or more particles",
+                })?;
+                Neighbourhood::Ll { cells, cell_of: vec![0; n], img: vec![[0; 3]; n] }
+            }
+            Neighbours::Nnl => Neighbourhood::Nnl {
+                obps: Vec::new(),
+                lists: vec![Vec::new(); n],
+                t_r: 0.0,
+                epoch: 0,
+                delta: scene.delta_nnl,
+                eps: scene.eps_nnl,
+            },
+        };
+        let ke_trans = bodies.iter().map(|b| 0.5 * b.v.norm_squared()).sum();
+        let mut e = Engine {
+            m,
+            l,
+            bodies,
+            count: vec![0; n],
+            cal: Calendar::new(),
+            t: 0.0,
+            inv_i,
+            nb,
+            scratch: Vec::new(),
+            order: Vec::new(),
+            acc: Accounting { ke_trans, ..Default::default() },
+        };
+        match &mut e.nb {
+            Neighbourhood::Ll { cells, cell_of, .. } => {
+                for (i, b) in e.bodies.iter().enumerate() {
+                    let c = cells.index(cells.coords_of(&b.r));
+                    cell_of[i] = c;
+                    cells.insert(c, i as u32);
+                }
+                for i in 0..n {
+                    e.predict_for(i);
+                }
+            }
+            Neighbourhood::Nnl { .. } => e.rebuild(),
+        }
+        Ok(e)
+    }
+
+    fn shift_vec(&self, s: [i32; 3]) -> V3 {
+        V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * self.l
+    }
+
+    /// Schedules the earliest event of `i`: its cell crossing or its first collision, whichever
+    /// comes first (one event per particle). The crossing time (LL) or the rebuild time (NNL) is the
+    /// horizon of every contact search, and rigid-body partners are searched in the order in which
+    /// their bounding spheres meet, so that a search stops as soon as it cannot beat the best event.
+    fn predict_for(&mut self, i: usize) {
+        let mut cand = std::mem::take(&mut self.scratch);
+        cand.clear();
+        self.bodies[i].advance_to(self.t);
+        let a = self.bodies[i];
+        let mut best = Event {
+            t: f64::INFINITY,
+            a: i as u32,
+            b: u32::MAX,
+            ca: self.count[i],
+            cb: 0,
+            kind: Kind::Rebuild,
+            extra: M::Extra::default(),
+        };
+        match &self.nb {
+            Neighbourhood::Ll { cells, cell_of, img } => {
+                let c = cells.coords(cell_of[i]);
+                let r = a.r - self.shift_vec(img[i]);
+                if let Some((tau, dim, up)) = cells.exit(c, &r, &a.v) {
+                    best.t = self.t + tau;
+                    best.kind = Kind::CellCross { dim, up };
+                }
+                if !M::ROTATES {
+                    // Translating bodies: predict straight from the cells, positions extrapolated
+                    // without storing them (the hot loop of the sphere path).
+                    for nbc in cells.around(cell_of[i]) {
+                        for &j in cells.members(nbc.cell) {
+                            let ju = j as usize;
+                            if ju == i {
+                                continue;
+                            }
+                            let bj = &self.bodies[ju];
+                            let s = ll_shift(nbc.shift, img[i], img[ju]);
+                            let b = Body { r: bj.r + bj.v * (self.t - bj.t) + self.shift_vec(s), v: bj.v, rot: a.rot, w: a.w, t: self.t };
+                            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
+                                && self.t + tau < best.t
+                            {
+                                best = Event { t: self.t + tau, a: i as u32, b: j, ca: self.count[i], cb: self.count[ju], kind: Kind::Collision { shift: s }, extra };
+                            }
+                        }
+                    }
+                    self.scratch = cand;
+                    if best.t.is_finite() {
+                        self.cal.push(best);
+                    }
+                    return;
+                }
+                for nbc in cells.around(cell_of[i]) {
+                    cand.extend(cells.members(nbc.cell).iter().map(|&j| (j, ll_shift(nbc.shift, img[i], img[j as usize]))));
+                }
+            }
+            Neighbourhood::Nnl { lists, t_r, .. } => {
+                cand.extend(lists[i].iter().map(|&(j, s)| (j, s.map(i32::from))));
+                // Nothing needs scheduling past the rebuild, which predicts everything anew (Eq. 65).
+                best.t = *t_r;
+            }
+        }
+        let lb = self.m.surface().s.max();
+        let mut order = std::mem::take(&mut self.order);
+        order.clear();
+        for &(j, shift) in &cand {
+            let ju = j as usize;
+            if ju == i {
+                continue;
+            }
+            self.bodies[ju].advance_to(self.t);
+            if M::ROTATES {
+                let mut b = self.bodies[ju];
+                b.r += self.shift_vec(shift);
+                if let Some((t1, _)) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), 2.0 * lb) {
+                    // Bounding spheres already overlap: the distance now and ḋ_max (Eq. 32) give a
+                    // better lower bound on the contact time than the bounding spheres.
+                    let lower = if t1 == 0.0 { self.m.lower_bound(&a, &b) } else { t1 };
+                    order.push((lower, j, shift));
+                }
+            } else {
+                order.push((0.0, j, shift));
+            }
+        }
+        if M::ROTATES {
+            order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        }
+        for &(t1, j, shift) in &order {
+            if self.t + t1 >= best.t {
+                break;
+            }
+            let ju = j as usize;
+            let mut b = self.bodies[ju];
+            b.r += self.shift_vec(shift);
+            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
+                && self.t + tau < best.t
+            {
+                best = Event { t: self.t + tau, a: i as u32, b: j, ca: self.count[i], cb: self.count[ju], kind: Kind::Collision { shift }, extra };
+            }
+        }
+        self.order = order;
+        self.scratch = cand;
+        if best.t.is_finite() && !(best.kind == Kind::Rebuild) {
+            self.cal.push(best);
+        }
+    }
+
+    /// Sec. 3.5 step 4: new boxes around every body, new lists, escape times, all collisions.
+    fn rebuild(&mut self) {
+        let t = self.t;
+        let l = self.l;
+        let surf = self.m.surface();
+        for b in self.bodies.iter_mut() {
+            b.advance_to(t);
+            b.r = b.r.map(|x| x.rem_euclid(l));
+        }
+        let n = self.bodies.len();
+        let Neighbourhood::Nnl { obps, lists, t_r, epoch, delta, eps } = &mut self.nb else {
+            return;
+        };
+        *obps = self.bodies.iter().map(|b| Obp::around(&surf, b, *delta)).collect();
+        for li in lists.iter_mut() {
+            li.clear();
+        }
+        let rho = obps.iter().map(|o| o.radius()).fold(0.0, f64::max);
+        let sv = |s: [i8; 3]| V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l;
+        match Cells::new(l, 2.0 * rho) {
+            Some(mut cells) => {
+                let cell_of: Vec<usize> = self.bodies.iter().map(|b| cells.index(cells.coords_of(&b.r))).collect();
+                for (i, &c) in cell_of.iter().enumerate() {
+                    cells.insert(c, i as u32);
+                }
+                for i in 0..n {
+                    for nbc in cells.around(cell_of[i]) {
+                        for &j in cells.members(nbc.cell) {
+                            let ju = j as usize;
+                            if ju > i && overlap(&obps[i], &obps[ju], &sv(nbc.shift)) {
+                                lists[i].push((j, nbc.shift));
+                                lists[ju].push((i as u32, nbc.shift.map(|s| -s)));
+                            }
+                        }
+                    }
+                }
+            }
+            None => {
+                // Small box: every pair, every neighbouring image.
+                for i in 0..n {
+                    for j in (i + 1)..n {
+                        for k in 0..27 {
+                            let s = [(k % 3 - 1) as i8, ((k / 3) % 3 - 1) as i8, (k / 9 - 1) as i8];
+                            let d = obps[j].c + sv(s) - obps[i].c;
+                            if d.norm() < obps[i].radius() + obps[j].radius() && overlap(&obps[i], &obps[j], &sv(s)) {
+                                lists[i].push((j as u32, s));
+                                lists[j].push((i as u32, s.map(|x| -x)));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let e = *eps;
+        *t_r = self
+            .bodies
+            .iter()
+            .zip(obps.iter())
+            .map(|(b, o)| t + escape_time(&surf, b, o, e))
+            .fold(f64::INFINITY, f64::min);
+        *epoch += 1;
+        let (tr, ep) = (*t_r, *epoch);
+        self.cal.clear();
+        self.acc.rebuilds += 1;
+        for i in 0..n {
+            self.predict_for(i);
+        }
+        if tr.is_finite() {
+            self.cal.push(Event { t: tr, a: 0, b: 0, ca: ep, cb: 0, kind: Kind::Rebuild, extra: M::Extra::default() });
+        }
+    }
+
+    /// After a collision of `i`: an earlier escape from its box brings the rebuild forward (Sec. 3.5, 5c).
+    fn update_escape(&mut self, i: usize) {
+        let surf = self.m.surface();
+        let t = self.t;
+        let Neighbourhood::Nnl { obps, t_r, epoch, eps, .. } = &mut self.nb else {
+            return;
+        };
+        let te = t + escape_time(&surf, &self.bodies[i], &obps[i], *eps);
+        if te < *t_r {
+            *t_r = te;
+            self.cal.push(Event { t: te, a: 0, b: 0, ca: *epoch, cb: 0, kind: Kind::Rebuild, extra: M::Extra::default() });
+        }
+    }
+
+    fn epoch(&self) -> Option<u32> {
+        match self.nb {
+            Neighbourhood::Nnl { epoch, .. } => Some(epoch),
+            Neighbourhood::Ll { .. } => None,
+        }
+    }
+
+    /// Processes events until `n` more collisions have happened; `on_collision` sees each one.
+    fn advance(&mut self, n: u64, mut on_collision: impl FnMut(&mut Self)) -> Result<(), EdmdError> {
+        let target = self.acc.collisions + n;
+        let compact_at = 8 * self.bodies.len() + 1024;
+        while self.acc.collisions < target {
+            if self.cal.len() > compact_at {
+                let (count, epoch) = (&self.count, self.epoch());
+                self.cal.retain(|e| match e.kind {
+                    Kind::Rebuild => epoch == Some(e.ca),
+                    _ => e.ca == count[e.a as usize],
+                });
+            }
+            let ev = self.cal.pop().ok_or(EdmdError::Stalled)?;
+            match ev.kind {
+                Kind::Rebuild => {
+                    if self.epoch() == Some(ev.ca) {
+                        self.t = ev.t.max(self.t);
+                        self.rebuild();
+                    }
+                }
+                _ if ev.ca != self.count[ev.a as usize] => {}
+                Kind::Collision { .. } if ev.cb != self.count[ev.b as usize] => {
+                    // The partner moved on: this particle's earliest event must be found again.
+                    self.t = ev.t.max(self.t);
+                    self.predict_for(ev.a as usize);
+                }
+                Kind::Collision { shift } => {
+                    self.t = ev.t.max(self.t);
+                    if self.collision(&ev, shift) {
+                        on_collision(self);
+                    }
+                }
+                Kind::CellCross { dim, up } => {
+                    self.t = ev.t.max(self.t);
+                    self.cross(ev.a as usize, dim as usize, up);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn collision(&mut self, ev: &Event<M::Extra>, shift: [i32; 3]) -> bool {
+        let (a, b) = (ev.a as usize, ev.b as usize);
+        self.bodies[a].advance_to(self.t);
+        self.bodies[b].advance_to(self.t);
+        let mut bb = self.bodies[b];
+        bb.r += self.shift_vec(shift);
+        let ke_before = 0.5 * (self.bodies[a].v.norm_squared() + bb.v.norm_squared());
+        let imp = self.m.collide(&mut self.bodies[a], &mut bb, &ev.extra);
+        self.bodies[b].v = bb.v;
+        self.bodies[b].w = bb.w;
+        self.count[a] = self.count[a].wrapping_add(1);
+        self.count[b] = self.count[b].wrapping_add(1);
+        let happened = if let Some(j) = imp {
+            self.acc.ke_int += self.acc.ke_trans * (self.t - self.acc.t_last);
+            self.acc.t_last = self.t;
+            self.acc.ke_trans += 0.5 * (self.bodies[a].v.norm_squared() + bb.v.norm_squared()) - ke_before;
+            self.acc.virial += (bb.r - self.bodies[a].r).dot(&j);
+            self.acc.collisions += 1;
+            true
+        } else {
+            self.acc.separating += 1;
+            false
+        };
+        self.update_escape(a);
+        self.update_escape(b);
+        self.predict_for(a);
+        self.predict_for(b);
+        happened
+    }
+
+    fn cross(&mut self, i: usize, dim: usize, up: bool) {
+        self.acc.crossings += 1;
+        self.bodies[i].advance_to(self.t);
+        let Neighbourhood::Ll { cells, cell_of, img } = &mut self.nb else {
+            return;
+        };
+        let mut d = [0i32; 3];
+        d[dim] = if up { 1 } else { -1 };
+        let to = cells.neighbour(cells.coords(cell_of[i]), d);
+        // Positions stay unwrapped (scheduled events keep their meaning); the image counter
+        // records that the body now lives in the neighbouring box.
+        img[i][dim] += to.shift[dim] as i32;
+        cells.remove(cell_of[i], i as u32);
+        cells.insert(to.cell, i as u32);
+        cell_of[i] = to.cell;
+        self.predict_for(i);
+    }
+
+    fn sync_all(&mut self) {
+        let t = self.t;
+        for b in self.bodies.iter_mut() {
+            b.advance_to(t);
+        }
+    }
+
+    fn energy(&self) -> f64 {
+        self.bodies
+            .iter()
+            .map(|b| 0.5 * b.v.norm_squared() + if self.inv_i > 0.0 { 0.5 * b.w.norm_squared() / self.inv_i } else { 0.0 })
+            .sum()
+    }
+
+    fn momentum(&self) -> V3 {
+        self.bodies.iter().fold(V3::zeros(), |p, b| p + b.v)
+    }
+}
+
+/// Image shift of j as seen from i with unwrapped positions: the cell shift plus the image counters.
+fn ll_shift(cell: [i8; 3], img_i: [i32; 3], img_j: [i32; 3]) -> [i32; 3] {
+    [0, 1, 2].map(|k| cell[k] as i32 + img_i[k] - img_j[k])
+}
+
+/// The measured figures of one run (the JSON of `sweep edmd`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunReport {
+    /// Collisions in the measured run.
+    pub collisions: u64,
+    /// τ_c = T_tot / N_coll (Eq. 69): wall time of the measured run per collision, in µs.
+    pub tau_c_us: f64,
+    /// Z = P/(ρ kT) = 1 + Σ r_ij·Δp_i / (3 N kT T), with the measured kT.
+    pub pressure_z: f64,
+    /// Standard error of Z from 10 block averages.
+    pub pressure_z_err: f64,
+    /// Measured kT = (2/3)⟨translational kinetic energy⟩/N, time-averaged.
+    pub temperature: f64,
+    /// |E_end − E_start| / E_start over the measured run (translational + rotational).
+    pub energy_drift_rel: f64,
+    /// |P_end − P_start| over the measured run, in units of m σ/τ (total momentum starts at 0).
+    pub momentum_drift: f64,
+    /// Overlapping pairs in the O(N²) audit of the final state.
+    pub overlaps: u64,
+    /// Distance or contact-time solves that failed, over the whole run (equilibration included).
+    pub solver_failures: u64,
+    /// Contact times found by bisection after Newton–Raphson on Eqs. (30) failed (whole run).
+    pub contact_nr_fallbacks: u64,
+    /// Newton–Raphson iterations per distance evaluation in the measured run (0 on the sphere path).
+    pub nr_iterations_mean: f64,
+    /// Distance evaluations per collision in the measured run.
+    pub distance_calls_per_collision: f64,
+    /// Pair contact-time searches per collision in the measured run (0 on the sphere path).
+    pub searches_per_collision: f64,
+    /// Mean time between collisions of a particle, t = N T / (2 N_coll).
+    pub mean_free_time: f64,
+    /// Simulated time of the measured run.
+    pub sim_time: f64,
+    pub cell_crossings: u64,
+    pub nnl_rebuilds: u64,
+    /// Predicted collisions found separating when due (grazing at exact tangency).
+    pub separating_contacts: u64,
+    pub box_length: f64,
+    pub n: usize,
+    pub phi: f64,
+}
+
+/// The final configuration, in the `--dump` format of DESIGN.md.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FinalState {
+    #[serde(rename = "box")]
+    pub box_: [f64; 3],
+    pub particles: Vec<ParticleDump>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParticleDump {
+    pub shape: &'static str,
+    pub semi_axes: [f64; 3],
+    /// Superquadric exponents; an ellipsoid (and a sphere) has 2 on every axis.
+    pub exponents: [f64; 3],
+    pub position: [f64; 3],
+    /// Rows = body axes in the lab frame.
+    pub orientation: [[f64; 3]; 3],
+    pub velocity: [f64; 3],
+    pub angular_velocity: [f64; 3],
+}
+
+/// Runs a scene: initial configuration, `equilibrate` collisions, then `collisions` measured ones.
+/// `progress` receives the number of collisions done so far (equilibration included), sparsely.
+pub fn run(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<RunReport, EdmdError> {
+    run_with_state(scene, progress).map(|(r, _)| r)
+}
+
+/// As [`run`], also returning the final configuration.
+pub fn run_with_state(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<(RunReport, FinalState), EdmdError> {
+    scene.validate()?;
+    let [a, b, c] = scene.semi_axes();
+    let e = Ellipsoid::new(a, b, c);
+    // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4.
+    let rmin = a.min(b);
+    let inertia_rot = Inertia { inv_m: 1.0, inv_i: 1.0 / (0.4 * rmin * rmin) };
+    let vp = std::f64::consts::PI / 6.0;
+    let l = (scene.n as f64 * vp / scene.phi).cbrt();
+    // A body must not reach its own periodic image, nor a neighbour through two images.
+    if l <= 4.0 * e.s.max() {
+        return Err(EdmdError::BoxTooSmall { l, needed: 4.0 * e.s.max(), why: "the box must exceed twice the bounding-sphere diameter" });
+    }
+    let mut rng = Rng::new(scene.seed);
+    match scene.shape {
+        ShapeKind::Sphere => {
+            let inertia = Inertia { inv_m: 1.0, inv_i: 0.0 };
+            let cfg = initial_configuration(scene.n, scene.phi, &Geom::Sphere { sigma: 1.0 }, inertia, &mut rng)?;
+            let eng = Engine::new(SphereModel { sigma: 1.0 }, cfg.l, cfg.bodies, 0.0, scene)?;
+            measure(eng, scene, Geom::Sphere { sigma: 1.0 }, progress)
+        }
+        ShapeKind::Ellipsoid => {
+            let cfg = initial_configuration(scene.n, scene.phi, &Geom::Ellipsoid(e), inertia_rot, &mut rng)?;
+            let params = ContactParams {
+                eps_d: scene.eps_d,
+                brent_tol: scene.brent_tol,
+                tol: Tolerances {
+                    nr_tol: scene.nr_tol,
+                    nr_max_iter: scene.nr_max_iter,
+                    nr_relax: scene.nr_relax,
+                    sd_max_iter: scene.sd_max_iter,
+                    sd_tol: scene.sd_tol,
+                },
+            };
+            let model = EllipsoidModel { e, params, inertia: inertia_rot, stats: SolverStats::default() };
+            let eng = Engine::new(model, cfg.l, cfg.bodies, inertia_rot.inv_i, scene)?;
+            measure(eng, scene, Geom::Ellipsoid(e), progress)
+        }
+        ShapeKind::Superquadric => Err(EdmdError::Scene(crate::SceneError::Unsupported)),
+    }
+}
+
+fn measure<M: Model>(mut eng: Engine<M>, scene: &Scene, geom: Geom, progress: &mut dyn FnMut(u64)) -> Result<(RunReport, FinalState), EdmdError> {
+    let total = scene.equilibrate + scene.collisions;
+    let every = (total / 100).clamp(1, 10_000);
+    let mut tick = |done: u64| {
+        if done % every == 0 {
+            progress(done);
+        }
+    };
+    eng.advance(scene.equilibrate, |e| tick(e.acc.collisions))?;
+
+    eng.sync_all();
+    let n = eng.bodies.len();
+    let start_acc = Accounting { ke_trans: eng.acc.ke_trans, t_last: eng.t, collisions: eng.acc.collisions, ..Default::default() };
+    let base_collisions = eng.acc.collisions;
+    let (crossings0, rebuilds0) = (eng.acc.crossings, eng.acc.rebuilds);
+    eng.acc = Accounting { crossings: crossings0, rebuilds: rebuilds0, separating: eng.acc.separating, ..start_acc };
+    let (e0, p0, t0, stats0) = (eng.energy(), eng.momentum(), eng.t, eng.m.stats());
+    let blocks = scene.collisions.min(10);
+    let mut marks: Vec<(f64, f64)> = Vec::with_capacity(blocks as usize);
+    let wall = Instant::now();
+    eng.advance(scene.collisions, |e| {
+        let k = e.acc.collisions - base_collisions;
+        tick(e.acc.collisions);
+        if k * blocks % scene.collisions == 0 {
+            marks.push((e.acc.virial, e.acc.ke_int));
+        }
+    })?;
+    let elapsed = wall.elapsed().as_secs_f64();
+    eng.sync_all();
+    progress(eng.acc.collisions);
+
+    let stats = eng.m.stats();
+    let sim_time = eng.t - t0;
+    let z_of = |w: f64, k: f64| 1.0 + w / (2.0 * k);
+    let z = z_of(eng.acc.virial, eng.acc.ke_int);
+    let mut zb = Vec::with_capacity(marks.len());
+    let mut prev = (0.0, 0.0);
+    for &m in &marks {
+        zb.push(z_of(m.0 - prev.0, m.1 - prev.1));
+        prev = m;
+    }
+    let z_err = if zb.len() > 1 {
+        let mean = zb.iter().sum::<f64>() / zb.len() as f64;
+        let var = zb.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / (zb.len() - 1) as f64;
+        (var / zb.len() as f64).sqrt()
+    } else {
+        f64::NAN
+    };
+    let calls = (stats.distance_calls - stats0.distance_calls) as f64;
+    let report = RunReport {
+        collisions: scene.collisions,
+        tau_c_us: elapsed * 1e6 / scene.collisions as f64,
+        pressure_z: z,
+        pressure_z_err: z_err,
+        temperature: 2.0 * eng.acc.ke_int / (3.0 * n as f64 * sim_time),
+        energy_drift_rel: (eng.energy() - e0).abs() / e0,
+        momentum_drift: (eng.momentum() - p0).norm(),
+        overlaps: audit(&eng.bodies, eng.l, &geom, scene.audit_tol),
+        solver_failures: stats.failures,
+        contact_nr_fallbacks: stats.contact_fallbacks,
+        nr_iterations_mean: if calls > 0.0 { (stats.nr_iterations - stats0.nr_iterations) as f64 / calls } else { 0.0 },
+        distance_calls_per_collision: calls / scene.collisions as f64,
+        searches_per_collision: (stats.searches - stats0.searches) as f64 / scene.collisions as f64,
+        mean_free_time: n as f64 * sim_time / (2.0 * scene.collisions as f64),
+        sim_time,
+        cell_crossings: eng.acc.crossings - crossings0,
+        nnl_rebuilds: eng.acc.rebuilds - rebuilds0,
+        separating_contacts: eng.acc.separating,
+        box_length: eng.l,
+        n,
+        phi: scene.phi,
+    };
+    let state = final_state(&eng.bodies, eng.l, &geom);
+    Ok((report, state))
+}
+
+/// O(N²) overlap audit with the independent test of [`Geom::contact_scale`] (every image that can touch).
+pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
+    let reach = 2.0 * geom.bounding_radius();
+    let mut overlaps = 0;
+    for i in 0..bodies.len() {
+        for j in (i + 1)..bodies.len() {
+            let r = min_image(bodies[j].r - bodies[i].r, l);
+            if r.norm() < reach && geom.contact_scale(&bodies[i].rot, &bodies[j].rot, &r) < 1.0 - tol {
+                overlaps += 1;
+            }
+        }
+    }
+    overlaps
+}
+
+fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
+    let (shape, semi) = match geom {
+        Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3]),
+        Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z]),
+    };
+    let arr = |v: V3| [v.x, v.y, v.z];
+    FinalState {
+        box_: [l; 3],
+        particles: bodies
+            .iter()
+            .map(|b| ParticleDump {
+                shape,
+                semi_axes: semi,
+                exponents: [2.0; 3],
+                position: arr(b.r.map(|x| x.rem_euclid(l))),
+                orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
+                velocity: arr(b.v),
+                angular_velocity: arr(b.w),
+            })
+            .collect(),
+    }
+}

@@ -1,0 +1,59 @@
+//! Implicit surfaces f(x) = 0 (f < 0 inside) in the body frame, and their lab-frame view (Sec. 2.1).
+
+use nalgebra::{Matrix3, Vector3};
+
+pub type V3 = Vector3<f64>;
+pub type M3 = Matrix3<f64>;
+
+/// A convex body given by an implicit function in its own frame, centred at its centre of mass.
+pub trait Surface {
+    type Placed: Placed;
+    /// The surface at pose `p` (Eq. 43 for an ellipsoid: X = Rᵀ X(0) R).
+    fn place(&self, p: &Pose) -> Self::Placed;
+    /// f(x') with f < 0 inside, f = 0 on the surface (Eq. 7).
+    fn f(&self, x: &V3) -> f64;
+    /// ∂f/∂x' (a column vector).
+    fn grad(&self, x: &V3) -> V3;
+    /// ∂²f/∂x'².
+    fn hessian(&self, x: &V3) -> M3;
+    /// L of Eq. (33): the radius of the bounding sphere around the centre of mass.
+    fn bounding_radius(&self) -> f64;
+    /// The point of the surface on the ray from the centre along `dir` (any length > 0).
+    fn ray_point(&self, dir: &V3) -> V3;
+    /// Half-width of the body along the unit body-frame direction `n` (the support function).
+    fn support(&self, n: &V3) -> f64;
+    /// Semi-axes, for the guess of Sec. 3.2 (Eq. 51) and the bounding parallelepiped (Eq. 52).
+    fn semi_axes(&self) -> V3;
+}
+
+/// Position of the centre and orientation: `rot` has the body axes as rows (Eq. 1), x' = rot (x − r) (Eq. 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    pub r: V3,
+    pub rot: M3,
+}
+
+impl Pose {
+    pub fn to_body(&self, x: &V3) -> V3 {
+        self.rot * (x - self.r)
+    }
+    pub fn to_lab(&self, xb: &V3) -> V3 {
+        self.r + self.rot.transpose() * xb
+    }
+}
+
+/// f, ∇f and the Hessian of a placed surface at a lab point.
+#[derive(Clone, Copy, Debug)]
+pub struct LabEval {
+    pub f: f64,
+    pub grad: V3,
+    pub hess: M3,
+}
+
+/// A surface at a fixed pose, evaluated in the lab frame; built once per pose because the
+/// Newton–Raphson iterations evaluate it many times at the same pose.
+pub trait Placed {
+    fn eval(&self, x: &V3) -> LabEval;
+    fn f(&self, x: &V3) -> f64;
+    fn grad(&self, x: &V3) -> V3;
+}

@@ -1,0 +1,312 @@
+//! The scene: what one EDMD run simulates, parsed from TOML and validated before any work.
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Close packing of equal spheres, π/√18.
+pub const PHI_MAX_SPHERE: f64 = 0.740_48;
+/// Densest known packing of uniaxial ellipsoids (Donev et al., Science 303, 990 (2004)):
+/// 0.7707, for aspect ratios beyond √3. Used as a bound for every X0.
+pub const PHI_MAX_ELLIPSOID: f64 = 0.7707;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeKind {
+    Sphere,
+    Ellipsoid,
+    /// Accepted by the parser so that the error is "not supported yet", not "unknown variant".
+    Superquadric,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Neighbours {
+    /// Linked cells of bounding-sphere size with cell-crossing events (Sec. 2.6).
+    Ll,
+    /// Nearest-neighbour lists from oriented bounding parallelepipeds (Sec. 3.3).
+    Nnl,
+}
+
+/// One simulation. Lengths are in units of the diameter σ of the sphere of equal volume,
+/// masses in units of the particle mass, energies in units of k_B T (the initial temperature is 1).
+///
+/// Ellipsoids are uniaxial: semi-axes a = X0·b along the symmetry axis, b = c across, normalised so
+/// that a·b·c = (σ/2)³, i.e. every particle has the volume π/6 of the unit-diameter sphere, whatever X0.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub shape: ShapeKind,
+    pub n: usize,
+    /// Packing fraction φ = N v / V.
+    pub phi: f64,
+    /// Aspect ratio X0 = a/b (ellipsoids; must be 1 for spheres).
+    #[serde(default = "d_x0")]
+    pub x0: f64,
+    /// ε_d of Eq. (39): below this distance the contact search takes small steps and looks for grazing.
+    #[serde(default = "d_eps_d")]
+    pub eps_d: f64,
+    /// Δ_NNL of Eq. (52): the thickness of the bounding parallelepiped.
+    #[serde(default = "d_delta_nnl")]
+    pub delta_nnl: f64,
+    /// ε_d^nnl of Eq. (61): the escape time from the parallelepiped is taken when the gap falls below it.
+    #[serde(default = "d_eps_nnl")]
+    pub eps_nnl: f64,
+    #[serde(default = "d_neighbours")]
+    pub neighbours: Neighbours,
+    /// Collisions in the measured run.
+    #[serde(default = "d_collisions")]
+    pub collisions: u64,
+    /// Collisions run (and discarded) before measuring.
+    #[serde(default = "d_equilibrate")]
+    pub equilibrate: u64,
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+    /// Newton–Raphson convergence tolerance (relative residual) for distance and contact time.
+    #[serde(default = "d_nr_tol")]
+    pub nr_tol: f64,
+    #[serde(default = "d_nr_max_iter")]
+    pub nr_max_iter: u32,
+    /// ε_r of Eqs. (27)–(29): bound on the relative change of α² and β in one Newton step.
+    #[serde(default = "d_nr_relax")]
+    pub nr_relax: f64,
+    /// Steepest-descent iterations (Sec. 2.3.2) allowed when Newton–Raphson fails.
+    #[serde(default = "d_sd_max_iter")]
+    pub sd_max_iter: u32,
+    /// Steepest descent stops when the sine of the angle between normal and separation is below this.
+    #[serde(default = "d_sd_tol")]
+    pub sd_tol: f64,
+    /// Absolute tolerance of Brent's minimisation of d(t) for grazing encounters (Sec. 2.4.2).
+    #[serde(default = "d_brent_tol")]
+    pub brent_tol: f64,
+    /// Overlap audit: a pair overlaps when its contact scale factor is below 1 − audit_tol.
+    #[serde(default = "d_audit_tol")]
+    pub audit_tol: f64,
+}
+
+fn d_x0() -> f64 {
+    1.0
+}
+fn d_eps_d() -> f64 {
+    1e-5
+}
+fn d_delta_nnl() -> f64 {
+    0.15
+}
+fn d_eps_nnl() -> f64 {
+    5e-3
+}
+fn d_neighbours() -> Neighbours {
+    Neighbours::Ll
+}
+fn d_collisions() -> u64 {
+    100_000
+}
+fn d_equilibrate() -> u64 {
+    20_000
+}
+fn d_seed() -> u64 {
+    1
+}
+fn d_nr_tol() -> f64 {
+    1e-12
+}
+fn d_nr_max_iter() -> u32 {
+    50
+}
+fn d_nr_relax() -> f64 {
+    0.5
+}
+fn d_sd_max_iter() -> u32 {
+    200
+}
+fn d_sd_tol() -> f64 {
+    1e-3
+}
+fn d_brent_tol() -> f64 {
+    1e-12
+}
+fn d_audit_tol() -> f64 {
+    1e-8
+}
+
+#[derive(Debug, Error, PartialEq)]
+pub enum SceneError {
+    /// TOML syntax, unknown key, missing key or wrong type; toml's message names the line.
+    #[error("scene: {0}")]
+    Parse(String),
+    #[error("scene: key `{key}`{}: {reason}", line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    Invalid {
+        key: &'static str,
+        line: Option<usize>,
+        reason: String,
+    },
+    #[error("scene: shape `superquadric` is not supported yet (sphere and ellipsoid are)")]
+    Unsupported,
+}
+
+impl Scene {
+    /// A scene with every optional key at its default.
+    pub fn new(shape: ShapeKind, n: usize, phi: f64) -> Self {
+        Scene {
+            shape,
+            n,
+            phi,
+            x0: d_x0(),
+            eps_d: d_eps_d(),
+            delta_nnl: d_delta_nnl(),
+            eps_nnl: d_eps_nnl(),
+            neighbours: d_neighbours(),
+            collisions: d_collisions(),
+            equilibrate: d_equilibrate(),
+            seed: d_seed(),
+            nr_tol: d_nr_tol(),
+            nr_max_iter: d_nr_max_iter(),
+            nr_relax: d_nr_relax(),
+            sd_max_iter: d_sd_max_iter(),
+            sd_tol: d_sd_tol(),
+            brent_tol: d_brent_tol(),
+            audit_tol: d_audit_tol(),
+        }
+    }
+
+    /// Parses and validates; range errors name the key and, when found in `src`, its line.
+    pub fn from_toml_str(src: &str) -> Result<Scene, SceneError> {
+        let scene: Scene = toml::from_str(src).map_err(|e| SceneError::Parse(e.to_string()))?;
+        scene.check().map_err(|e| match e {
+            SceneError::Invalid { key, reason, .. } => SceneError::Invalid {
+                key,
+                line: line_of(src, key),
+                reason,
+            },
+            other => other,
+        })?;
+        Ok(scene)
+    }
+
+    /// Validation, for scenes built in code.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        self.check()
+    }
+
+    /// Semi-axes (a, b, c) with a along the symmetry axis and a·b·c = 1/8.
+    pub fn semi_axes(&self) -> [f64; 3] {
+        let b = 0.5 / self.x0.cbrt();
+        [self.x0 * b, b, b]
+    }
+
+    fn check(&self) -> Result<(), SceneError> {
+        let bad = |key: &'static str, reason: String| {
+            Err(SceneError::Invalid {
+                key,
+                line: None,
+                reason,
+            })
+        };
+        let floats: [(&'static str, f64); 10] = [
+            ("phi", self.phi),
+            ("x0", self.x0),
+            ("eps_d", self.eps_d),
+            ("delta_nnl", self.delta_nnl),
+            ("eps_nnl", self.eps_nnl),
+            ("nr_tol", self.nr_tol),
+            ("nr_relax", self.nr_relax),
+            ("sd_tol", self.sd_tol),
+            ("brent_tol", self.brent_tol),
+            ("audit_tol", self.audit_tol),
+        ];
+        for (key, v) in floats {
+            if !v.is_finite() {
+                return bad(key, format!("must be finite, got {v}"));
+            }
+        }
+        if self.shape == ShapeKind::Superquadric {
+            return Err(SceneError::Unsupported);
+        }
+        if self.n < 2 {
+            return bad("n", format!("need at least 2 particles, got {}", self.n));
+        }
+        if self.n > u32::MAX as usize / 2 {
+            return bad("n", format!("too many particles: {}", self.n));
+        }
+        if self.x0 <= 0.0 {
+            return bad("x0", format!("aspect ratio must be > 0, got {}", self.x0));
+        }
+        if self.shape == ShapeKind::Sphere && self.x0 != 1.0 {
+            return bad("x0", format!("a sphere has x0 = 1, got {}", self.x0));
+        }
+        let phi_max = match self.shape {
+            ShapeKind::Sphere => PHI_MAX_SPHERE,
+            _ => PHI_MAX_ELLIPSOID,
+        };
+        if self.phi <= 0.0 || self.phi >= phi_max {
+            return bad(
+                "phi",
+                format!("packing fraction must lie in (0, {phi_max}) (close packing), got {}", self.phi),
+            );
+        }
+        let positive: [(&'static str, f64); 7] = [
+            ("eps_d", self.eps_d),
+            ("delta_nnl", self.delta_nnl),
+            ("eps_nnl", self.eps_nnl),
+            ("nr_tol", self.nr_tol),
+            ("sd_tol", self.sd_tol),
+            ("brent_tol", self.brent_tol),
+            ("audit_tol", self.audit_tol),
+        ];
+        for (key, v) in positive {
+            if v <= 0.0 {
+                return bad(key, format!("must be > 0, got {v}"));
+            }
+        }
+        let b = self.semi_axes()[1].min(self.semi_axes()[0]);
+        if self.eps_d >= b {
+            return bad("eps_d", format!("must be much smaller than the smallest semi-axis {b}, got {}", self.eps_d));
+        }
+        if self.eps_nnl >= self.delta_nnl {
+            return bad("eps_nnl", format!("must be smaller than delta_nnl = {}", self.delta_nnl));
+        }
+        if self.nr_relax > 1.0 {
+            return bad("nr_relax", format!("must lie in (0, 1], got {}", self.nr_relax));
+        }
+        if self.nr_relax <= 0.0 {
+            return bad("nr_relax", format!("must lie in (0, 1], got {}", self.nr_relax));
+        }
+        if self.nr_max_iter == 0 {
+            return bad("nr_max_iter", "must be at least 1".into());
+        }
+        if self.collisions == 0 {
+            return bad("collisions", "must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// 1-based line of the first `key = ...` assignment in `src`.
+fn line_of(src: &str, key: &str) -> Option<usize> {
+    src.lines().position(|l| {
+        let l = l.trim_start();
+        l.strip_prefix(key)
+            .is_some_and(|rest| rest.trim_start().starts_with('='))
+    })
+    .map(|i| i + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_fill_optional_keys() {
+        let s = Scene::from_toml_str("shape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2.0\n").unwrap();
+        assert_eq!(s.neighbours, Neighbours::Ll);
+        let [a, b, c] = s.semi_axes();
+        assert!((a / b - 2.0).abs() < 1e-15 && b == c);
+        assert!((a * b * c - 0.125).abs() < 1e-15);
+    }
+
+    #[test]
+    fn range_error_names_key_and_line() {
+        let e = Scene::from_toml_str("shape = \"sphere\"\nn = 10\nphi = 0.8\n").unwrap_err();
+        assert!(matches!(e, SceneError::Invalid { key: "phi", line: Some(3), .. }), "{e}");
+    }
+}
