@@ -52,9 +52,14 @@ impl Cluster {
 
     /// Starts a coordinator on `listen` and returns it with its URL, read from its stdout.
     fn coordinator(&self, listen: &str) -> (Proc, String) {
+        self.coordinator_with(listen, &[])
+    }
+
+    fn coordinator_with(&self, listen: &str, extra: &[&str]) -> (Proc, String) {
         let mut child = Command::new(SWEEP)
             .args(["coordinator", "--listen", listen, "--db", self.db.to_str().unwrap()])
             .args(["--token-file", self.token(), "--lease-secs", "1", "--max-attempts", "5"])
+            .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -240,4 +245,63 @@ fn a_coordinator_will_not_listen_off_loopback_without_a_token() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
     assert!(!Path::new(&cluster.db).exists(), "the database was created anyway");
+}
+
+/// TLS end to end: a CA made here, a coordinator serving its certificate, a worker and the admin
+/// commands verifying it with `--ca`; a client without the CA cannot talk to it.
+#[test]
+fn a_campaign_runs_over_tls() {
+    use rcgen::{BasicConstraints, CertificateParams, IsCa, Issuer, KeyPair};
+    let cluster = Cluster::new();
+    let ca_key = KeyPair::generate().unwrap();
+    let mut ca_params = CertificateParams::new(Vec::<String>::new()).unwrap();
+    ca_params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+    let ca_cert = ca_params.self_signed(&ca_key).unwrap();
+    let key = KeyPair::generate().unwrap();
+    let cert = CertificateParams::new(vec!["127.0.0.1".to_string()])
+        .unwrap()
+        .signed_by(&key, &Issuer::new(ca_params, ca_key))
+        .unwrap();
+    let (ca, cert_file, key_file) = (cluster.path("ca.pem"), cluster.path("cert.pem"), cluster.path("key.pem"));
+    std::fs::write(&ca, ca_cert.pem()).unwrap();
+    std::fs::write(&cert_file, cert.pem()).unwrap();
+    std::fs::write(&key_file, key.serialize_pem()).unwrap();
+
+    let (_coordinator, url) = cluster.coordinator_with(
+        "127.0.0.1:0",
+        &["--tls-cert", cert_file.to_str().unwrap(), "--tls-key", key_file.to_str().unwrap()],
+    );
+    let url = url.replace("http://", "https://");
+    let ca = ca.to_str().unwrap();
+    let tls = |args: &[&str]| {
+        let mut all = args.to_vec();
+        all.extend(["--coordinator", &url, "--token-file", cluster.token(), "--ca", ca, "--format", "json"]);
+        cluster.sweep(&all)
+    };
+    let plan = cluster.plan("p.toml", &noop_plan(20, 1));
+    let submitted = tls(&["submit", &plan]);
+    assert!(submitted.status.success(), "{}", String::from_utf8_lossy(&submitted.stderr));
+    let _worker = Proc(
+        Command::new(SWEEP)
+            .args(["worker", "--coordinator", &url, "--cores", "0", "--token-file", cluster.token(), "--ca", ca])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let started = Instant::now();
+    loop {
+        let out = tls(&["status"]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        if status["status"]["done"] == 20 {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(60), "{status}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert_exactly_once(&cluster, 20);
+    // Without the CA the certificate is not trusted; over plain HTTP/2 the TLS server does not answer.
+    let untrusted = cluster.sweep(&["status", "--coordinator", &url, "--token-file", cluster.token()]);
+    assert!(!untrusted.status.success());
 }
