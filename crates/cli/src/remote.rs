@@ -243,15 +243,7 @@ pub fn remote_status(client: &ClientArgs, campaign: Option<&str>, format: Format
         let request = pb::StatusRequest { campaign_id: campaign.unwrap_or_default().to_string() };
         anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
     })?;
-    let status = coordinator::Status {
-        total: s.total,
-        queued: s.queued,
-        running: s.running,
-        done: s.done,
-        failed: s.failed,
-        cancelled: s.cancelled,
-        estimate_s_remaining: s.estimate_s_remaining,
-    };
+    let status = coordinator::grpc::convert::status_from_wire(&s);
     crate::local::report_status(campaign.unwrap_or("(all)"), &status, format)
 }
 

@@ -13,7 +13,7 @@ use wire::v1 as pb;
 use wire::v1::admin_server::{Admin, AdminServer};
 use wire::v1::worker_server::{Worker, WorkerServer};
 
-use crate::{CompleteOutcome, Completion, Coordinator, Error, FailOutcome, LeaseRef, NewCampaign, NewJob, WorkerInfo};
+use crate::{CompleteOutcome, Completion, Coordinator, Error, FailOutcome, LeaseRef, NewCampaign, NewJob};
 
 /// Plan text and file name → the campaign and its jobs, or the one-line error a user sees.
 pub type ExpandPlan = Arc<dyn Fn(&str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
@@ -42,6 +42,62 @@ fn lease_ref(held: pb::HeldLease) -> LeaseRef {
     LeaseRef { job_id: held.job_id, token: held.token }
 }
 
+/// Conversions between the wire messages and the coordinator's types, used by both ends.
+pub mod convert {
+    use super::pb;
+    use crate::{Status, WorkerInfo};
+
+    pub fn worker_info_to_wire(info: WorkerInfo) -> pb::WorkerInfo {
+        pb::WorkerInfo {
+            id: info.id,
+            hostname: info.hostname,
+            cores: info.cores,
+            cpu_model: info.cpu_model,
+            cpu_flags: info.cpu_flags,
+            rustc: info.rustc,
+            git_commit: info.git_commit,
+            profile: info.profile,
+        }
+    }
+
+    pub fn worker_info_from_wire(w: pb::WorkerInfo) -> WorkerInfo {
+        WorkerInfo {
+            id: w.id,
+            hostname: w.hostname,
+            cores: w.cores,
+            cpu_model: w.cpu_model,
+            cpu_flags: w.cpu_flags,
+            rustc: w.rustc,
+            git_commit: w.git_commit,
+            profile: w.profile,
+        }
+    }
+
+    pub fn status_to_wire(s: &Status) -> pb::StatusResponse {
+        pb::StatusResponse {
+            total: s.total,
+            queued: s.queued,
+            running: s.running,
+            done: s.done,
+            failed: s.failed,
+            cancelled: s.cancelled,
+            estimate_s_remaining: s.estimate_s_remaining,
+        }
+    }
+
+    pub fn status_from_wire(s: &pb::StatusResponse) -> Status {
+        Status {
+            total: s.total,
+            queued: s.queued,
+            running: s.running,
+            done: s.done,
+            failed: s.failed,
+            cancelled: s.cancelled,
+            estimate_s_remaining: s.estimate_s_remaining,
+        }
+    }
+}
+
 #[derive(Clone)]
 struct Services {
     coordinator: Coordinator,
@@ -55,17 +111,7 @@ impl Worker for Services {
         if w.id.is_empty() {
             return Err(Status::invalid_argument("register: empty worker id"));
         }
-        let info = WorkerInfo {
-            id: w.id,
-            hostname: w.hostname,
-            cores: w.cores,
-            cpu_model: w.cpu_model,
-            cpu_flags: w.cpu_flags,
-            rustc: w.rustc,
-            git_commit: w.git_commit,
-            profile: w.profile,
-        };
-        self.coordinator.register(&info).await.map_err(status)?;
+        self.coordinator.register(&convert::worker_info_from_wire(w)).await.map_err(status)?;
         let lease_ms = self.coordinator.config().lease_for.as_millis() as u64;
         Ok(Response::new(pb::RegisterResponse { heartbeat_interval_ms: lease_ms / 4, lease_ms }))
     }
@@ -139,18 +185,6 @@ impl Worker for Services {
     }
 }
 
-fn status_to_wire(s: &crate::Status) -> pb::StatusResponse {
-    pb::StatusResponse {
-        total: s.total,
-        queued: s.queued,
-        running: s.running,
-        done: s.done,
-        failed: s.failed,
-        cancelled: s.cancelled,
-        estimate_s_remaining: s.estimate_s_remaining,
-    }
-}
-
 #[tonic::async_trait]
 impl Admin for Services {
     async fn submit(&self, request: Request<pb::SubmitRequest>) -> Result<Response<pb::SubmitResponse>, Status> {
@@ -169,7 +203,7 @@ impl Admin for Services {
         let campaign = request.into_inner().campaign_id;
         let campaign = (!campaign.is_empty()).then_some(campaign);
         let s = self.coordinator.status(campaign.as_deref()).await.map_err(status)?;
-        Ok(Response::new(status_to_wire(&s)))
+        Ok(Response::new(convert::status_to_wire(&s)))
     }
 
     async fn cancel(&self, request: Request<pb::CancelRequest>) -> Result<Response<pb::CancelResponse>, Status> {
@@ -182,16 +216,7 @@ impl Admin for Services {
         let workers = workers
             .into_iter()
             .map(|w| pb::workers_response::Entry {
-                worker: Some(pb::WorkerInfo {
-                    id: w.info.id,
-                    hostname: w.info.hostname,
-                    cores: w.info.cores,
-                    cpu_model: w.info.cpu_model,
-                    cpu_flags: w.info.cpu_flags,
-                    rustc: w.info.rustc,
-                    git_commit: w.info.git_commit,
-                    profile: w.info.profile,
-                }),
+                worker: Some(convert::worker_info_to_wire(w.info)),
                 last_seen_at: w.last_seen_at,
                 running: w.running,
             })

@@ -10,7 +10,9 @@ use edmd::{Neighbours, Scene, ShapeKind, run};
 
 fn tau_c(c: &mut Criterion, name: &str, base: Scene) {
     let mut g = c.benchmark_group("tau_c");
-    g.sample_size(10).warm_up_time(Duration::from_millis(100)).measurement_time(Duration::from_secs(5));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(100))
+        .measurement_time(Duration::from_secs(5));
     g.bench_function(name, |b| {
         b.iter_custom(|iters| {
             let mut s = base.clone();
@@ -35,7 +37,10 @@ fn benches(c: &mut Criterion) {
         s.eps_d = 1e-5;
         s.neighbours = nb;
         s.equilibrate = 2_000;
-        let name = format!("ellipsoid_x0_2_phi0.5_n256_{}", if nb == Neighbours::Nnl { "nnl" } else { "ll" });
+        let name = format!(
+            "ellipsoid_x0_2_phi0.5_n256_{}",
+            if nb == Neighbours::Nnl { "nnl" } else { "ll" }
+        );
         tau_c(c, &name, s);
     }
 }

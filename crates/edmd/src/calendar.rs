@@ -51,9 +51,17 @@ pub struct Calendar<X> {
     heap: BinaryHeap<Entry<X>>,
 }
 
+impl<X> Default for Calendar<X> {
+    fn default() -> Self {
+        Calendar {
+            heap: BinaryHeap::new(),
+        }
+    }
+}
+
 impl<X> Calendar<X> {
     pub fn new() -> Self {
-        Calendar { heap: BinaryHeap::new() }
+        Self::default()
     }
     pub fn push(&mut self, e: Event<X>) {
         self.heap.push(Entry(e));
@@ -63,6 +71,9 @@ impl<X> Calendar<X> {
     }
     pub fn len(&self) -> usize {
         self.heap.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.heap.is_empty()
     }
     pub fn clear(&mut self) {
         self.heap.clear();
@@ -81,7 +92,15 @@ mod tests {
     fn pops_in_time_order() {
         let mut c = Calendar::new();
         for (i, t) in [3.0, 1.0, 2.0, 0.5].into_iter().enumerate() {
-            c.push(Event { t, a: i as u32, b: 0, ca: 0, cb: 0, kind: Kind::Rebuild, extra: () });
+            c.push(Event {
+                t,
+                a: i as u32,
+                b: 0,
+                ca: 0,
+                cb: 0,
+                kind: Kind::Rebuild,
+                extra: (),
+            });
         }
         c.retain(|e| e.a != 2);
         let ts: Vec<f64> = std::iter::from_fn(|| c.pop().map(|e| e.t)).collect();

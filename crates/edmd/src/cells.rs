@@ -24,11 +24,17 @@ impl Cells {
     /// Cells of side ≥ `min_side` in a box of side `l`; `None` if fewer than 3 fit per side.
     pub fn new(l: f64, min_side: f64) -> Option<Cells> {
         let m = (l / min_side).floor();
-        if !(m >= 3.0) {
+        // Also rejects NaN.
+        if m.is_nan() || m < 3.0 {
             return None;
         }
         let m = m as usize;
-        let mut c = Cells { m, side: l / m as f64, members: vec![Vec::new(); m * m * m], table: Vec::new() };
+        let mut c = Cells {
+            m,
+            side: l / m as f64,
+            members: vec![Vec::new(); m * m * m],
+            table: Vec::new(),
+        };
         c.table = (0..m * m * m)
             .map(|idx| {
                 let cc = c.coords(idx);
@@ -51,7 +57,11 @@ impl Cells {
     }
 
     pub fn coords(&self, idx: usize) -> [usize; 3] {
-        [idx % self.m, (idx / self.m) % self.m, idx / (self.m * self.m)]
+        [
+            idx % self.m,
+            (idx / self.m) % self.m,
+            idx / (self.m * self.m),
+        ]
     }
 
     pub fn insert(&mut self, cell: usize, i: u32) {
@@ -83,7 +93,10 @@ impl Cells {
             }
             out[k] = x.rem_euclid(m) as usize;
         }
-        Neighbour { cell: self.index(out), shift }
+        Neighbour {
+            cell: self.index(out),
+            shift,
+        }
     }
 
     /// All 27 cells around cell `idx` (including it).
@@ -122,7 +135,13 @@ mod tests {
         let n = c.neighbour([0, 2, 1], [-1, 1, 0]);
         assert_eq!(c.coords(n.cell), [2, 0, 1]);
         assert_eq!(n.shift, [-1, 1, 0]);
-        assert_eq!(c.around(c.index([1, 1, 1])).iter().filter(|n| n.shift == [0, 0, 0]).count(), 27);
+        assert_eq!(
+            c.around(c.index([1, 1, 1]))
+                .iter()
+                .filter(|n| n.shift == [0, 0, 0])
+                .count(),
+            27
+        );
         assert!(Cells::new(5.9, 2.0).is_none());
     }
 }

@@ -52,7 +52,14 @@ pub fn predict<S: Surface>(
     if ddmax == 0.0 {
         return None;
     }
-    let mut search = Search { sa, a, sb, b, p, stats };
+    let mut search = Search {
+        sa,
+        a,
+        sb,
+        b,
+        p,
+        stats,
+    };
     let mut t = t1;
     let mut cur = search.dist(t, None);
     if let Some(d0) = cur
@@ -65,21 +72,42 @@ pub fn predict<S: Surface>(
     // The last successful evaluation: a failed one in between must not hide a sign change.
     let mut last = cur.map(|d| (t, d));
     let mut failures = 0;
+    // Step multiplier for the far regime (see below); 1 is the plain step of Eq. (39).
+    let mut k: f64 = 1.0;
     for _ in 0..MAX_STEPS {
         if t > t2 {
             return None;
         }
+        let far = matches!(cur, Some(c) if c.d > p.eps_d);
         let dt = match cur {
-            Some(c) if c.d > p.eps_d => c.d / ddmax,
+            Some(c) if far => k * c.d / ddmax,
             _ => p.eps_d / ddmax,
         };
         let tn = t + dt;
+        let failures_before = search.stats.failures;
         let next = search.dist(tn, last.as_ref().map(|l| &l.1));
+        if far && k > 1.0 {
+            // Two-sided bound (not in the paper): a zero in [t, tn] needs d(t) + d(tn) ≤ ḋ_max (tn − t),
+            // so a longer step is certified by the distance at its end. Uncertified: redo it plainly.
+            let certified =
+                matches!((cur, next), (Some(c), Some(n)) if n.d > 0.0 && c.d + n.d >= ddmax * dt);
+            if !certified {
+                // A long step may land deep in an overlap, where no distance exists: not a failure.
+                search.stats.failures = failures_before;
+                k = 1.0;
+                continue;
+            }
+        }
+        if far {
+            k = (k * 1.5).min(4.0);
+        }
         match (last, next) {
             (Some((tl, l)), Some(n)) if l.d >= 0.0 && n.d < 0.0 => {
                 return search.refine(tl, &l, tn, &n);
             }
-            (Some((tl, l)), Some(n)) if tl == t && l.d > 0.0 && n.d > 0.0 && l.d < p.eps_d && n.d < p.eps_d => {
+            (Some((tl, l)), Some(n))
+                if tl == t && l.d > 0.0 && n.d > 0.0 && l.d < p.eps_d && n.d < p.eps_d =>
+            {
                 if let Some(h) = search.grazing(t, &l, tn, &n) {
                     return Some(h);
                 }
@@ -91,11 +119,14 @@ pub fn predict<S: Surface>(
                 // and a bracket of d > 0 at `tn` and d < 0 beyond cannot hide an earlier contact
                 // unless the bodies pass through each other within it.
                 let ts = tn + 1.5 * n.d * (tn - t) / (l.d - n.d);
-                if ts <= t2
-                    && let Some(sd) = search.dist(ts, Some(&n))
-                    && sd.d < 0.0
-                {
-                    return search.refine(tn, &n, ts, &sd);
+                if ts <= t2 {
+                    let failures_before = search.stats.failures;
+                    match search.dist(ts, Some(&n)) {
+                        Some(sd) if sd.d < 0.0 => return search.refine(tn, &n, ts, &sd),
+                        // Overshooting into a deep overlap is expected, not a solver failure.
+                        None => search.stats.failures = failures_before,
+                        _ => {}
+                    }
                 }
             }
             (_, None) => {
@@ -163,8 +194,20 @@ impl<S: Surface> Search<'_, S> {
         let pa = self.a.pose_after(t);
         let pb = self.b.pose_after(t);
         // Successive times are close, so the previous closest point is a good start as it stands.
-        let g: Option<Guess> = warm.map(|w| Guess { xa_body: pa.to_body(&w.xa), alpha: w.alpha, beta: w.beta });
-        distance(self.sa, &pa, self.sb, &pb, g.as_ref(), &self.p.tol, self.stats)
+        let g: Option<Guess> = warm.map(|w| Guess {
+            xa_body: pa.to_body(&w.xa),
+            alpha: w.alpha,
+            beta: w.beta,
+        });
+        distance(
+            self.sa,
+            &pa,
+            self.sb,
+            &pb,
+            g.as_ref(),
+            &self.p.tol,
+            self.stats,
+        )
     }
 
     fn dist_value(&mut self, t: f64, warm: &mut Distance) -> f64 {
@@ -177,11 +220,23 @@ impl<S: Surface> Search<'_, S> {
         }
     }
 
+    /// Like `dist_value` inside a bracket whose far end may lie deep in an overlap, where Eqs. (9)
+    /// have no solution: a failure there means "overlapping" (−∞), not a solver failure.
+    fn probe(&mut self, t: f64, warm: &mut Distance) -> f64 {
+        let before = self.stats.failures;
+        let d = self.dist_value(t, warm);
+        if d.is_nan() {
+            self.stats.failures = before;
+            return f64::NEG_INFINITY;
+        }
+        d
+    }
+
     /// Steps 5 and 6a: the bracket [t_lo, t_hi] holds a sign change of d.
     fn refine(&mut self, t_lo: f64, d_lo: &Distance, t_hi: f64, d_hi: &Distance) -> Option<Hit> {
         let tm = 0.5 * (t_lo + t_hi);
         let mut w = *d_lo;
-        let dm = self.dist_value(tm, &mut w);
+        let dm = self.probe(tm, &mut w);
         let tz = if dm.is_finite() {
             first_zero_of_parabola(t_lo, d_lo.d, tm, dm, t_hi, d_hi.d)
         } else {
@@ -189,7 +244,7 @@ impl<S: Surface> Search<'_, S> {
         }
         .unwrap_or(t_lo + (t_hi - t_lo) * d_lo.d / (d_lo.d - d_hi.d));
         let mut w = *d_lo;
-        let dz = self.dist_value(tz, &mut w);
+        let dz = self.probe(tz, &mut w);
         let start = if dz.is_finite() { w } else { *d_lo };
         if let Some(h) = self.newton_contact(&start, tz, t_lo, t_hi) {
             return Some(h);
@@ -263,11 +318,16 @@ impl<S: Surface> Search<'_, S> {
             let a2 = alpha * alpha;
             let f1 = ea.grad + eb.grad * a2;
             let fxn = ea.grad.norm();
-            if f1.norm() <= tol.nr_tol * fxn && ea.f.abs() <= tol.nr_tol && eb.f.abs() <= tol.nr_tol {
+            if f1.norm() <= tol.nr_tol * fxn && ea.f.abs() <= tol.nr_tol && eb.f.abs() <= tol.nr_tol
+            {
                 if t < t_lo - slack || t > t_hi + slack {
                     return None;
                 }
-                return Some(Hit { t: t.clamp(0.0, f64::INFINITY), xc: x, n: ea.grad / fxn });
+                return Some(Hit {
+                    t: t.clamp(0.0, f64::INFINITY),
+                    xc: x,
+                    n: ea.grad / fxn,
+                });
             }
             // ∂f/∂t = −f_x·u and ∂f_x/∂t = w × f_x − H u, with u the velocity of the material point.
             let ft = -ea.grad.dot(&ua);
@@ -275,11 +335,15 @@ impl<S: Surface> Search<'_, S> {
             let fxt = a.w.cross(&ea.grad) - ea.hess * ua;
             let gxt = b.w.cross(&eb.grad) - eb.hess * ub;
             let mut j = SMatrix::<f64, 5, 5>::zeros();
-            j.fixed_view_mut::<3, 3>(0, 0).copy_from(&(ea.hess + eb.hess * a2));
-            j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(eb.grad * (2.0 * alpha)));
+            j.fixed_view_mut::<3, 3>(0, 0)
+                .copy_from(&(ea.hess + eb.hess * a2));
+            j.fixed_view_mut::<3, 1>(0, 3)
+                .copy_from(&(eb.grad * (2.0 * alpha)));
             j.fixed_view_mut::<3, 1>(0, 4).copy_from(&(fxt + gxt * a2));
-            j.fixed_view_mut::<1, 3>(3, 0).copy_from(&ea.grad.transpose());
-            j.fixed_view_mut::<1, 3>(4, 0).copy_from(&eb.grad.transpose());
+            j.fixed_view_mut::<1, 3>(3, 0)
+                .copy_from(&ea.grad.transpose());
+            j.fixed_view_mut::<1, 3>(4, 0)
+                .copy_from(&eb.grad.transpose());
             j[(3, 4)] = ft;
             j[(4, 4)] = gt;
             let rhs = SVector::<f64, 5>::new(-f1.x, -f1.y, -f1.z, -ea.f, -eb.f);
@@ -306,10 +370,7 @@ impl<S: Surface> Search<'_, S> {
         let dt_tol = self.p.brent_tol / ddot_scale(self);
         while hi - lo > dt_tol {
             let m = 0.5 * (lo + hi);
-            let dm = self.dist_value(m, &mut w);
-            if !dm.is_finite() {
-                return None;
-            }
+            let dm = self.probe(m, &mut w);
             if dm > 0.0 {
                 lo = m;
                 best = w;
@@ -324,7 +385,11 @@ impl<S: Surface> Search<'_, S> {
         let pa = self.a.pose_after(t);
         let xc = (d.xa + d.xb) * 0.5;
         let g = self.sa.place(&pa).grad(&d.xa);
-        Hit { t, xc, n: g.normalize() }
+        Hit {
+            t,
+            xc,
+            n: g.normalize(),
+        }
     }
 }
 
@@ -398,7 +463,11 @@ pub fn brent_min(a: f64, b: f64, c: f64, tol: f64, mut f: impl FnMut(f64) -> f64
             e = if x >= xm { lo - x } else { hi - x };
             d = CGOLD * e;
         }
-        let u = if d.abs() >= tol1 { x + d } else { x + tol1.copysign(d) };
+        let u = if d.abs() >= tol1 {
+            x + d
+        } else {
+            x + tol1.copysign(d)
+        };
         let fu = f(u);
         if !fu.is_finite() {
             break;

@@ -85,10 +85,11 @@ pub(crate) fn solve5(j: &M5, rhs: &V5) -> Option<V5> {
         }
         a.swap(k, p);
         let inv = 1.0 / a[k][k];
-        for r in (k + 1)..5 {
-            let f = a[r][k] * inv;
-            for c in k..6 {
-                a[r][c] -= f * a[k][c];
+        let pivot = a[k];
+        for row in a.iter_mut().skip(k + 1) {
+            let f = row[k] * inv;
+            for (x, p) in row.iter_mut().zip(pivot.iter()).skip(k) {
+                *x -= f * p;
             }
         }
     }
@@ -149,7 +150,14 @@ pub fn initial_guess<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> (V3, V
 }
 
 /// α = √(‖f_x‖/‖g_x‖) from the modulus of Eq. (9a); β from the projection of Eq. (9d).
-fn multipliers_guess<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, xa: &V3, xb: &V3) -> (f64, f64) {
+fn multipliers_guess<S: Surface>(
+    sa: &S,
+    pa: &Pose,
+    sb: &S,
+    pb: &Pose,
+    xa: &V3,
+    xb: &V3,
+) -> (f64, f64) {
     let fx = sa.place(pa).grad(xa);
     let gx = sb.place(pb).grad(xb);
     let alpha = (fx.norm() / gx.norm()).sqrt();
@@ -190,10 +198,13 @@ fn newton<S: Surface>(
         let mut j = M5::zeros();
         j.fixed_view_mut::<3, 3>(0, 0)
             .copy_from(&(ea.hess + eb.hess * dxb * a2));
-        j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(gx * (2.0 * alpha)));
-        j.fixed_view_mut::<3, 1>(0, 4).copy_from(&(eb.hess * fx * a2));
+        j.fixed_view_mut::<3, 1>(0, 3)
+            .copy_from(&(gx * (2.0 * alpha)));
+        j.fixed_view_mut::<3, 1>(0, 4)
+            .copy_from(&(eb.hess * fx * a2));
         j.fixed_view_mut::<1, 3>(3, 0).copy_from(&fx.transpose());
-        j.fixed_view_mut::<1, 3>(4, 0).copy_from(&(gx.transpose() * dxb));
+        j.fixed_view_mut::<1, 3>(4, 0)
+            .copy_from(&(gx.transpose() * dxb));
         j[(4, 4)] = gx.dot(&fx);
         let rhs = V5::new(-f1.x, -f1.y, -f1.z, -ea.f, -eb.f);
         let step = solve5(&j, &rhs)?;
@@ -211,7 +222,9 @@ fn newton<S: Surface>(
         xa += step.fixed_rows::<3>(0) * xi;
         alpha = (alpha + xi * dalpha).abs();
         beta += xi * dbeta;
-        if !(xa.iter().all(|v| v.is_finite()) && alpha.is_finite() && beta.is_finite()) || alpha == 0.0 {
+        if !(xa.iter().all(|v| v.is_finite()) && alpha.is_finite() && beta.is_finite())
+            || alpha == 0.0
+        {
             return None;
         }
     }
@@ -242,12 +255,24 @@ fn accept<P: Placed>(
             return None;
         }
     }
-    Some(Distance { d, xa, xb, alpha, beta })
+    Some(Distance {
+        d,
+        xa,
+        xb,
+        alpha,
+        beta,
+    })
 }
 
 /// Steepest descent of D = ‖x_A − x_B‖² on the two surfaces (Sec. 2.3.2, Eqs. 16–22), from the
 /// intersections of the line of centres with the surfaces (Fig. 3a).
-pub fn steepest_descent<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, tol: &Tolerances) -> (V3, V3) {
+pub fn steepest_descent<S: Surface>(
+    sa: &S,
+    pa: &Pose,
+    sb: &S,
+    pb: &Pose,
+    tol: &Tolerances,
+) -> (V3, V3) {
     // λ_SD of Eq. (20); with α_SD = 1/2 a step moves each point half of the tangential separation.
     const LAMBDA_SD: f64 = 0.5;
     let dir = pb.r - pa.r;
@@ -259,7 +284,9 @@ pub fn steepest_descent<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, tol: &
         let nb = qb.grad(&xb).normalize();
         let h = xa - xb; // Eq. (17), h_A = −h_B
         let hn = h.norm();
-        if hn == 0.0 || (na.cross(&h).norm() < tol.sd_tol * hn && nb.cross(&h).norm() < tol.sd_tol * hn) {
+        if hn == 0.0
+            || (na.cross(&h).norm() < tol.sd_tol * hn && nb.cross(&h).norm() < tol.sd_tol * hn)
+        {
             break;
         }
         let ha = h - na * h.dot(&na); // Eq. (19)
@@ -296,7 +323,13 @@ mod tests {
     use crate::rigid::rotate;
 
     fn tol() -> Tolerances {
-        Tolerances { nr_tol: 1e-12, nr_max_iter: 50, nr_relax: 0.5, sd_max_iter: 200, sd_tol: 1e-3 }
+        Tolerances {
+            nr_tol: 1e-12,
+            nr_max_iter: 50,
+            nr_relax: 0.5,
+            sd_max_iter: 200,
+            sd_tol: 1e-3,
+        }
     }
 
     #[test]
@@ -310,12 +343,23 @@ mod tests {
     #[test]
     fn spheres_give_centre_distance_minus_diameter() {
         let e = Ellipsoid::new(0.5, 0.5, 0.5);
-        let pa = Pose { r: V3::zeros(), rot: M3::identity() };
+        let pa = Pose {
+            r: V3::zeros(),
+            rot: M3::identity(),
+        };
         let mut st = SolverStats::default();
         for &x in &[1.3, 1.0 + 1e-9, 1.0 - 1e-9, 0.9] {
-            let pb = Pose { r: V3::new(x, 0.2, -0.1), rot: rotate(&M3::identity(), &V3::new(1.0, 2.0, 3.0), 0.7) };
+            let pb = Pose {
+                r: V3::new(x, 0.2, -0.1),
+                rot: rotate(&M3::identity(), &V3::new(1.0, 2.0, 3.0), 0.7),
+            };
             let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut st).unwrap();
-            assert!((d.d - (pb.r.norm() - 1.0)).abs() < 1e-12, "{} vs {}", d.d, pb.r.norm() - 1.0);
+            assert!(
+                (d.d - (pb.r.norm() - 1.0)).abs() < 1e-12,
+                "{} vs {}",
+                d.d,
+                pb.r.norm() - 1.0
+            );
         }
         assert_eq!(st.failures, 0);
     }
@@ -323,11 +367,32 @@ mod tests {
     #[test]
     fn steepest_descent_then_newton_agree_with_newton() {
         let e = Ellipsoid::new(1.2, 0.3, 0.3);
-        let pa = Pose { r: V3::zeros(), rot: rotate(&M3::identity(), &V3::new(0.0, 0.0, 1.0), 0.4) };
-        let pb = Pose { r: V3::new(1.5, 1.6, 0.3), rot: rotate(&M3::identity(), &V3::new(1.0, 0.0, 1.0), 1.1) };
+        let pa = Pose {
+            r: V3::zeros(),
+            rot: rotate(&M3::identity(), &V3::new(0.0, 0.0, 1.0), 0.4),
+        };
+        let pb = Pose {
+            r: V3::new(1.5, 1.6, 0.3),
+            rot: rotate(&M3::identity(), &V3::new(1.0, 0.0, 1.0), 1.1),
+        };
         let mut st = SolverStats::default();
         let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut st).unwrap();
-        let (xa, xb) = steepest_descent(&e, &pa, &e, &pb, &Tolerances { sd_max_iter: 5000, sd_tol: 1e-10, ..tol() });
-        assert!(((xa - xb).norm() - d.d).abs() < 1e-6, "{} vs {}", (xa - xb).norm(), d.d);
+        let (xa, xb) = steepest_descent(
+            &e,
+            &pa,
+            &e,
+            &pb,
+            &Tolerances {
+                sd_max_iter: 5000,
+                sd_tol: 1e-10,
+                ..tol()
+            },
+        );
+        assert!(
+            ((xa - xb).norm() - d.d).abs() < 1e-6,
+            "{} vs {}",
+            (xa - xb).norm(),
+            d.d
+        );
     }
 }

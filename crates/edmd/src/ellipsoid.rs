@@ -41,7 +41,11 @@ impl Placed for PlacedEllipsoid {
     fn eval(&self, x: &V3) -> LabEval {
         let d = x - self.r;
         let grad = self.h * d;
-        LabEval { f: 0.5 * d.dot(&grad) - 1.0, grad, hess: self.h }
+        LabEval {
+            f: 0.5 * d.dot(&grad) - 1.0,
+            grad,
+            hess: self.h,
+        }
     }
     fn f(&self, x: &V3) -> f64 {
         let d = x - self.r;
@@ -55,7 +59,10 @@ impl Placed for PlacedEllipsoid {
 impl Surface for Ellipsoid {
     type Placed = PlacedEllipsoid;
     fn place(&self, p: &Pose) -> PlacedEllipsoid {
-        PlacedEllipsoid { r: p.r, h: p.rot.transpose() * M3::from_diagonal(&(2.0 * self.inv2)) * p.rot }
+        PlacedEllipsoid {
+            r: p.r,
+            h: p.rot.transpose() * M3::from_diagonal(&(2.0 * self.inv2)) * p.rot,
+        }
     }
     fn f(&self, x: &V3) -> f64 {
         x.component_mul(x).dot(&self.inv2) - 1.0

@@ -30,8 +30,9 @@ trait Model {
     /// Applies the collision; returns the impulse given to `b`, or `None` if the bodies separate.
     fn collide(&self, a: &mut Body, b: &mut Body, x: &Self::Extra) -> Option<V3>;
     fn stats(&self) -> SolverStats;
-    /// A lower bound on the contact time of two bodies whose bounding spheres overlap.
-    fn lower_bound(&mut self, a: &Body, b: &Body) -> f64;
+    /// A lower bound on the contact time of two bodies whose bounding spheres overlap, and an
+    /// estimate of it (the time to close the gap at the present rate).
+    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, f64);
 }
 
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
@@ -65,8 +66,8 @@ impl Model for SphereModel {
     fn stats(&self) -> SolverStats {
         SolverStats::default()
     }
-    fn lower_bound(&mut self, _: &Body, _: &Body) -> f64 {
-        0.0
+    fn lower_bound(&mut self, _: &Body, _: &Body) -> (f64, f64) {
+        (0.0, 0.0)
     }
 }
 
@@ -85,7 +86,16 @@ impl Model for EllipsoidModel {
         self.e
     }
     fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
-        predict(&self.e, a, &self.e, b, horizon, &self.params, &mut self.stats).map(|h| (h.t, (h.xc, h.n)))
+        predict(
+            &self.e,
+            a,
+            &self.e,
+            b,
+            horizon,
+            &self.params,
+            &mut self.stats,
+        )
+        .map(|h| (h.t, (h.xc, h.n)))
     }
     fn collide(&self, a: &mut Body, b: &mut Body, x: &(V3, V3)) -> Option<V3> {
         collide(a, b, &x.0, &x.1, self.inertia, self.inertia)
@@ -93,20 +103,51 @@ impl Model for EllipsoidModel {
     fn stats(&self) -> SolverStats {
         self.stats
     }
-    fn lower_bound(&mut self, a: &Body, b: &Body) -> f64 {
+    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, f64) {
         let l = self.e.s.max();
         let pa = a.pose_after(0.0);
         let pb = b.pose_after(0.0);
-        match distance(&self.e, &pa, &self.e, &pb, None, &self.params.tol, &mut self.stats) {
-            Some(d) if d.d > 0.0 => d.d / ddot_max(a, b, l, l),
-            _ => 0.0,
+        match distance(
+            &self.e,
+            &pa,
+            &self.e,
+            &pb,
+            None,
+            &self.params.tol,
+            &mut self.stats,
+        ) {
+            Some(d) if d.d > 0.0 => {
+                let lower = d.d / ddot_max(a, b, l, l);
+                // ḋ now, from the velocities of the closest points along the gap (envelope theorem).
+                let n = (d.xb - d.xa) / d.d;
+                let rate =
+                    (b.v + b.w.cross(&(d.xb - pb.r)) - a.v - a.w.cross(&(d.xa - pa.r))).dot(&n);
+                let estimate = if rate < 0.0 {
+                    (d.d / -rate).max(lower)
+                } else {
+                    f64::INFINITY
+                };
+                (lower, estimate)
+            }
+            _ => (0.0, 0.0),
         }
     }
 }
 
 enum Neighbourhood {
-    Ll { cells: Cells, cell_of: Vec<usize>, img: Vec<[i32; 3]> },
-    Nnl { obps: Vec<Obp>, lists: Vec<Vec<(u32, [i8; 3])>>, t_r: f64, epoch: u32, delta: f64, eps: f64 },
+    Ll {
+        cells: Cells,
+        cell_of: Vec<usize>,
+        img: Vec<[i32; 3]>,
+    },
+    Nnl {
+        obps: Vec<Obp>,
+        lists: Vec<Vec<(u32, [i8; 3])>>,
+        t_r: f64,
+        epoch: u32,
+        delta: f64,
+        eps: f64,
+    },
 }
 
 struct Engine<M: Model> {
@@ -119,7 +160,7 @@ struct Engine<M: Model> {
     inv_i: f64,
     nb: Neighbourhood,
     scratch: Vec<(u32, [i32; 3])>,
-    order: Vec<(f64, u32, [i32; 3])>,
+    order: Vec<(f64, f64, u32, [i32; 3])>,
     acc: Accounting,
 }
 
@@ -146,7 +187,11 @@ impl<M: Model> Engine<M> {
                     needed: 6.0 * lb,
                     why: "linked cells need 3 cells of bounding-sphere size per side; use neighbours = \"nnl\" or more particles",
                 })?;
-                Neighbourhood::Ll { cells, cell_of: vec![0; n], img: vec![[0; 3]; n] }
+                Neighbourhood::Ll {
+                    cells,
+                    cell_of: vec![0; n],
+                    img: vec![[0; 3]; n],
+                }
             }
             Neighbours::Nnl => Neighbourhood::Nnl {
                 obps: Vec::new(),
@@ -169,7 +214,10 @@ impl<M: Model> Engine<M> {
             nb,
             scratch: Vec::new(),
             order: Vec::new(),
-            acc: Accounting { ke_trans, ..Default::default() },
+            acc: Accounting {
+                ke_trans,
+                ..Default::default()
+            },
         };
         match &mut e.nb {
             Neighbourhood::Ll { cells, cell_of, .. } => {
@@ -210,7 +258,11 @@ impl<M: Model> Engine<M> {
             extra: M::Extra::default(),
         };
         match &self.nb {
-            Neighbourhood::Ll { cells, cell_of, img } => {
+            Neighbourhood::Ll {
+                cells,
+                cell_of,
+                img,
+            } => {
                 let c = cells.coords(cell_of[i]);
                 let r = a.r - self.shift_vec(img[i]);
                 if let Some((tau, dim, up)) = cells.exit(c, &r, &a.v) {
@@ -228,11 +280,25 @@ impl<M: Model> Engine<M> {
                             }
                             let bj = &self.bodies[ju];
                             let s = ll_shift(nbc.shift, img[i], img[ju]);
-                            let b = Body { r: bj.r + bj.v * (self.t - bj.t) + self.shift_vec(s), v: bj.v, rot: a.rot, w: a.w, t: self.t };
+                            let b = Body {
+                                r: bj.r + bj.v * (self.t - bj.t) + self.shift_vec(s),
+                                v: bj.v,
+                                rot: a.rot,
+                                w: a.w,
+                                t: self.t,
+                            };
                             if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
                                 && self.t + tau < best.t
                             {
-                                best = Event { t: self.t + tau, a: i as u32, b: j, ca: self.count[i], cb: self.count[ju], kind: Kind::Collision { shift: s }, extra };
+                                best = Event {
+                                    t: self.t + tau,
+                                    a: i as u32,
+                                    b: j,
+                                    ca: self.count[i],
+                                    cb: self.count[ju],
+                                    kind: Kind::Collision { shift: s },
+                                    extra,
+                                };
                             }
                         }
                     }
@@ -243,7 +309,12 @@ impl<M: Model> Engine<M> {
                     return;
                 }
                 for nbc in cells.around(cell_of[i]) {
-                    cand.extend(cells.members(nbc.cell).iter().map(|&j| (j, ll_shift(nbc.shift, img[i], img[j as usize]))));
+                    cand.extend(
+                        cells
+                            .members(nbc.cell)
+                            .iter()
+                            .map(|&j| (j, ll_shift(nbc.shift, img[i], img[j as usize]))),
+                    );
                 }
             }
             Neighbourhood::Nnl { lists, t_r, .. } => {
@@ -264,22 +335,28 @@ impl<M: Model> Engine<M> {
             if M::ROTATES {
                 let mut b = self.bodies[ju];
                 b.r += self.shift_vec(shift);
-                if let Some((t1, _)) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), 2.0 * lb) {
+                if let Some((t1, _)) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), 2.0 * lb)
+                {
                     // Bounding spheres already overlap: the distance now and ḋ_max (Eq. 32) give a
                     // better lower bound on the contact time than the bounding spheres.
-                    let lower = if t1 == 0.0 { self.m.lower_bound(&a, &b) } else { t1 };
-                    order.push((lower, j, shift));
+                    let (lower, estimate) = if t1 == 0.0 {
+                        self.m.lower_bound(&a, &b)
+                    } else {
+                        (t1, t1)
+                    };
+                    order.push((estimate, lower, j, shift));
                 }
             } else {
-                order.push((0.0, j, shift));
+                order.push((0.0, 0.0, j, shift));
             }
         }
         if M::ROTATES {
             order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         }
-        for &(t1, j, shift) in &order {
-            if self.t + t1 >= best.t {
-                break;
+        // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
+        for &(_, lower, j, shift) in &order {
+            if self.t + lower >= best.t {
+                continue;
             }
             let ju = j as usize;
             let mut b = self.bodies[ju];
@@ -287,7 +364,15 @@ impl<M: Model> Engine<M> {
             if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
                 && self.t + tau < best.t
             {
-                best = Event { t: self.t + tau, a: i as u32, b: j, ca: self.count[i], cb: self.count[ju], kind: Kind::Collision { shift }, extra };
+                best = Event {
+                    t: self.t + tau,
+                    a: i as u32,
+                    b: j,
+                    ca: self.count[i],
+                    cb: self.count[ju],
+                    kind: Kind::Collision { shift },
+                    extra,
+                };
             }
         }
         self.order = order;
@@ -307,10 +392,22 @@ impl<M: Model> Engine<M> {
             b.r = b.r.map(|x| x.rem_euclid(l));
         }
         let n = self.bodies.len();
-        let Neighbourhood::Nnl { obps, lists, t_r, epoch, delta, eps } = &mut self.nb else {
+        let Neighbourhood::Nnl {
+            obps,
+            lists,
+            t_r,
+            epoch,
+            delta,
+            eps,
+        } = &mut self.nb
+        else {
             return;
         };
-        *obps = self.bodies.iter().map(|b| Obp::around(&surf, b, *delta)).collect();
+        *obps = self
+            .bodies
+            .iter()
+            .map(|b| Obp::around(&surf, b, *delta))
+            .collect();
         for li in lists.iter_mut() {
             li.clear();
         }
@@ -318,7 +415,11 @@ impl<M: Model> Engine<M> {
         let sv = |s: [i8; 3]| V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l;
         match Cells::new(l, 2.0 * rho) {
             Some(mut cells) => {
-                let cell_of: Vec<usize> = self.bodies.iter().map(|b| cells.index(cells.coords_of(&b.r))).collect();
+                let cell_of: Vec<usize> = self
+                    .bodies
+                    .iter()
+                    .map(|b| cells.index(cells.coords_of(&b.r)))
+                    .collect();
                 for (i, &c) in cell_of.iter().enumerate() {
                     cells.insert(c, i as u32);
                 }
@@ -339,9 +440,15 @@ impl<M: Model> Engine<M> {
                 for i in 0..n {
                     for j in (i + 1)..n {
                         for k in 0..27 {
-                            let s = [(k % 3 - 1) as i8, ((k / 3) % 3 - 1) as i8, (k / 9 - 1) as i8];
+                            let s = [
+                                (k % 3 - 1) as i8,
+                                ((k / 3) % 3 - 1) as i8,
+                                (k / 9 - 1) as i8,
+                            ];
                             let d = obps[j].c + sv(s) - obps[i].c;
-                            if d.norm() < obps[i].radius() + obps[j].radius() && overlap(&obps[i], &obps[j], &sv(s)) {
+                            if d.norm() < obps[i].radius() + obps[j].radius()
+                                && overlap(&obps[i], &obps[j], &sv(s))
+                            {
                                 lists[i].push((j as u32, s));
                                 lists[j].push((i as u32, s.map(|x| -x)));
                             }
@@ -365,7 +472,15 @@ impl<M: Model> Engine<M> {
             self.predict_for(i);
         }
         if tr.is_finite() {
-            self.cal.push(Event { t: tr, a: 0, b: 0, ca: ep, cb: 0, kind: Kind::Rebuild, extra: M::Extra::default() });
+            self.cal.push(Event {
+                t: tr,
+                a: 0,
+                b: 0,
+                ca: ep,
+                cb: 0,
+                kind: Kind::Rebuild,
+                extra: M::Extra::default(),
+            });
         }
     }
 
@@ -373,13 +488,28 @@ impl<M: Model> Engine<M> {
     fn update_escape(&mut self, i: usize) {
         let surf = self.m.surface();
         let t = self.t;
-        let Neighbourhood::Nnl { obps, t_r, epoch, eps, .. } = &mut self.nb else {
+        let Neighbourhood::Nnl {
+            obps,
+            t_r,
+            epoch,
+            eps,
+            ..
+        } = &mut self.nb
+        else {
             return;
         };
         let te = t + escape_time(&surf, &self.bodies[i], &obps[i], *eps);
         if te < *t_r {
             *t_r = te;
-            self.cal.push(Event { t: te, a: 0, b: 0, ca: *epoch, cb: 0, kind: Kind::Rebuild, extra: M::Extra::default() });
+            self.cal.push(Event {
+                t: te,
+                a: 0,
+                b: 0,
+                ca: *epoch,
+                cb: 0,
+                kind: Kind::Rebuild,
+                extra: M::Extra::default(),
+            });
         }
     }
 
@@ -391,7 +521,11 @@ impl<M: Model> Engine<M> {
     }
 
     /// Processes events until `n` more collisions have happened; `on_collision` sees each one.
-    fn advance(&mut self, n: u64, mut on_collision: impl FnMut(&mut Self)) -> Result<(), EdmdError> {
+    fn advance(
+        &mut self,
+        n: u64,
+        mut on_collision: impl FnMut(&mut Self),
+    ) -> Result<(), EdmdError> {
         let target = self.acc.collisions + n;
         let compact_at = 8 * self.bodies.len() + 1024;
         while self.acc.collisions < target {
@@ -446,7 +580,8 @@ impl<M: Model> Engine<M> {
         let happened = if let Some(j) = imp {
             self.acc.ke_int += self.acc.ke_trans * (self.t - self.acc.t_last);
             self.acc.t_last = self.t;
-            self.acc.ke_trans += 0.5 * (self.bodies[a].v.norm_squared() + bb.v.norm_squared()) - ke_before;
+            self.acc.ke_trans +=
+                0.5 * (self.bodies[a].v.norm_squared() + bb.v.norm_squared()) - ke_before;
             self.acc.virial += (bb.r - self.bodies[a].r).dot(&j);
             self.acc.collisions += 1;
             true
@@ -464,7 +599,12 @@ impl<M: Model> Engine<M> {
     fn cross(&mut self, i: usize, dim: usize, up: bool) {
         self.acc.crossings += 1;
         self.bodies[i].advance_to(self.t);
-        let Neighbourhood::Ll { cells, cell_of, img } = &mut self.nb else {
+        let Neighbourhood::Ll {
+            cells,
+            cell_of,
+            img,
+        } = &mut self.nb
+        else {
             return;
         };
         let mut d = [0i32; 3];
@@ -489,7 +629,14 @@ impl<M: Model> Engine<M> {
     fn energy(&self) -> f64 {
         self.bodies
             .iter()
-            .map(|b| 0.5 * b.v.norm_squared() + if self.inv_i > 0.0 { 0.5 * b.w.norm_squared() / self.inv_i } else { 0.0 })
+            .map(|b| {
+                0.5 * b.v.norm_squared()
+                    + if self.inv_i > 0.0 {
+                        0.5 * b.w.norm_squared() / self.inv_i
+                    } else {
+                        0.0
+                    }
+            })
             .sum()
     }
 
@@ -573,29 +720,54 @@ pub fn run(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<RunReport, Ed
 }
 
 /// As [`run`], also returning the final configuration.
-pub fn run_with_state(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<(RunReport, FinalState), EdmdError> {
+pub fn run_with_state(
+    scene: &Scene,
+    progress: &mut dyn FnMut(u64),
+) -> Result<(RunReport, FinalState), EdmdError> {
     scene.validate()?;
     let [a, b, c] = scene.semi_axes();
     let e = Ellipsoid::new(a, b, c);
     // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4.
     let rmin = a.min(b);
-    let inertia_rot = Inertia { inv_m: 1.0, inv_i: 1.0 / (0.4 * rmin * rmin) };
+    let inertia_rot = Inertia {
+        inv_m: 1.0,
+        inv_i: 1.0 / (0.4 * rmin * rmin),
+    };
     let vp = std::f64::consts::PI / 6.0;
     let l = (scene.n as f64 * vp / scene.phi).cbrt();
     // A body must not reach its own periodic image, nor a neighbour through two images.
     if l <= 4.0 * e.s.max() {
-        return Err(EdmdError::BoxTooSmall { l, needed: 4.0 * e.s.max(), why: "the box must exceed twice the bounding-sphere diameter" });
+        return Err(EdmdError::BoxTooSmall {
+            l,
+            needed: 4.0 * e.s.max(),
+            why: "the box must exceed twice the bounding-sphere diameter",
+        });
     }
     let mut rng = Rng::new(scene.seed);
     match scene.shape {
         ShapeKind::Sphere => {
-            let inertia = Inertia { inv_m: 1.0, inv_i: 0.0 };
-            let cfg = initial_configuration(scene.n, scene.phi, &Geom::Sphere { sigma: 1.0 }, inertia, &mut rng)?;
+            let inertia = Inertia {
+                inv_m: 1.0,
+                inv_i: 0.0,
+            };
+            let cfg = initial_configuration(
+                scene.n,
+                scene.phi,
+                &Geom::Sphere { sigma: 1.0 },
+                inertia,
+                &mut rng,
+            )?;
             let eng = Engine::new(SphereModel { sigma: 1.0 }, cfg.l, cfg.bodies, 0.0, scene)?;
             measure(eng, scene, Geom::Sphere { sigma: 1.0 }, progress)
         }
         ShapeKind::Ellipsoid => {
-            let cfg = initial_configuration(scene.n, scene.phi, &Geom::Ellipsoid(e), inertia_rot, &mut rng)?;
+            let cfg = initial_configuration(
+                scene.n,
+                scene.phi,
+                &Geom::Ellipsoid(e),
+                inertia_rot,
+                &mut rng,
+            )?;
             let params = ContactParams {
                 eps_d: scene.eps_d,
                 brent_tol: scene.brent_tol,
@@ -607,7 +779,12 @@ pub fn run_with_state(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<(R
                     sd_tol: scene.sd_tol,
                 },
             };
-            let model = EllipsoidModel { e, params, inertia: inertia_rot, stats: SolverStats::default() };
+            let model = EllipsoidModel {
+                e,
+                params,
+                inertia: inertia_rot,
+                stats: SolverStats::default(),
+            };
             let eng = Engine::new(model, cfg.l, cfg.bodies, inertia_rot.inv_i, scene)?;
             measure(eng, scene, Geom::Ellipsoid(e), progress)
         }
@@ -615,11 +792,16 @@ pub fn run_with_state(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<(R
     }
 }
 
-fn measure<M: Model>(mut eng: Engine<M>, scene: &Scene, geom: Geom, progress: &mut dyn FnMut(u64)) -> Result<(RunReport, FinalState), EdmdError> {
+fn measure<M: Model>(
+    mut eng: Engine<M>,
+    scene: &Scene,
+    geom: Geom,
+    progress: &mut dyn FnMut(u64),
+) -> Result<(RunReport, FinalState), EdmdError> {
     let total = scene.equilibrate + scene.collisions;
     let every = (total / 100).clamp(1, 10_000);
     let mut tick = |done: u64| {
-        if done % every == 0 {
+        if done.is_multiple_of(every) {
             progress(done);
         }
     };
@@ -627,10 +809,20 @@ fn measure<M: Model>(mut eng: Engine<M>, scene: &Scene, geom: Geom, progress: &m
 
     eng.sync_all();
     let n = eng.bodies.len();
-    let start_acc = Accounting { ke_trans: eng.acc.ke_trans, t_last: eng.t, collisions: eng.acc.collisions, ..Default::default() };
+    let start_acc = Accounting {
+        ke_trans: eng.acc.ke_trans,
+        t_last: eng.t,
+        collisions: eng.acc.collisions,
+        ..Default::default()
+    };
     let base_collisions = eng.acc.collisions;
     let (crossings0, rebuilds0) = (eng.acc.crossings, eng.acc.rebuilds);
-    eng.acc = Accounting { crossings: crossings0, rebuilds: rebuilds0, separating: eng.acc.separating, ..start_acc };
+    eng.acc = Accounting {
+        crossings: crossings0,
+        rebuilds: rebuilds0,
+        separating: eng.acc.separating,
+        ..start_acc
+    };
     let (e0, p0, t0, stats0) = (eng.energy(), eng.momentum(), eng.t, eng.m.stats());
     let blocks = scene.collisions.min(10);
     let mut marks: Vec<(f64, f64)> = Vec::with_capacity(blocks as usize);
@@ -638,7 +830,7 @@ fn measure<M: Model>(mut eng: Engine<M>, scene: &Scene, geom: Geom, progress: &m
     eng.advance(scene.collisions, |e| {
         let k = e.acc.collisions - base_collisions;
         tick(e.acc.collisions);
-        if k * blocks % scene.collisions == 0 {
+        if (k * blocks).is_multiple_of(scene.collisions) {
             marks.push((e.acc.virial, e.acc.ke_int));
         }
     })?;
@@ -675,7 +867,11 @@ fn measure<M: Model>(mut eng: Engine<M>, scene: &Scene, geom: Geom, progress: &m
         overlaps: audit(&eng.bodies, eng.l, &geom, scene.audit_tol),
         solver_failures: stats.failures,
         contact_nr_fallbacks: stats.contact_fallbacks,
-        nr_iterations_mean: if calls > 0.0 { (stats.nr_iterations - stats0.nr_iterations) as f64 / calls } else { 0.0 },
+        nr_iterations_mean: if calls > 0.0 {
+            (stats.nr_iterations - stats0.nr_iterations) as f64 / calls
+        } else {
+            0.0
+        },
         distance_calls_per_collision: calls / scene.collisions as f64,
         searches_per_collision: (stats.searches - stats0.searches) as f64 / scene.collisions as f64,
         mean_free_time: n as f64 * sim_time / (2.0 * scene.collisions as f64),
@@ -698,7 +894,9 @@ pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
     for i in 0..bodies.len() {
         for j in (i + 1)..bodies.len() {
             let r = min_image(bodies[j].r - bodies[i].r, l);
-            if r.norm() < reach && geom.contact_scale(&bodies[i].rot, &bodies[j].rot, &r) < 1.0 - tol {
+            if r.norm() < reach
+                && geom.contact_scale(&bodies[i].rot, &bodies[j].rot, &r) < 1.0 - tol
+            {
                 overlaps += 1;
             }
         }

@@ -44,8 +44,16 @@ impl Geom {
             Geom::Sphere { .. } => false,
             Geom::Ellipsoid(e) => {
                 let half = e.s * k;
-                let a = Obp { c: V3::zeros(), rot: *rot_a, half };
-                let b = Obp { c: *r, rot: *rot_b, half };
+                let a = Obp {
+                    c: V3::zeros(),
+                    rot: *rot_a,
+                    half,
+                };
+                let b = Obp {
+                    c: *r,
+                    rot: *rot_b,
+                    half,
+                };
                 !overlap(&a, &b, &V3::zeros())
             }
         }
@@ -69,7 +77,9 @@ fn random_rotation(rng: &mut Rng) -> M3 {
             break q.normalize();
         }
     };
-    let uq = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+    let uq = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        q[0], q[1], q[2], q[3],
+    ));
     uq.to_rotation_matrix().into_inner()
 }
 
@@ -82,12 +92,23 @@ pub struct Config {
 }
 
 /// N bodies at packing fraction `phi` (volume π/6 each) without overlaps, at temperature 1.
-pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, rng: &mut Rng) -> Result<Config, EdmdError> {
+pub fn initial_configuration(
+    n: usize,
+    phi: f64,
+    geom: &Geom,
+    inertia: Inertia,
+    rng: &mut Rng,
+) -> Result<Config, EdmdError> {
     let vp = std::f64::consts::PI / 6.0;
     let l_target = (n as f64 * vp / phi).cbrt();
     let diam = 2.0 * geom.bounding_radius();
     let nc = ((n as f64 / 4.0).cbrt().ceil() as usize).max(1);
-    let basis = [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]];
+    let basis = [
+        [0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0],
+        [0.5, 0.0, 0.5],
+        [0.0, 0.5, 0.5],
+    ];
     let mut sites = Vec::with_capacity(n);
     'fill: for z in 0..nc {
         for y in 0..nc {
@@ -96,13 +117,25 @@ pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, 
                     if sites.len() == n {
                         break 'fill;
                     }
-                    sites.push(V3::new(x as f64 + b[0] + 0.25, y as f64 + b[1] + 0.25, z as f64 + b[2] + 0.25) / nc as f64);
+                    sites.push(
+                        V3::new(
+                            x as f64 + b[0] + 0.25,
+                            y as f64 + b[1] + 0.25,
+                            z as f64 + b[2] + 0.25,
+                        ) / nc as f64,
+                    );
                 }
             }
         }
     }
     let mut rot: Vec<M3> = (0..n)
-        .map(|_| if geom.rotates() { random_rotation(rng) } else { M3::identity() })
+        .map(|_| {
+            if geom.rotates() {
+                random_rotation(rng)
+            } else {
+                M3::identity()
+            }
+        })
         .collect();
     // The densest FCC lattice, in steps of 5 % from the target box, on which the randomly
     // oriented bodies do not overlap: the less compression is left to the Monte Carlo, the better.
@@ -112,7 +145,8 @@ pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, 
         let clear = (0..n).all(|i| {
             ((i + 1)..n).all(|j| {
                 let r = min_image(pos[j] - pos[i], l);
-                geom.surely_apart(&rot[i], &rot[j], &r, 1.0) || geom.contact_scale(&rot[i], &rot[j], &r) > 1.0 + GAP
+                geom.surely_apart(&rot[i], &rot[j], &r, 1.0)
+                    || geom.contact_scale(&rot[i], &rot[j], &r) > 1.0 + GAP
             })
         });
         if clear {
@@ -129,7 +163,10 @@ pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, 
     while l > l_target {
         rounds += 1;
         if rounds > 20_000 {
-            return Err(EdmdError::Compression { reached: n as f64 * vp / l.powi(3), target: phi });
+            return Err(EdmdError::Compression {
+                reached: n as f64 * vp / l.powi(3),
+                target: phi,
+            });
         }
         // Largest uniform compression that keeps every pair apart: μ scales with the centre distance.
         let s_floor = (l_target / l).max(0.9);
@@ -154,7 +191,13 @@ pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, 
         }
         for _ in 0..2 {
             let acc = sweep(&mut pos, &mut rot, l, geom, dr, dth, m, rng);
-            let f = if acc > 0.5 { 1.2 } else if acc < 0.3 { 0.8 } else { 1.0 };
+            let f = if acc > 0.5 {
+                1.2
+            } else if acc < 0.3 {
+                0.8
+            } else {
+                1.0
+            };
             dr = (dr * f).min(0.25 * l);
             dth = (dth * f).min(1.0);
         }
@@ -173,11 +216,21 @@ pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, 
             } else {
                 V3::zeros()
             };
-            Body { r: r.map(|x| x.rem_euclid(l)), v, rot: *rot, w, t: 0.0 }
+            Body {
+                r: r.map(|x| x.rem_euclid(l)),
+                v,
+                rot: *rot,
+                w,
+                t: 0.0,
+            }
         })
         .collect();
     let mean = bodies.iter().fold(V3::zeros(), |a, b| a + b.v) / n as f64;
-    let ke: f64 = bodies.iter().map(|b| 0.5 * (b.v - mean).norm_squared()).sum::<f64>() / inertia.inv_m;
+    let ke: f64 = bodies
+        .iter()
+        .map(|b| 0.5 * (b.v - mean).norm_squared())
+        .sum::<f64>()
+        / inertia.inv_m;
     let scale = (1.5 * n as f64 * kt / ke).sqrt();
     for b in bodies.iter_mut() {
         b.v = (b.v - mean) * scale;
@@ -188,15 +241,29 @@ pub fn initial_configuration(n: usize, phi: f64, geom: &Geom, inertia: Inertia, 
 /// One Monte Carlo sweep of random displacements (and rotations); returns the acceptance ratio.
 /// A move is refused if it brings a pair into contact, or closer than 1 + `margin` and closer than before.
 #[allow(clippy::too_many_arguments)]
-fn sweep(pos: &mut [V3], rot: &mut [M3], l: f64, geom: &Geom, dr: f64, dth: f64, margin: f64, rng: &mut Rng) -> f64 {
+fn sweep(
+    pos: &mut [V3],
+    rot: &mut [M3],
+    l: f64,
+    geom: &Geom,
+    dr: f64,
+    dth: f64,
+    margin: f64,
+    rng: &mut Rng,
+) -> f64 {
     let n = pos.len();
     let mut accepted = 0;
     for _ in 0..n {
         let i = (rng.uniform() * n as f64) as usize % n;
-        let p = (pos[i] + V3::new(rng.range(-dr, dr), rng.range(-dr, dr), rng.range(-dr, dr))).map(|x| x.rem_euclid(l));
+        let p = (pos[i] + V3::new(rng.range(-dr, dr), rng.range(-dr, dr), rng.range(-dr, dr)))
+            .map(|x| x.rem_euclid(l));
         let q = if geom.rotates() {
             let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
-            orthonormalize(&rotate(&rot[i], &axis, dth * rng.uniform() / axis.norm().max(1e-300)))
+            orthonormalize(&rotate(
+                &rot[i],
+                &axis,
+                dth * rng.uniform() / axis.norm().max(1e-300),
+            ))
         } else {
             rot[i]
         };
@@ -210,7 +277,8 @@ fn sweep(pos: &mut [V3], rot: &mut [M3], l: f64, geom: &Geom, dr: f64, dth: f64,
             }
             let mu = geom.contact_scale(&q, &rot[j], &r);
             mu > 1.0 + GAP
-                && (mu >= 1.0 + margin || mu >= geom.contact_scale(&rot[i], &rot[j], &min_image(pos[j] - pos[i], l)))
+                && (mu >= 1.0 + margin
+                    || mu >= geom.contact_scale(&rot[i], &rot[j], &min_image(pos[j] - pos[i], l)))
         });
         if ok {
             pos[i] = p;

@@ -17,6 +17,20 @@
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
 //! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
 //!
+//! Where this engine departs from the paper, and why:
+//! - The calendar holds one event per particle (its earliest collision, cell crossing or, for NNL,
+//!   nothing past the rebuild); a popped event whose partner has moved on re-predicts the particle.
+//!   The earliest event found so far bounds every further contact search (the horizon of Eq. 65,
+//!   generalised), and rigid-body partners are searched in the order of a lower bound on their
+//!   contact time (bounding spheres, or d/ḋ_max), which prunes most searches.
+//! - The contact search adds a speculative secant step to the ε_d stepping of Eq. (39); only a
+//!   sign change found by it is used (see [`contact::predict`]).
+//! - The escape time from a bounding parallelepiped uses the ellipsoid's support function, exact
+//!   and closed-form, instead of Newton–Raphson on the planes (Eqs. 56–58); the stepping of Eq. (61)
+//!   with ε_d^nnl is kept for rotating bodies.
+//! - Initial configurations come from a dilute FCC lattice compressed by hard-body Monte Carlo with
+//!   the Perram–Wertheim overlap test, not from a Lubachevsky–Stillinger growth.
+//!
 //! Units: the diameter σ of the sphere of equal volume (every body has volume π/6), the mass m,
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
 //! and the isotropic moment of inertia (2/5) m min(a, b)² of their inscribed sphere.
@@ -46,7 +60,11 @@ pub enum EdmdError {
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error("box of side {l:.4} too small (need more than {needed:.4}): {why}")]
-    BoxTooSmall { l: f64, needed: f64, why: &'static str },
+    BoxTooSmall {
+        l: f64,
+        needed: f64,
+        why: &'static str,
+    },
     #[error("could not compress to phi = {target} (reached {reached:.4}); the state may be jammed")]
     Compression { reached: f64, target: f64 },
     #[error("the event calendar ran empty (nothing moves)")]

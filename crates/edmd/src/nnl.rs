@@ -16,7 +16,11 @@ pub struct Obp {
 
 impl Obp {
     pub fn around<S: Surface>(s: &S, body: &Body, delta: f64) -> Self {
-        Obp { c: body.r, rot: body.rot, half: s.semi_axes().add_scalar(delta) }
+        Obp {
+            c: body.r,
+            rot: body.rot,
+            half: s.semi_axes().add_scalar(delta),
+        }
     }
 
     /// Radius of the sphere circumscribing the box.
@@ -83,7 +87,11 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
             let h = s.support(&(body.rot * u));
             let o = (body.r - obp.c).dot(u);
             let vu = body.v.dot(u);
-            let gap = if vu > 0.0 { obp.half[k] - o - h } else { obp.half[k] + o - h };
+            let gap = if vu > 0.0 {
+                obp.half[k] - o - h
+            } else {
+                obp.half[k] + o - h
+            };
             if vu != 0.0 {
                 best = best.min(gap.max(0.0) / vu.abs());
             }
@@ -134,8 +142,16 @@ mod tests {
     fn edge_edge_separation_needs_cross_axes() {
         // Two long thin boxes, crossed at 90° and slightly apart along z: only a cross axis separates
         // them once they are rotated 45° about z; the face axes alone would report overlap.
-        let ra = rotate(&M3::identity(), &V3::new(0.0, 0.0, 1.0), std::f64::consts::FRAC_PI_4);
-        let rb = rotate(&M3::identity(), &V3::new(0.0, 0.0, 1.0), -std::f64::consts::FRAC_PI_4);
+        let ra = rotate(
+            &M3::identity(),
+            &V3::new(0.0, 0.0, 1.0),
+            std::f64::consts::FRAC_PI_4,
+        );
+        let rb = rotate(
+            &M3::identity(),
+            &V3::new(0.0, 0.0, 1.0),
+            -std::f64::consts::FRAC_PI_4,
+        );
         let half = V3::new(2.0, 0.1, 0.1);
         let a = obp(V3::zeros(), ra, half);
         let b = obp(V3::new(0.0, 0.0, 0.21), rb, half);
@@ -147,7 +163,13 @@ mod tests {
     #[test]
     fn escape_time_is_exact_without_rotation_and_early_with_rotation() {
         let e = Ellipsoid::new(1.0, 0.5, 0.5);
-        let mut body = Body { r: V3::zeros(), v: V3::new(0.5, 0.0, 0.0), rot: M3::identity(), w: V3::zeros(), t: 0.0 };
+        let mut body = Body {
+            r: V3::zeros(),
+            v: V3::new(0.5, 0.0, 0.0),
+            rot: M3::identity(),
+            w: V3::zeros(),
+            t: 0.0,
+        };
         let o = Obp::around(&e, &body, 0.2);
         assert!((escape_time(&e, &body, &o, 1e-3) - 0.4).abs() < 1e-14);
         body.w = V3::new(0.0, 0.0, 1.0);

@@ -84,7 +84,14 @@ pub struct Inertia {
 /// component of the relative velocity of the contact points and the rotational terms of the
 /// denominator are squared, Δp = 2 u·n / (1/m_A + 1/m_B + |ρ_A×n|²/I_A + |ρ_B×n|²/I_B).
 /// Returns the impulse given to B (A receives its opposite), or `None` if the contact points separate.
-pub fn collide(a: &mut Body, b: &mut Body, xc: &V3, n: &V3, ia: Inertia, ib: Inertia) -> Option<V3> {
+pub fn collide(
+    a: &mut Body,
+    b: &mut Body,
+    xc: &V3,
+    n: &V3,
+    ia: Inertia,
+    ib: Inertia,
+) -> Option<V3> {
     let ra = xc - a.r;
     let rb = xc - b.r;
     let u = (a.v + a.w.cross(&ra)) - (b.v + b.w.cross(&rb));
@@ -135,8 +142,14 @@ mod tests {
             w: V3::new(-0.2, 0.1, 0.9),
             t: 0.0,
         };
-        let ia = Inertia { inv_m: 1.0, inv_i: 1.0 / 0.1 };
-        let ib = Inertia { inv_m: 1.0 / 2.0, inv_i: 1.0 / 0.3 };
+        let ia = Inertia {
+            inv_m: 1.0,
+            inv_i: 1.0 / 0.1,
+        };
+        let ib = Inertia {
+            inv_m: 1.0 / 2.0,
+            inv_i: 1.0 / 0.3,
+        };
         let xc = V3::new(0.6, 0.1, 0.05);
         let n = V3::new(1.0, 0.2, 0.1).normalize();
         let energy = |a: &Body, b: &Body| {
@@ -147,7 +160,10 @@ mod tests {
         };
         let mom = |a: &Body, b: &Body| a.v / ia.inv_m + b.v / ib.inv_m;
         let ang = |a: &Body, b: &Body| {
-            a.r.cross(&a.v) / ia.inv_m + a.w / ia.inv_i + b.r.cross(&b.v) / ib.inv_m + b.w / ib.inv_i
+            a.r.cross(&a.v) / ia.inv_m
+                + a.w / ia.inv_i
+                + b.r.cross(&b.v) / ib.inv_m
+                + b.w / ib.inv_i
         };
         let (e0, p0, l0) = (energy(&a, &b), mom(&a, &b), ang(&a, &b));
         assert!(collide(&mut a, &mut b, &xc, &n, ia, ib).is_some());

@@ -241,7 +241,10 @@ impl Scene {
         if self.phi <= 0.0 || self.phi >= phi_max {
             return bad(
                 "phi",
-                format!("packing fraction must lie in (0, {phi_max}) (close packing), got {}", self.phi),
+                format!(
+                    "packing fraction must lie in (0, {phi_max}) (close packing), got {}",
+                    self.phi
+                ),
             );
         }
         let positive: [(&'static str, f64); 7] = [
@@ -260,16 +263,31 @@ impl Scene {
         }
         let b = self.semi_axes()[1].min(self.semi_axes()[0]);
         if self.eps_d >= b {
-            return bad("eps_d", format!("must be much smaller than the smallest semi-axis {b}, got {}", self.eps_d));
+            return bad(
+                "eps_d",
+                format!(
+                    "must be much smaller than the smallest semi-axis {b}, got {}",
+                    self.eps_d
+                ),
+            );
         }
         if self.eps_nnl >= self.delta_nnl {
-            return bad("eps_nnl", format!("must be smaller than delta_nnl = {}", self.delta_nnl));
+            return bad(
+                "eps_nnl",
+                format!("must be smaller than delta_nnl = {}", self.delta_nnl),
+            );
         }
         if self.nr_relax > 1.0 {
-            return bad("nr_relax", format!("must lie in (0, 1], got {}", self.nr_relax));
+            return bad(
+                "nr_relax",
+                format!("must lie in (0, 1], got {}", self.nr_relax),
+            );
         }
         if self.nr_relax <= 0.0 {
-            return bad("nr_relax", format!("must lie in (0, 1], got {}", self.nr_relax));
+            return bad(
+                "nr_relax",
+                format!("must lie in (0, 1], got {}", self.nr_relax),
+            );
         }
         if self.nr_max_iter == 0 {
             return bad("nr_max_iter", "must be at least 1".into());
@@ -283,12 +301,13 @@ impl Scene {
 
 /// 1-based line of the first `key = ...` assignment in `src`.
 fn line_of(src: &str, key: &str) -> Option<usize> {
-    src.lines().position(|l| {
-        let l = l.trim_start();
-        l.strip_prefix(key)
-            .is_some_and(|rest| rest.trim_start().starts_with('='))
-    })
-    .map(|i| i + 1)
+    src.lines()
+        .position(|l| {
+            let l = l.trim_start();
+            l.strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map(|i| i + 1)
 }
 
 #[cfg(test)]
@@ -297,7 +316,8 @@ mod tests {
 
     #[test]
     fn defaults_fill_optional_keys() {
-        let s = Scene::from_toml_str("shape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2.0\n").unwrap();
+        let s =
+            Scene::from_toml_str("shape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2.0\n").unwrap();
         assert_eq!(s.neighbours, Neighbours::Ll);
         let [a, b, c] = s.semi_axes();
         assert!((a / b - 2.0).abs() < 1e-15 && b == c);
@@ -307,6 +327,16 @@ mod tests {
     #[test]
     fn range_error_names_key_and_line() {
         let e = Scene::from_toml_str("shape = \"sphere\"\nn = 10\nphi = 0.8\n").unwrap_err();
-        assert!(matches!(e, SceneError::Invalid { key: "phi", line: Some(3), .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                SceneError::Invalid {
+                    key: "phi",
+                    line: Some(3),
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 }

@@ -12,12 +12,24 @@ fn params() -> ContactParams {
     ContactParams {
         eps_d: 1e-5,
         brent_tol: 1e-12,
-        tol: Tolerances { nr_tol: 1e-12, nr_max_iter: 50, nr_relax: 0.5, sd_max_iter: 200, sd_tol: 1e-3 },
+        tol: Tolerances {
+            nr_tol: 1e-12,
+            nr_max_iter: 50,
+            nr_relax: 0.5,
+            sd_max_iter: 200,
+            sd_tol: 1e-3,
+        },
     }
 }
 
 fn body(r: V3, v: V3, rot: M3, w: V3) -> Body {
-    Body { r, v, rot, w, t: 0.0 }
+    Body {
+        r,
+        v,
+        rot,
+        w,
+        t: 0.0,
+    }
 }
 
 proptest! {
@@ -51,17 +63,50 @@ proptest! {
 #[test]
 fn rotating_elongated_pair_touches_at_predicted_time() {
     let e = Ellipsoid::new(1.0, 0.4, 0.4);
-    let a = body(V3::zeros(), V3::new(0.2, 0.0, 0.0), M3::identity(), V3::new(0.0, 0.0, 1.5));
-    let b = body(V3::new(2.5, 0.7, 0.1), V3::new(-1.0, 0.0, 0.0), rotate(&M3::identity(), &V3::new(0.0, 1.0, 0.0), 1.0), V3::new(0.5, 0.0, 0.0));
+    let a = body(
+        V3::zeros(),
+        V3::new(0.2, 0.0, 0.0),
+        M3::identity(),
+        V3::new(0.0, 0.0, 1.5),
+    );
+    let b = body(
+        V3::new(2.5, 0.7, 0.1),
+        V3::new(-1.0, 0.0, 0.0),
+        rotate(&M3::identity(), &V3::new(0.0, 1.0, 0.0), 1.0),
+        V3::new(0.5, 0.0, 0.0),
+    );
     let mut st = SolverStats::default();
     let h = predict(&e, &a, &e, &b, f64::INFINITY, &params(), &mut st).expect("they collide");
-    let d = distance(&e, &a.pose_after(h.t), &e, &b.pose_after(h.t), None, &params().tol, &mut st).unwrap();
+    let d = distance(
+        &e,
+        &a.pose_after(h.t),
+        &e,
+        &b.pose_after(h.t),
+        None,
+        &params().tol,
+        &mut st,
+    )
+    .unwrap();
     assert!(d.d.abs() < 1e-10, "distance at contact {}", d.d);
     // Before the contact time they are apart.
     for k in 1..50 {
         let t = h.t * k as f64 / 50.0;
-        let d = distance(&e, &a.pose_after(t), &e, &b.pose_after(t), None, &params().tol, &mut st).unwrap();
-        assert!(d.d > 0.0, "overlap {} at t = {t} before contact {}", d.d, h.t);
+        let d = distance(
+            &e,
+            &a.pose_after(t),
+            &e,
+            &b.pose_after(t),
+            None,
+            &params().tol,
+            &mut st,
+        )
+        .unwrap();
+        assert!(
+            d.d > 0.0,
+            "overlap {} at t = {t} before contact {}",
+            d.d,
+            h.t
+        );
     }
 }
 
@@ -102,22 +147,68 @@ fn grazing_encounters_are_never_missed_and_never_overlap() {
         // The minimum distance along the path, by a fine scan around the graze time.
         let min_d = (0..=2000)
             .map(|k| t_graze - 1e-3 + 1e-6 * k as f64)
-            .map(|t| distance(&e, &a.pose_after(t), &e, &b.pose_after(t), None, &p.tol, &mut st).unwrap().d)
+            .map(|t| {
+                distance(
+                    &e,
+                    &a.pose_after(t),
+                    &e,
+                    &b.pose_after(t),
+                    None,
+                    &p.tol,
+                    &mut st,
+                )
+                .unwrap()
+                .d
+            })
             .fold(f64::INFINITY, f64::min);
-        assert!((min_d - delta).abs() < 1e-11 + 1e-3 * delta.abs(), "min distance {min_d} for delta {delta}");
+        assert!(
+            (min_d - delta).abs() < 1e-11 + 1e-3 * delta.abs(),
+            "min distance {min_d} for delta {delta}"
+        );
         let hit = predict(&e, &a, &e, &b, f64::INFINITY, &p, &mut st);
         if delta > 0.0 {
-            assert!(hit.is_none(), "a miss by {delta} was predicted as a collision: {hit:?}");
+            assert!(
+                hit.is_none(),
+                "a miss by {delta} was predicted as a collision: {hit:?}"
+            );
         } else if delta < 0.0 {
             let h = hit.unwrap_or_else(|| panic!("grazing collision with overlap {delta} missed"));
-            assert!(h.t <= t_graze + 1e-9 && h.t > t_graze - 1e-3, "contact at {} for graze at {t_graze}", h.t);
-            let d = distance(&e, &a.pose_after(h.t), &e, &b.pose_after(h.t), None, &p.tol, &mut st).unwrap().d;
+            assert!(
+                h.t <= t_graze + 1e-9 && h.t > t_graze - 1e-3,
+                "contact at {} for graze at {t_graze}",
+                h.t
+            );
+            let d = distance(
+                &e,
+                &a.pose_after(h.t),
+                &e,
+                &b.pose_after(h.t),
+                None,
+                &p.tol,
+                &mut st,
+            )
+            .unwrap()
+            .d;
             assert!(d.abs() < 1e-12, "distance at the predicted contact: {d}");
             // Before the contact no overlap was ever reached.
             for k in 0..=100 {
                 let t = h.t * k as f64 / 100.0;
-                let d = distance(&e, &a.pose_after(t), &e, &b.pose_after(t), None, &p.tol, &mut st).unwrap().d;
-                assert!(d > -1e-12, "overlap {d} at {t} before the contact at {}", h.t);
+                let d = distance(
+                    &e,
+                    &a.pose_after(t),
+                    &e,
+                    &b.pose_after(t),
+                    None,
+                    &p.tol,
+                    &mut st,
+                )
+                .unwrap()
+                .d;
+                assert!(
+                    d > -1e-12,
+                    "overlap {d} at {t} before the contact at {}",
+                    h.t
+                );
             }
         }
         assert_eq!(st.failures, 0);
@@ -132,13 +223,39 @@ fn grazing_with_rotation() {
         let mut st = SolverStats::default();
         let min_d = (0..=4000)
             .map(|k| 0.79 + 5e-6 * k as f64)
-            .map(|t| distance(&e, &a.pose_after(t), &e, &b.pose_after(t), None, &p.tol, &mut st).unwrap().d)
+            .map(|t| {
+                distance(
+                    &e,
+                    &a.pose_after(t),
+                    &e,
+                    &b.pose_after(t),
+                    None,
+                    &p.tol,
+                    &mut st,
+                )
+                .unwrap()
+                .d
+            })
             .fold(f64::INFINITY, f64::min);
         let hit = predict(&e, &a, &e, &b, f64::INFINITY, &p, &mut st);
         // Whatever the spin did to the minimum, the prediction agrees with its sign.
-        assert_eq!(hit.is_some(), min_d < 0.0, "min distance {min_d}, hit {hit:?}");
+        assert_eq!(
+            hit.is_some(),
+            min_d < 0.0,
+            "min distance {min_d}, hit {hit:?}"
+        );
         if let Some(h) = hit {
-            let d = distance(&e, &a.pose_after(h.t), &e, &b.pose_after(h.t), None, &p.tol, &mut st).unwrap().d;
+            let d = distance(
+                &e,
+                &a.pose_after(h.t),
+                &e,
+                &b.pose_after(h.t),
+                None,
+                &p.tol,
+                &mut st,
+            )
+            .unwrap()
+            .d;
             assert!(d.abs() < 1e-12, "distance at the predicted contact: {d}");
         }
     }

@@ -9,7 +9,13 @@ use edmd::rigid::rotate;
 use proptest::prelude::*;
 
 fn tol() -> Tolerances {
-    Tolerances { nr_tol: 1e-12, nr_max_iter: 50, nr_relax: 0.5, sd_max_iter: 200, sd_tol: 1e-3 }
+    Tolerances {
+        nr_tol: 1e-12,
+        nr_max_iter: 50,
+        nr_relax: 0.5,
+        sd_max_iter: 200,
+        sd_tol: 1e-3,
+    }
 }
 
 fn uniaxial(x0: f64) -> Ellipsoid {
@@ -18,7 +24,11 @@ fn uniaxial(x0: f64) -> Ellipsoid {
 }
 
 fn orientation(axis: [f64; 3], angle: f64) -> M3 {
-    rotate(&M3::identity(), &V3::from(axis), angle / V3::from(axis).norm().max(1e-9))
+    rotate(
+        &M3::identity(),
+        &V3::from(axis),
+        angle / V3::from(axis).norm().max(1e-9),
+    )
 }
 
 proptest! {

@@ -3,7 +3,15 @@
 
 use edmd::{Neighbours, RunReport, Scene, ShapeKind, run};
 
-fn scene(shape: ShapeKind, n: usize, phi: f64, x0: f64, nb: Neighbours, collisions: u64, equilibrate: u64) -> Scene {
+fn scene(
+    shape: ShapeKind,
+    n: usize,
+    phi: f64,
+    x0: f64,
+    nb: Neighbours,
+    collisions: u64,
+    equilibrate: u64,
+) -> Scene {
     let mut s = Scene::new(shape, n, phi);
     s.x0 = x0;
     s.neighbours = nb;
@@ -32,7 +40,15 @@ fn kolafa_reference_values() {
 
 #[test]
 fn spheres_conserve_energy_and_momentum_over_1e5_collisions() {
-    let r = go(&scene(ShapeKind::Sphere, 256, 0.45, 1.0, Neighbours::Ll, 100_000, 1_000));
+    let r = go(&scene(
+        ShapeKind::Sphere,
+        256,
+        0.45,
+        1.0,
+        Neighbours::Ll,
+        100_000,
+        1_000,
+    ));
     assert!(r.energy_drift_rel < 1e-10, "{}", r.energy_drift_rel);
     assert!(r.momentum_drift < 1e-12, "{}", r.momentum_drift);
     assert_eq!(r.solver_failures, 0);
@@ -41,7 +57,15 @@ fn spheres_conserve_energy_and_momentum_over_1e5_collisions() {
 #[test]
 fn ellipsoids_conserve_energy_and_momentum() {
     // 10^4 collisions: what the CI time budget allows on the Newton–Raphson path.
-    let r = go(&scene(ShapeKind::Ellipsoid, 128, 0.4, 2.0, Neighbours::Nnl, 10_000, 1_000));
+    let r = go(&scene(
+        ShapeKind::Ellipsoid,
+        128,
+        0.4,
+        2.0,
+        Neighbours::Nnl,
+        10_000,
+        1_000,
+    ));
     assert!(r.energy_drift_rel < 1e-10, "{}", r.energy_drift_rel);
     assert!(r.momentum_drift < 1e-12, "{}", r.momentum_drift);
     assert_eq!(r.solver_failures, 0);
@@ -51,16 +75,40 @@ fn ellipsoids_conserve_energy_and_momentum() {
 fn no_overlaps_for_elongated_and_flat_ellipsoids_up_to_phi_half() {
     for x0 in [0.5, 2.0] {
         for phi in [0.3, 0.5] {
-            let r = go(&scene(ShapeKind::Ellipsoid, 128, phi, x0, Neighbours::Nnl, 1_500, 500));
+            let r = go(&scene(
+                ShapeKind::Ellipsoid,
+                128,
+                phi,
+                x0,
+                Neighbours::Nnl,
+                1_500,
+                500,
+            ));
             assert_eq!(r.solver_failures, 0, "x0 {x0} phi {phi}");
             assert!(r.pressure_z > 1.0, "x0 {x0} phi {phi}: Z {}", r.pressure_z);
         }
     }
     // X0 = 5 needs N = 256 for the box to exceed twice the bounding diameter; φ = 0.5 takes
     // half a minute to prepare, so CI runs φ = 0.3 and `validation_x0_5_phi_half` does 0.5.
-    let r = go(&scene(ShapeKind::Ellipsoid, 256, 0.3, 5.0, Neighbours::Nnl, 1_500, 500));
+    let r = go(&scene(
+        ShapeKind::Ellipsoid,
+        256,
+        0.3,
+        5.0,
+        Neighbours::Nnl,
+        1_500,
+        500,
+    ));
     assert_eq!(r.solver_failures, 0);
-    let r = go(&scene(ShapeKind::Sphere, 256, 0.5, 1.0, Neighbours::Ll, 20_000, 1_000));
+    let r = go(&scene(
+        ShapeKind::Sphere,
+        256,
+        0.5,
+        1.0,
+        Neighbours::Ll,
+        20_000,
+        1_000,
+    ));
     assert!(r.pressure_z > kolafa(0.45));
 }
 
@@ -68,52 +116,166 @@ fn no_overlaps_for_elongated_and_flat_ellipsoids_up_to_phi_half() {
 #[test]
 #[ignore]
 fn validation_x0_5_phi_half() {
-    let r = go(&scene(ShapeKind::Ellipsoid, 256, 0.5, 5.0, Neighbours::Nnl, 5_000, 1_000));
-    println!("X0 = 5, phi = 0.5: Z = {:.3} ± {:.3}, overlaps {}, solver failures {}, tau_c = {:.1} us", r.pressure_z, r.pressure_z_err, r.overlaps, r.solver_failures, r.tau_c_us);
+    let r = go(&scene(
+        ShapeKind::Ellipsoid,
+        256,
+        0.5,
+        5.0,
+        Neighbours::Nnl,
+        5_000,
+        1_000,
+    ));
+    println!(
+        "X0 = 5, phi = 0.5: Z = {:.3} ± {:.3}, overlaps {}, solver failures {}, tau_c = {:.1} us",
+        r.pressure_z, r.pressure_z_err, r.overlaps, r.solver_failures, r.tau_c_us
+    );
     assert_eq!(r.solver_failures, 0);
 }
 
 #[test]
 fn hard_spheres_match_kolafa_within_two_percent() {
     for (phi, z) in [(0.30, 3.9843), (0.40, 6.9457), (0.45, 9.4029)] {
-        let r = go(&scene(ShapeKind::Sphere, 256, phi, 1.0, Neighbours::Ll, 100_000, 20_000));
-        assert!((r.pressure_z / z - 1.0).abs() < 0.02, "phi {phi}: Z {} ± {} vs Kolafa {z}", r.pressure_z, r.pressure_z_err);
-        assert!((r.temperature - 1.0).abs() < 1e-9, "spheres keep kT = 1: {}", r.temperature);
+        let r = go(&scene(
+            ShapeKind::Sphere,
+            256,
+            phi,
+            1.0,
+            Neighbours::Ll,
+            100_000,
+            20_000,
+        ));
+        assert!(
+            (r.pressure_z / z - 1.0).abs() < 0.02,
+            "phi {phi}: Z {} ± {} vs Kolafa {z}",
+            r.pressure_z,
+            r.pressure_z_err
+        );
+        assert!(
+            (r.temperature - 1.0).abs() < 1e-9,
+            "spheres keep kT = 1: {}",
+            r.temperature
+        );
         // Second check: the Enskog mean free time t = 1/[4ρσ²g(σ)√(πkT/m)], g(σ) = (Z−1)/(4η).
         let rho = phi / (std::f64::consts::PI / 6.0);
         let g = (z - 1.0) / (4.0 * phi);
         let t_mft = 1.0 / (4.0 * rho * g * std::f64::consts::PI.sqrt());
-        assert!((r.mean_free_time / t_mft - 1.0).abs() < 0.03, "phi {phi}: mean free time {} vs {t_mft}", r.mean_free_time);
+        assert!(
+            (r.mean_free_time / t_mft - 1.0).abs() < 0.03,
+            "phi {phi}: mean free time {} vs {t_mft}",
+            r.mean_free_time
+        );
     }
 }
 
 /// Two measurements agree if they differ by less than 4 combined standard errors.
 fn agree(a: &RunReport, b: &RunReport) -> bool {
-    (a.pressure_z - b.pressure_z).abs() < 4.0 * (a.pressure_z_err.powi(2) + b.pressure_z_err.powi(2)).sqrt()
+    (a.pressure_z - b.pressure_z).abs()
+        < 4.0 * (a.pressure_z_err.powi(2) + b.pressure_z_err.powi(2)).sqrt()
 }
 
 #[test]
 fn ellipsoid_with_unit_aspect_ratio_is_a_sphere() {
-    let s = go(&scene(ShapeKind::Sphere, 256, 0.40, 1.0, Neighbours::Ll, 60_000, 5_000));
-    let e = go(&scene(ShapeKind::Ellipsoid, 256, 0.40, 1.0, Neighbours::Ll, 30_000, 3_000));
-    assert!(agree(&s, &e), "sphere Z {} ± {}, X0 = 1 ellipsoid Z {} ± {}", s.pressure_z, s.pressure_z_err, e.pressure_z, e.pressure_z_err);
-    assert!((e.pressure_z / kolafa(0.40) - 1.0).abs() < 0.03, "X0 = 1: Z {}", e.pressure_z);
+    let s = go(&scene(
+        ShapeKind::Sphere,
+        256,
+        0.40,
+        1.0,
+        Neighbours::Ll,
+        60_000,
+        5_000,
+    ));
+    let e = go(&scene(
+        ShapeKind::Ellipsoid,
+        256,
+        0.40,
+        1.0,
+        Neighbours::Ll,
+        30_000,
+        3_000,
+    ));
+    assert!(
+        agree(&s, &e),
+        "sphere Z {} ± {}, X0 = 1 ellipsoid Z {} ± {}",
+        s.pressure_z,
+        s.pressure_z_err,
+        e.pressure_z,
+        e.pressure_z_err
+    );
+    assert!(
+        (e.pressure_z / kolafa(0.40) - 1.0).abs() < 0.03,
+        "X0 = 1: Z {}",
+        e.pressure_z
+    );
     assert_eq!(e.solver_failures, 0);
 }
 
 #[test]
 fn linked_cells_and_neighbour_lists_give_the_same_pressure() {
-    let ll = go(&scene(ShapeKind::Sphere, 256, 0.40, 1.0, Neighbours::Ll, 60_000, 5_000));
-    let nnl = go(&scene(ShapeKind::Sphere, 256, 0.40, 1.0, Neighbours::Nnl, 60_000, 5_000));
-    assert!(agree(&ll, &nnl), "spheres: LL {} ± {}, NNL {} ± {}", ll.pressure_z, ll.pressure_z_err, nnl.pressure_z, nnl.pressure_z_err);
-    let ll = go(&scene(ShapeKind::Ellipsoid, 256, 0.30, 2.0, Neighbours::Ll, 6_000, 1_000));
-    let nnl = go(&scene(ShapeKind::Ellipsoid, 256, 0.30, 2.0, Neighbours::Nnl, 6_000, 1_000));
-    assert!(agree(&ll, &nnl), "X0 = 2: LL {} ± {}, NNL {} ± {}", ll.pressure_z, ll.pressure_z_err, nnl.pressure_z, nnl.pressure_z_err);
+    let ll = go(&scene(
+        ShapeKind::Sphere,
+        256,
+        0.40,
+        1.0,
+        Neighbours::Ll,
+        60_000,
+        5_000,
+    ));
+    let nnl = go(&scene(
+        ShapeKind::Sphere,
+        256,
+        0.40,
+        1.0,
+        Neighbours::Nnl,
+        60_000,
+        5_000,
+    ));
+    assert!(
+        agree(&ll, &nnl),
+        "spheres: LL {} ± {}, NNL {} ± {}",
+        ll.pressure_z,
+        ll.pressure_z_err,
+        nnl.pressure_z,
+        nnl.pressure_z_err
+    );
+    let ll = go(&scene(
+        ShapeKind::Ellipsoid,
+        256,
+        0.30,
+        2.0,
+        Neighbours::Ll,
+        6_000,
+        1_000,
+    ));
+    let nnl = go(&scene(
+        ShapeKind::Ellipsoid,
+        256,
+        0.30,
+        2.0,
+        Neighbours::Nnl,
+        6_000,
+        1_000,
+    ));
+    assert!(
+        agree(&ll, &nnl),
+        "X0 = 2: LL {} ± {}, NNL {} ± {}",
+        ll.pressure_z,
+        ll.pressure_z_err,
+        nnl.pressure_z,
+        nnl.pressure_z_err
+    );
 }
 
 #[test]
 fn same_seed_same_trajectory() {
-    let s = scene(ShapeKind::Ellipsoid, 64, 0.3, 2.0, Neighbours::Nnl, 500, 100);
+    let s = scene(
+        ShapeKind::Ellipsoid,
+        64,
+        0.3,
+        2.0,
+        Neighbours::Nnl,
+        500,
+        100,
+    );
     let (a, b) = (go(&s), go(&s));
     assert_eq!((a.pressure_z, a.sim_time), (b.pressure_z, b.sim_time));
 }
@@ -124,9 +286,23 @@ fn same_seed_same_trajectory() {
 #[ignore]
 fn validation_kolafa_large() {
     for (phi, z) in [(0.30, 3.9843), (0.40, 6.9457), (0.45, 9.4029)] {
-        let r = go(&scene(ShapeKind::Sphere, 500, phi, 1.0, Neighbours::Ll, 1_000_000, 100_000));
+        let r = go(&scene(
+            ShapeKind::Sphere,
+            500,
+            phi,
+            1.0,
+            Neighbours::Ll,
+            1_000_000,
+            100_000,
+        ));
         let dev = r.pressure_z / z - 1.0;
-        println!("phi {phi}: Z = {:.4} ± {:.4} (Kolafa {z}), deviation {:+.3} %, tau_c = {:.3} us", r.pressure_z, r.pressure_z_err, dev * 100.0, r.tau_c_us);
+        println!(
+            "phi {phi}: Z = {:.4} ± {:.4} (Kolafa {z}), deviation {:+.3} %, tau_c = {:.3} us",
+            r.pressure_z,
+            r.pressure_z_err,
+            dev * 100.0,
+            r.tau_c_us
+        );
         assert!(dev.abs() < 0.005);
     }
 }

@@ -11,32 +11,56 @@ fn invalid_key(src: &str) -> (&'static str, Option<usize>) {
 
 #[test]
 fn phi_above_close_packing() {
-    assert_eq!(invalid_key("shape = \"sphere\"\nn = 100\nphi = 0.75\n"), ("phi", Some(3)));
-    assert_eq!(invalid_key("shape = \"ellipsoid\"\nx0 = 2.0\nn = 100\nphi = 0.78\n"), ("phi", Some(4)));
+    assert_eq!(
+        invalid_key("shape = \"sphere\"\nn = 100\nphi = 0.75\n"),
+        ("phi", Some(3))
+    );
+    assert_eq!(
+        invalid_key("shape = \"ellipsoid\"\nx0 = 2.0\nn = 100\nphi = 0.78\n"),
+        ("phi", Some(4))
+    );
     // Just below close packing is accepted by validation.
     assert!(Scene::from_toml_str("shape = \"sphere\"\nn = 100\nphi = 0.74\n").is_ok());
 }
 
 #[test]
 fn aspect_ratio_must_be_positive() {
-    assert_eq!(invalid_key("shape = \"ellipsoid\"\nn = 100\nphi = 0.3\nx0 = 0.0\n").0, "x0");
-    assert_eq!(invalid_key("shape = \"ellipsoid\"\nn = 100\nphi = 0.3\nx0 = -2.0\n"), ("x0", Some(4)));
+    assert_eq!(
+        invalid_key("shape = \"ellipsoid\"\nn = 100\nphi = 0.3\nx0 = 0.0\n").0,
+        "x0"
+    );
+    assert_eq!(
+        invalid_key("shape = \"ellipsoid\"\nn = 100\nphi = 0.3\nx0 = -2.0\n"),
+        ("x0", Some(4))
+    );
 }
 
 #[test]
 fn too_few_particles() {
-    assert_eq!(invalid_key("shape = \"sphere\"\nn = 1\nphi = 0.3\n"), ("n", Some(2)));
+    assert_eq!(
+        invalid_key("shape = \"sphere\"\nn = 1\nphi = 0.3\n"),
+        ("n", Some(2))
+    );
 }
 
 #[test]
 fn negative_eps_d() {
-    assert_eq!(invalid_key("shape = \"sphere\"\nn = 100\nphi = 0.3\neps_d = -1e-5\n"), ("eps_d", Some(4)));
+    assert_eq!(
+        invalid_key("shape = \"sphere\"\nn = 100\nphi = 0.3\neps_d = -1e-5\n"),
+        ("eps_d", Some(4))
+    );
 }
 
 #[test]
 fn non_finite_values() {
-    assert_eq!(invalid_key("shape = \"sphere\"\nn = 100\nphi = nan\n").0, "phi");
-    assert_eq!(invalid_key("shape = \"ellipsoid\"\nn = 100\nphi = 0.3\nx0 = inf\n").0, "x0");
+    assert_eq!(
+        invalid_key("shape = \"sphere\"\nn = 100\nphi = nan\n").0,
+        "phi"
+    );
+    assert_eq!(
+        invalid_key("shape = \"ellipsoid\"\nn = 100\nphi = 0.3\nx0 = inf\n").0,
+        "x0"
+    );
 }
 
 #[test]
@@ -62,13 +86,19 @@ fn run_rejects_a_bad_programmatic_scene_before_any_work() {
     s.collisions = u64::MAX;
     let t = std::time::Instant::now();
     let e = run(&s, &mut |_| panic!("no progress expected")).unwrap_err();
-    assert!(matches!(e, EdmdError::Scene(SceneError::Invalid { key: "phi", .. })), "{e}");
+    assert!(
+        matches!(e, EdmdError::Scene(SceneError::Invalid { key: "phi", .. })),
+        "{e}"
+    );
     assert!(t.elapsed().as_millis() < 100);
 }
 
 #[test]
 fn scene_round_trips_through_toml() {
-    let s = Scene::from_toml_str("shape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = 0.5\nneighbours = \"nnl\"\n").unwrap();
+    let s = Scene::from_toml_str(
+        "shape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = 0.5\nneighbours = \"nnl\"\n",
+    )
+    .unwrap();
     let text = toml::to_string(&s).unwrap();
     assert_eq!(Scene::from_toml_str(&text).unwrap(), s);
 }

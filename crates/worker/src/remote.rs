@@ -7,6 +7,7 @@ use coordinator::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, Wor
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
 use wire::auth::{Token, WithToken};
+use coordinator::grpc::convert::worker_info_to_wire;
 use wire::v1 as pb;
 use wire::v1::worker_client::WorkerClient;
 
@@ -37,19 +38,6 @@ fn held(lease: &LeaseRef) -> pb::HeldLease {
     pb::HeldLease { job_id: lease.job_id.clone(), token: lease.token }
 }
 
-pub fn worker_info_to_wire(info: &WorkerInfo) -> pb::WorkerInfo {
-    pb::WorkerInfo {
-        id: info.id.clone(),
-        hostname: info.hostname.clone(),
-        cores: info.cores.clone(),
-        cpu_model: info.cpu_model.clone(),
-        cpu_flags: info.cpu_flags.clone(),
-        rustc: info.rustc.clone(),
-        git_commit: info.git_commit.clone(),
-        profile: info.profile.clone(),
-    }
-}
-
 impl Remote {
     /// `url` like `http://host:port` or `https://…` (then `ca_pem` verifies the coordinator).
     pub fn new(url: &str, token: Option<Token>, ca_pem: Option<Vec<u8>>, worker_id: String) -> Result<Remote, WorkerError> {
@@ -70,7 +58,7 @@ impl Remote {
         let response = self
             .client
             .clone()
-            .register(request(pb::RegisterRequest { worker: Some(worker_info_to_wire(info)) }))
+            .register(request(pb::RegisterRequest { worker: Some(worker_info_to_wire(info.clone())) }))
             .await
             .map_err(transport)?
             .into_inner();
