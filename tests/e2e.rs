@@ -55,10 +55,13 @@ impl Cluster {
         self.coordinator_with(listen, &[])
     }
 
+    /// `extra` may override the short default lease (1 s, so killed workers are noticed quickly).
     fn coordinator_with(&self, listen: &str, extra: &[&str]) -> (Proc, String) {
+        let lease: &[&str] = if extra.contains(&"--lease-secs") { &[] } else { &["--lease-secs", "1"] };
         let mut child = Command::new(SWEEP)
             .args(["coordinator", "--listen", listen, "--db", self.db.to_str().unwrap()])
-            .args(["--token-file", self.token(), "--lease-secs", "1", "--max-attempts", "5"])
+            .args(["--token-file", self.token(), "--max-attempts", "5"])
+            .args(lease)
             .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -71,8 +74,12 @@ impl Cluster {
     }
 
     fn worker(&self, url: &str, core: &str, token_file: Option<&str>) -> Proc {
+        self.worker_with(url, core, token_file, &[])
+    }
+
+    fn worker_with(&self, url: &str, core: &str, token_file: Option<&str>, extra: &[&str]) -> Proc {
         let mut cmd = Command::new(SWEEP);
-        cmd.args(["worker", "--coordinator", url, "--cores", core]).env_remove("SWEEP_TOKEN");
+        cmd.args(["worker", "--coordinator", url, "--cores", core]).args(extra).env_remove("SWEEP_TOKEN");
         if let Some(token) = token_file {
             cmd.args(["--token-file", token]);
         }
@@ -304,4 +311,73 @@ fn a_campaign_runs_over_tls() {
     // Without the CA the certificate is not trusted; over plain HTTP/2 the TLS server does not answer.
     let untrusted = cluster.sweep(&["status", "--coordinator", &url, "--token-file", cluster.token()]);
     assert!(!untrusted.status.success());
+}
+
+/// SIGTERM: the worker finishes the job in hand, returns its unstarted leases at once (no wait
+/// for expiry, no attempt counted) and exits cleanly.
+#[test]
+fn a_terminated_worker_finishes_its_job_and_returns_the_rest() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator_with("127.0.0.1:0", &["--lease-secs", "60"]);
+    cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(10, 300)));
+    let mut worker = cluster.worker_with(&url, "0", Some(cluster.token()), &["--lease-batch", "10"]);
+    let started = Instant::now();
+    while cluster.status(&url)["running"].as_u64().unwrap() < 10 {
+        assert!(started.elapsed() < Duration::from_secs(30), "never leased the batch");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(400));
+    let pid = worker.0.id().to_string();
+    assert!(Command::new("kill").args(["-TERM", &pid]).status().unwrap().success());
+    let exited = Instant::now();
+    let code = loop {
+        if let Some(code) = worker.0.try_wait().unwrap() {
+            break code;
+        }
+        assert!(exited.elapsed() < Duration::from_secs(10), "the worker ignored SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(code.success(), "unclean exit: {code:?}");
+    // Within the 60 s lease: only a release can have put the rest back in the queue.
+    let status = cluster.status(&url);
+    assert_eq!(status["running"], 0, "{status}");
+    let done = status["done"].as_u64().unwrap();
+    assert!((1..10).contains(&done), "{status}");
+    assert_eq!(status["queued"].as_u64().unwrap(), 10 - done, "{status}");
+    assert_exactly_once(&cluster, done as usize);
+    // The returned jobs run again, on their first counted attempt.
+    let _again = cluster.worker(&url, "1", Some(cluster.token()));
+    cluster.wait_done(&url, 10, Duration::from_secs(30));
+    assert_exactly_once(&cluster, 10);
+}
+
+#[test]
+fn cancel_stops_queued_work_and_workers_are_listed() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let submitted = cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(25, 0)));
+    let campaign = submitted["campaign"].as_str().unwrap().to_string();
+    let out = cluster.sweep(&["cancel", &campaign, "--coordinator", &url, "--token-file", cluster.token(), "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let cancelled: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(cancelled["cancelled"], 25);
+    let _worker = cluster.worker(&url, "0", Some(cluster.token()));
+    let started = Instant::now();
+    let listed = loop {
+        let out = cluster.sweep(&["workers", "--coordinator", &url, "--token-file", cluster.token(), "--format", "json"]);
+        assert!(out.status.success());
+        let workers: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+        if !workers.is_empty() {
+            break workers;
+        }
+        assert!(started.elapsed() < Duration::from_secs(20), "the worker never registered");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(listed.len(), 1);
+    assert_eq!(listed[0]["cores"], serde_json::json!([0]));
+    assert!(!listed[0]["cpu_model"].as_str().unwrap().is_empty(), "provenance missing");
+    std::thread::sleep(Duration::from_millis(500));
+    let status = cluster.status(&url);
+    assert_eq!((status["cancelled"].as_u64(), status["done"].as_u64()), (Some(25), Some(0)), "{status}");
+    assert!(cluster.rows_per_job().is_empty(), "a cancelled job ran");
 }

@@ -377,7 +377,9 @@ impl<M: Model> Engine<M> {
         }
         self.order = order;
         self.scratch = cand;
-        if best.t.is_finite() && !(best.kind == Kind::Rebuild) {
+        // `Rebuild` here is the placeholder for "nothing before the horizon": the global rebuild
+        // event, scheduled separately, predicts this particle again.
+        if best.t.is_finite() && best.kind != Kind::Rebuild {
             self.cal.push(best);
         }
     }
