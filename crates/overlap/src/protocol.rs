@@ -14,7 +14,7 @@ use crate::error::OverlapError;
 use crate::kernels::{arvo::arvo, ocsi::ocsi, qrf::qrf, qri::qri};
 use crate::real::Real;
 use crate::rng::derive_seed;
-use crate::sampler::{Spherocuboid, generate};
+use crate::sampler::{Spherocuboid, regenerate};
 
 /// One benchmark point: a cuboid shape, a sphere, an acceptance ratio, and how to time them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -136,13 +136,13 @@ fn run_typed<T: Real>(spec: &PointSpec, on_repeat: &mut dyn FnMut(u32)) -> Resul
         .map_err(|_| invalid("configurations", format!("{} does not fit in memory", spec.configurations)))?;
     let mut timings = Vec::with_capacity(spec.algorithms.len() * spec.repeats as usize);
     let (mut generation_ms, mut stream_ns) = (0.0, 0.0);
-    let mut arrays_bytes = 0;
     let mut verdicts = vec![0u64; verdict_words(n)];
+    let mut batch = Batch::<T>::zeroed(n);
+    let arrays_bytes = batch.bytes() as u64;
     for repeat in 0..spec.repeats {
         let started = Instant::now();
-        let batch = generate::<T>(&volume, n, derive_seed(spec.seed, repeat as u64));
+        regenerate(&mut batch, &volume, derive_seed(spec.seed, repeat as u64));
         generation_ms += started.elapsed().as_secs_f64() * 1e3;
-        arrays_bytes = batch.bytes() as u64;
 
         let started = Instant::now();
         black_box(stream_read(black_box(&batch)));

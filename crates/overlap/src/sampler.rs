@@ -91,6 +91,14 @@ const BLOCKS_PER_TASK: usize = 256;
 /// pool directly into the batch (no intermediate copy).
 pub fn generate<T: Real>(volume: &Spherocuboid, len: usize, seed: u64) -> Batch<T> {
     let mut batch = Batch::zeroed(len);
+    regenerate(&mut batch, volume, seed);
+    batch
+}
+
+/// Overwrites every configuration of `batch` with a new set from `seed`: repeats reuse one
+/// allocation instead of page-faulting a fresh one each time.
+pub fn regenerate<T: Real>(batch: &mut Batch<T>, volume: &Spherocuboid, seed: u64) {
+    let len = batch.len();
     let task_len = BLOCKS_PER_TASK * BLOCK;
     batch.values_mut().par_chunks_mut(task_len).enumerate().for_each(|(task, values)| {
         let mut rng = Rng::new(derive_seed(seed, task as u64));
@@ -104,5 +112,4 @@ pub fn generate<T: Real>(volume: &Spherocuboid, len: usize, seed: u64) -> Batch<
             }
         }
     });
-    batch
 }

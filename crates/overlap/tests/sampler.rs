@@ -47,6 +47,9 @@ fn generation_is_reproducible_and_independent_of_thread_count() {
     let (one, two) = (in_pool(1), in_pool(2));
     assert_eq!(one.values(), two.values());
     assert_ne!(one.values(), generate::<f32>(&volume, n, 43).values(), "another seed, the same set");
+    let mut reused = generate::<f32>(&volume, n, 43);
+    overlap::sampler::regenerate(&mut reused, &volume, 42);
+    assert_eq!(reused.values(), one.values(), "regenerating in place differs from a fresh set");
 }
 
 /// Every generated point lies in the spherocuboid and the rotation is orthonormal.
