@@ -155,24 +155,23 @@ impl<'a, 'i> Sweep<'a, 'i> {
             return Ok(None);
         };
         let fail = |span: Range<usize>, message: String| Issue::new(span, Some(key), message);
+        let integer = |span: &Range<usize>, n: i128| {
+            i64::try_from(n).map(toml::Value::Integer).map_err(|_| fail(span.clone(), format!("{n} is out of range")))
+        };
         let mut out = Vec::new();
         for (span, item) in items(value, key)? {
             match item {
-                Item::Scalar(v) => out.push(match v {
-                    DeValue::String(s) => toml::Value::String(s.to_string()),
-                    DeValue::Boolean(b) => toml::Value::Boolean(*b),
-                    DeValue::Integer(_) => {
-                        let n = toml_integer(v).unwrap_or(Ok(0)).map_err(|m| fail(span.clone(), m))?;
-                        toml::Value::Integer(i64::try_from(n).map_err(|_| fail(span.clone(), format!("{n} is out of range")))?)
-                    }
-                    DeValue::Float(_) => toml::Value::Float(real(v).map_err(|m| fail(span.clone(), m))?),
-                    other => return Err(fail(span, format!("expected a single value, got {}", other.type_str()))),
+                Item::Scalar(v) => out.push(match (v, toml_integer(v)) {
+                    (_, Some(n)) => integer(&span, n.map_err(|m| fail(span.clone(), m))?)?,
+                    (DeValue::String(s), None) => toml::Value::String(s.to_string()),
+                    (DeValue::Boolean(b), None) => toml::Value::Boolean(*b),
+                    (DeValue::Float(_), None) => toml::Value::Float(real(v).map_err(|m| fail(span.clone(), m))?),
+                    (other, None) => return Err(fail(span, format!("expected a single value, got {}", other.type_str()))),
                 }),
                 Item::Range(table) => {
-                    let integral = table.values().all(|v| matches!(v.get_ref(), DeValue::Integer(_)));
-                    if integral {
+                    if table.values().all(|v| matches!(v.get_ref(), DeValue::Integer(_))) {
                         for n in integer_range(table, span.clone(), key)? {
-                            out.push(toml::Value::Integer(i64::try_from(n).map_err(|_| fail(span.clone(), format!("{n} is out of range")))?));
+                            out.push(integer(&span, i128::from(n))?);
                         }
                     } else {
                         out.extend(float_range(table, span.clone(), key)?.into_iter().map(toml::Value::Float));

@@ -74,10 +74,6 @@ impl Slots {
         self.stop.store(true, Ordering::SeqCst);
     }
 
-    pub fn stop_flag(&self) -> Arc<AtomicBool> {
-        self.stop.clone()
-    }
-
     /// Waits for every slot to exit (after [`Slots::stop`]).
     pub fn join(self) {
         for thread in self.threads {
