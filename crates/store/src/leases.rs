@@ -19,8 +19,10 @@ use crate::types::{CompleteOutcome, Completion, FailOutcome, JobState, Lease, Le
 use crate::workers::touch;
 
 impl Store {
-    /// Leases up to `max_jobs` queued jobs to `worker_id`, oldest first, for `lease_for` from `now`;
-    /// each leased job becomes `running` with `attempts + 1`.
+    /// Leases up to `max_jobs` queued jobs to `worker_id`, oldest submission first and within one in
+    /// id order, for `lease_for` from `now`; each leased job becomes `running` with `attempts + 1`.
+    /// Ids are parameter hashes, so id order shuffles a plan: machine drift becomes noise, not structure
+    /// over the swept plane (migration 0002).
     ///
     /// Exclusive jobs (which must never run alongside another job anywhere) are scheduled as a barrier
     /// in queue order: while one runs nothing is leased; when the oldest queued job is exclusive, it is
@@ -54,7 +56,7 @@ impl Store {
         }
         let candidates = sqlx::query(
             "SELECT id, exclusive FROM jobs WHERE state = 'queued'
-             ORDER BY created_at, rowid LIMIT ?1",
+             ORDER BY created_at, id LIMIT ?1",
         )
         .bind(max_jobs)
         .fetch_all(&mut *tx)

@@ -44,7 +44,7 @@ async fn an_exclusive_job_at_the_head_runs_alone() {
     for w in ["w1", "w2"] {
         store.register_worker(&worker(w), T0).await.unwrap();
     }
-    let mut jobs = vec![exclusive_job("x1")];
+    let mut jobs = vec![exclusive_job("exclusive-1")];
     jobs.extend(noop_jobs(0, 3));
     store.submit(&campaign("c"), &jobs, T0).await.unwrap();
 
@@ -52,12 +52,12 @@ async fn an_exclusive_job_at_the_head_runs_alone() {
         ids(&store, "w1", 4, false).await.is_empty(),
         "not for a worker refusing exclusive jobs"
     );
-    assert_eq!(ids(&store, "w1", 4, true).await, ["x1"]);
+    assert_eq!(ids(&store, "w1", 4, true).await, ["exclusive-1"]);
     assert!(
         ids(&store, "w2", 4, true).await.is_empty(),
         "nothing beside a running exclusive job"
     );
-    done(&store, "w1", "x1").await;
+    done(&store, "w1", "exclusive-1").await;
     assert_eq!(
         ids(&store, "w2", 4, true).await,
         ["noop-000000", "noop-000001", "noop-000002"]
@@ -71,7 +71,8 @@ async fn an_exclusive_job_waits_for_running_jobs_and_blocks_later_ones() {
         store.register_worker(&worker(w), T0).await.unwrap();
     }
     let mut jobs = noop_jobs(0, 2);
-    jobs.push(exclusive_job("x1"));
+    // Queue order is id order: this id sorts between noop-000001 and noop-000002.
+    jobs.push(exclusive_job("noop-000001-exclusive"));
     jobs.extend(noop_jobs(2, 4));
     store.submit(&campaign("c"), &jobs, T0).await.unwrap();
 
@@ -85,9 +86,9 @@ async fn an_exclusive_job_waits_for_running_jobs_and_blocks_later_ones() {
     done(&store, "w1", "noop-000000").await;
     assert!(ids(&store, "w2", 8, true).await.is_empty());
     done(&store, "w1", "noop-000001").await;
-    assert_eq!(ids(&store, "w2", 8, true).await, ["x1"]);
+    assert_eq!(ids(&store, "w2", 8, true).await, ["noop-000001-exclusive"]);
     assert!(ids(&store, "w1", 8, true).await.is_empty());
-    done(&store, "w2", "x1").await;
+    done(&store, "w2", "noop-000001-exclusive").await;
     assert_eq!(
         ids(&store, "w1", 8, true).await,
         ["noop-000002", "noop-000003"]

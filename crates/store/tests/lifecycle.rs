@@ -242,3 +242,28 @@ async fn a_job_listed_twice_in_one_submission_is_one_job() {
     );
     assert_eq!(store.status(None).await.unwrap().total, 3);
 }
+
+#[tokio::test]
+async fn a_campaign_is_leased_in_id_order_and_older_campaigns_first() {
+    let (_dir, _path, store) = temp_store().await;
+    store.register_worker(&worker("w"), T0).await.unwrap();
+    // Ids that sort differently from the order of submission, as parameter hashes do.
+    let job = |id: &str| NewJob {
+        id: id.to_owned(),
+        kind: "noop".to_owned(),
+        params_json: format!(r#"{{"name":"{id}"}}"#),
+        estimate_s: 0.1,
+        exclusive: false,
+    };
+    let older: Vec<NewJob> = ["c9", "a3", "f0", "07"].into_iter().map(job).collect();
+    let newer: Vec<NewJob> = ["55", "00"].into_iter().map(job).collect();
+    store.submit(&campaign("old"), &older, T0).await.unwrap();
+    store.submit(&campaign("new"), &newer, T0 + 1.0).await.unwrap();
+
+    let mut leased = Vec::new();
+    for _ in 0..6 {
+        let leases = store.lease("w", 1, LEASE, T0 + 2.0, true).await.unwrap();
+        leased.extend(leases.into_iter().map(|l| l.job_id));
+    }
+    assert_eq!(leased, ["07", "a3", "c9", "f0", "00", "55"]);
+}
