@@ -10,11 +10,11 @@ pub enum Kind {
     Collision { shift: [i32; 3] },
     /// Particle `a` leaves its cell through the face `dim`, upwards if `up`.
     CellCross { dim: u8, up: bool },
-    /// Global rebuild of the nearest-neighbour lists (Sec. 3.5 step 4).
-    Rebuild,
+    /// Particle `a` may touch the face of its bounding parallelepiped: its box and list are rebuilt.
+    BoxEscape,
 }
 
-/// An event; `ca`/`cb` are the counters of `a`/`b` when it was predicted (for `Rebuild`, `ca` is the epoch).
+/// An event; `ca`/`cb` are the counters of `a`/`b` when it was predicted.
 #[derive(Clone, Copy, Debug)]
 pub struct Event<X> {
     pub t: f64,
@@ -98,7 +98,7 @@ mod tests {
                 b: 0,
                 ca: 0,
                 cb: 0,
-                kind: Kind::Rebuild,
+                kind: Kind::BoxEscape,
                 extra: (),
             });
         }

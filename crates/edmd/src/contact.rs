@@ -6,7 +6,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::distance::{Distance, Guess, SolverStats, Tolerances, distance, solve5};
 use crate::geometry::{Placed, Surface, V3};
-use crate::rigid::{Body, ddot_max};
+use crate::rigid::{Body, GapSide, ddot_max, gap_closing_rates, gap_safe_time};
 
 /// Everything the contact search needs besides the solver tolerances.
 #[derive(Clone, Copy, Debug)]
@@ -31,13 +31,16 @@ pub struct Hit {
 const MAX_STEPS: u32 = 1_000_000;
 
 /// First contact of A and B within `horizon` after their common current time (both bodies
-/// must be at the same time; B's position already carries the periodic image shift).
+/// must be at the same time; B's position already carries the periodic image shift). `now`, if
+/// known, is their distance at that time.
+#[allow(clippy::too_many_arguments)]
 pub fn predict<S: Surface>(
     sa: &S,
     a: &Body,
     sb: &S,
     b: &Body,
     horizon: f64,
+    now: Option<&Distance>,
     p: &ContactParams,
     stats: &mut SolverStats,
 ) -> Option<Hit> {
@@ -61,13 +64,26 @@ pub fn predict<S: Surface>(
         stats,
     };
     let mut t = t1;
-    let mut cur = search.dist(t, None);
+    let mut cur = match now {
+        Some(d) if t == 0.0 => Some(*d),
+        _ => search.dist(t, None),
+    };
     if let Some(d0) = cur
         && d0.d <= 0.0
         && approaching(sa, a, b, &d0, t)
     {
         // Touching or overlapping (by rounding) and still approaching: collide at once.
         return Some(search.hit_from_distance(&d0, t));
+    }
+    // Most searches find nothing before the horizon (a nearer partner sets it). One distance at the
+    // far end often proves that, with the two-sided bound, before any stepping.
+    if let Some(c) = cur
+        && c.d > p.eps_d
+        && t2.is_finite()
+        && t2 > t
+        && search.certified_free(t, &c, t2)
+    {
+        return None;
     }
     // The last successful evaluation: a failed one in between must not hide a sign change.
     let mut last = cur.map(|d| (t, d));
@@ -80,17 +96,30 @@ pub fn predict<S: Surface>(
         }
         let far = matches!(cur, Some(c) if c.d > p.eps_d);
         let dt = match cur {
-            Some(c) if far => k * c.d / ddmax,
-            _ => p.eps_d / ddmax,
+            Some(c) => {
+                // No contact is possible within `safe` of t: as rigorous as the d/ḋ_max of
+                // Eq. (39), usually longer, and infinite once the gap can no longer close.
+                let safe = search.safe_time(t, &c);
+                if t + safe > t2 {
+                    return None;
+                }
+                if far {
+                    (k * safe).min(t2 - t)
+                } else {
+                    safe.max(p.eps_d / ddmax)
+                }
+            }
+            None => p.eps_d / ddmax,
         };
         let tn = t + dt;
         let failures_before = search.stats.failures;
         let next = search.dist(tn, last.as_ref().map(|l| &l.1));
         if far && k > 1.0 {
-            // Two-sided bound (not in the paper): a zero in [t, tn] needs d(t) + d(tn) ≤ ḋ_max (tn − t),
-            // so a longer step is certified by the distance at its end. Uncertified: redo it plainly.
+            // Two-sided bound (not in the paper): the gap cannot close within [t, tn] if the forward
+            // bound from t and the backward bound from tn leave no common zero. Uncertified: redo it
+            // with the plain step.
             let certified =
-                matches!((cur, next), (Some(c), Some(n)) if n.d > 0.0 && c.d + n.d >= ddmax * dt);
+                matches!((cur, next), (Some(c), Some(n)) if search.no_zero_between(&c, &n, dt));
             if !certified {
                 // A long step may land deep in an overlap, where no distance exists: not a failure.
                 search.stats.failures = failures_before;
@@ -145,6 +174,36 @@ pub fn predict<S: Surface>(
     }
     search.stats.failures += 1;
     None
+}
+
+/// Without any solver: a lower bound on the contact time of A and B (at their common current time,
+/// B's position carrying its image shift), and an estimate of it to order searches by. The support
+/// gap along the line of centres bounds the distance from below (a separating axis), now and, by
+/// [`gap_safe_time`], later; the estimate is the time it takes to close at its present rate.
+/// Both are 0 when the gap along that line is not positive.
+pub fn centre_line_bound<S: Surface>(sa: &S, a: &Body, sb: &S, b: &Body) -> (f64, f64) {
+    let r = b.r - a.r;
+    let n = r / r.norm();
+    let offset_a = a.rot.transpose() * sa.support_point(&(a.rot * n));
+    let offset_b = b.rot.transpose() * sb.support_point(&(b.rot * -n));
+    let gap = n.dot(&(r + offset_b - offset_a));
+    if gap.is_nan() || gap <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let side = |body, offset, s: &S| GapSide {
+        body,
+        offset,
+        l: s.bounding_radius(),
+        rho_max: s.max_curvature_radius(),
+    };
+    let lower = gap_safe_time(&side(a, offset_a, sa), &side(b, offset_b, sb), &n, gap);
+    let rate = n.dot(&((b.v + b.w.cross(&offset_b)) - (a.v + a.w.cross(&offset_a))));
+    let estimate = if rate < 0.0 {
+        gap / -rate
+    } else {
+        f64::INFINITY
+    };
+    (lower, estimate.max(lower))
 }
 
 /// [t1, t2] during which the bounding spheres (radii summing to `sigma`) overlap (Sec. 2.4.2).
@@ -208,6 +267,52 @@ impl<S: Surface> Search<'_, S> {
             &self.p.tol,
             self.stats,
         )
+    }
+
+    /// How long after `t` the bodies, `d` apart at `t`, provably do not touch: the support gap along
+    /// the contact normal equals d at t (the closest points are the support points) and bounds it
+    /// from below afterwards ([`gap_safe_time`]).
+    fn safe_time(&self, t: f64, d: &Distance) -> f64 {
+        let pa = self.a.pose_after(t);
+        let pb = self.b.pose_after(t);
+        let n = self.sa.place(&pa).grad(&d.xa).normalize();
+        let side = |body, offset, s: &S| GapSide {
+            body,
+            offset,
+            l: s.bounding_radius(),
+            rho_max: s.max_curvature_radius(),
+        };
+        gap_safe_time(
+            &side(self.a, d.xa - pa.r, self.sa),
+            &side(self.b, d.xb - pb.r, self.sb),
+            &n,
+            d.d.max(0.0),
+        )
+    }
+
+    /// Whether d > 0 throughout [t0, t0 + dt] follows from d at both ends (`lo`, `hi`) and
+    /// [`gap_closing_rates`]: the forward bound from t0 and the backward bound from t0 + dt.
+    fn no_zero_between(&self, lo: &Distance, hi: &Distance, dt: f64) -> bool {
+        if lo.d <= 0.0 || hi.d <= 0.0 {
+            return false;
+        }
+        let (la, lb) = (self.sa.bounding_radius(), self.sb.bounding_radius());
+        let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &((lo.xb - lo.xa) / lo.d));
+        let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &((hi.xb - hi.xa) / hi.d));
+        forward <= 0.0 || backward <= 0.0 || lo.d / forward + hi.d / backward >= dt
+    }
+
+    /// One distance at `t_end` (warm-started from `d0` at `t0`) proves no contact in [t0, t_end]?
+    fn certified_free(&mut self, t0: f64, d0: &Distance, t_end: f64) -> bool {
+        let failures_before = self.stats.failures;
+        match self.dist(t_end, Some(d0)) {
+            Some(d) => self.no_zero_between(d0, &d, t_end - t0),
+            None => {
+                // The far end may lie deep in an overlap, where no distance exists: not a failure.
+                self.stats.failures = failures_before;
+                false
+            }
+        }
     }
 
     fn dist_value(&mut self, t: f64, warm: &mut Distance) -> f64 {

@@ -79,9 +79,16 @@ impl Surface for Ellipsoid {
     fn ray_point(&self, dir: &V3) -> V3 {
         dir / dir.component_mul(dir).dot(&self.inv2).sqrt()
     }
+    fn max_curvature_radius(&self) -> f64 {
+        self.s.max().powi(2) / self.s.min()
+    }
     fn support(&self, n: &V3) -> f64 {
         let sn = self.s.component_mul(n);
         sn.norm()
+    }
+    fn support_point(&self, n: &V3) -> V3 {
+        let sn = self.s.component_mul(n);
+        self.s.component_mul(&sn) / sn.norm()
     }
     fn semi_axes(&self) -> V3 {
         self.s

@@ -8,13 +8,14 @@ use serde::Serialize;
 use crate::EdmdError;
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
-use crate::contact::{ContactParams, bounding_sphere_window, predict};
-use crate::distance::{SolverStats, Tolerances, distance};
+use crate::contact::{ContactParams, bounding_sphere_window, centre_line_bound, predict};
+use crate::distance::{Distance, SolverStats, Tolerances, distance};
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::V3;
 use crate::init::{Geom, initial_configuration, min_image};
-use crate::nnl::{Obp, escape_time, overlap};
-use crate::rigid::{Body, Inertia, collide, ddot_max};
+use crate::lists::Lists;
+use crate::nnl::escape_time;
+use crate::rigid::{Body, Inertia, collide, gap_closing_rates};
 use crate::rng::Rng;
 use crate::scene::{Neighbours, Scene, ShapeKind};
 use crate::sphere;
@@ -23,16 +24,28 @@ use crate::sphere;
 trait Model {
     /// Stored with a predicted collision (contact point and normal for rigid bodies).
     type Extra: Copy + Default;
+    /// What [`Model::lower_bound`] learnt about a pair that the contact search can start from.
+    type Probe: Copy;
     /// Whether bodies rotate, i.e. whether contact searches are costly enough to be ordered.
     const ROTATES: bool;
     fn surface(&self) -> Ellipsoid;
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, Self::Extra)>;
+    /// The first contact before `horizon`; `probe`, if any, describes the pair now.
+    fn predict(
+        &mut self,
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+        probe: Option<&Self::Probe>,
+    ) -> Option<(f64, Self::Extra)>;
     /// Applies the collision; returns the impulse given to `b`, or `None` if the bodies separate.
     fn collide(&self, a: &mut Body, b: &mut Body, x: &Self::Extra) -> Option<V3>;
     fn stats(&self) -> SolverStats;
-    /// A lower bound on the contact time of two bodies whose bounding spheres overlap, and an
-    /// estimate of it (the time to close the gap at the present rate).
-    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, f64);
+    /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
+    /// overlap, and an estimate of it to order the searches by.
+    fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64);
+    /// A sharper lower bound on the contact time of two bodies whose bounding spheres overlap,
+    /// from their distance now.
+    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, Option<Self::Probe>);
 }
 
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
@@ -42,12 +55,13 @@ struct SphereModel {
 
 impl Model for SphereModel {
     type Extra = ();
+    type Probe = ();
     const ROTATES: bool = false;
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
     }
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, ())> {
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64, _: Option<&()>) -> Option<(f64, ())> {
         sphere::contact_time(&(b.r - a.r), &(b.v - a.v), self.sigma)
             .filter(|&t| t <= horizon)
             .map(|t| (t, ()))
@@ -66,8 +80,11 @@ impl Model for SphereModel {
     fn stats(&self) -> SolverStats {
         SolverStats::default()
     }
-    fn lower_bound(&mut self, _: &Body, _: &Body) -> (f64, f64) {
+    fn quick_bound(&self, _: &Body, _: &Body) -> (f64, f64) {
         (0.0, 0.0)
+    }
+    fn lower_bound(&mut self, _: &Body, _: &Body) -> (f64, Option<()>) {
+        (0.0, None)
     }
 }
 
@@ -81,17 +98,25 @@ struct EllipsoidModel {
 
 impl Model for EllipsoidModel {
     type Extra = (V3, V3);
+    type Probe = Distance;
     const ROTATES: bool = true;
     fn surface(&self) -> Ellipsoid {
         self.e
     }
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
+    fn predict(
+        &mut self,
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+        probe: Option<&Distance>,
+    ) -> Option<(f64, (V3, V3))> {
         predict(
             &self.e,
             a,
             &self.e,
             b,
             horizon,
+            probe,
             &self.params,
             &mut self.stats,
         )
@@ -103,7 +128,10 @@ impl Model for EllipsoidModel {
     fn stats(&self) -> SolverStats {
         self.stats
     }
-    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, f64) {
+    fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64) {
+        centre_line_bound(&self.e, a, &self.e, b)
+    }
+    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, Option<Distance>) {
         let l = self.e.s.max();
         let pa = a.pose_after(0.0);
         let pb = b.pose_after(0.0);
@@ -117,19 +145,15 @@ impl Model for EllipsoidModel {
             &mut self.stats,
         ) {
             Some(d) if d.d > 0.0 => {
-                let lower = d.d / ddot_max(a, b, l, l);
-                // ḋ now, from the velocities of the closest points along the gap (envelope theorem).
-                let n = (d.xb - d.xa) / d.d;
-                let rate =
-                    (b.v + b.w.cross(&(d.xb - pb.r)) - a.v - a.w.cross(&(d.xa - pa.r))).dot(&n);
-                let estimate = if rate < 0.0 {
-                    (d.d / -rate).max(lower)
+                let (closing, _) = gap_closing_rates(a, b, l, l, &((d.xb - d.xa) / d.d));
+                let lower = if closing > 0.0 {
+                    d.d / closing
                 } else {
                     f64::INFINITY
                 };
-                (lower, estimate)
+                (lower, Some(d))
             }
-            _ => (0.0, 0.0),
+            _ => (0.0, None),
         }
     }
 }
@@ -141,11 +165,9 @@ enum Neighbourhood {
         img: Vec<[i32; 3]>,
     },
     Nnl {
-        obps: Vec<Obp>,
-        lists: Vec<Vec<(u32, [i8; 3])>>,
-        t_r: f64,
-        epoch: u32,
-        delta: f64,
+        lists: Lists,
+        /// When each body may first touch its box (Eq. 61), for its present trajectory and box.
+        escape_at: Vec<f64>,
         eps: f64,
     },
 }
@@ -160,7 +182,8 @@ struct Engine<M: Model> {
     inv_i: f64,
     nb: Neighbourhood,
     scratch: Vec<(u32, [i32; 3])>,
-    order: Vec<(f64, f64, u32, [i32; 3])>,
+    /// Candidate partners: (estimate, lower bound, partner, image shift, bounding spheres overlap).
+    order: Vec<(f64, f64, u32, [i32; 3], bool)>,
     acc: Accounting,
 }
 
@@ -193,14 +216,20 @@ impl<M: Model> Engine<M> {
                     img: vec![[0; 3]; n],
                 }
             }
-            Neighbours::Nnl => Neighbourhood::Nnl {
-                obps: Vec::new(),
-                lists: vec![Vec::new(); n],
-                t_r: 0.0,
-                epoch: 0,
-                delta: scene.delta_nnl,
-                eps: scene.eps_nnl,
-            },
+            Neighbours::Nnl => {
+                let surf = m.surface();
+                let lists = Lists::build(&surf, &bodies, l, scene.delta_nnl);
+                let escape_at = bodies
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| escape_time(&surf, b, lists.obp(i), scene.eps_nnl))
+                    .collect();
+                Neighbourhood::Nnl {
+                    lists,
+                    escape_at,
+                    eps: scene.eps_nnl,
+                }
+            }
         };
         let ke_trans = bodies.iter().map(|b| 0.5 * b.v.norm_squared()).sum();
         let mut e = Engine {
@@ -219,18 +248,15 @@ impl<M: Model> Engine<M> {
                 ..Default::default()
             },
         };
-        match &mut e.nb {
-            Neighbourhood::Ll { cells, cell_of, .. } => {
-                for (i, b) in e.bodies.iter().enumerate() {
-                    let c = cells.index(cells.coords_of(&b.r));
-                    cell_of[i] = c;
-                    cells.insert(c, i as u32);
-                }
-                for i in 0..n {
-                    e.predict_for(i);
-                }
+        if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
+            for (i, b) in e.bodies.iter().enumerate() {
+                let c = cells.index(cells.coords_of(&b.r));
+                cell_of[i] = c;
+                cells.insert(c, i as u32);
             }
-            Neighbourhood::Nnl { .. } => e.rebuild(),
+        }
+        for i in 0..n {
+            e.predict_for(i);
         }
         Ok(e)
     }
@@ -239,8 +265,8 @@ impl<M: Model> Engine<M> {
         V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * self.l
     }
 
-    /// Schedules the earliest event of `i`: its cell crossing or its first collision, whichever
-    /// comes first (one event per particle). The crossing time (LL) or the rebuild time (NNL) is the
+    /// Schedules the earliest event of `i`: its cell crossing or box escape, or its first collision,
+    /// whichever comes first (one event per particle). The crossing time (LL) or the box escape (NNL) is the
     /// horizon of every contact search, and rigid-body partners are searched in the order in which
     /// their bounding spheres meet, so that a search stops as soon as it cannot beat the best event.
     fn predict_for(&mut self, i: usize) {
@@ -254,7 +280,8 @@ impl<M: Model> Engine<M> {
             b: u32::MAX,
             ca: self.count[i],
             cb: 0,
-            kind: Kind::Rebuild,
+            // Replaced by whatever is found; an event at +∞ is never scheduled.
+            kind: Kind::BoxEscape,
             extra: M::Extra::default(),
         };
         match &self.nb {
@@ -270,37 +297,36 @@ impl<M: Model> Engine<M> {
                     best.kind = Kind::CellCross { dim, up };
                 }
                 if !M::ROTATES {
-                    // Translating bodies: predict straight from the cells, positions extrapolated
-                    // without storing them (the hot loop of the sphere path).
+                    // Translating spheres: the hot loop of the sphere path. Partners are
+                    // extrapolated to now without being stored, and the contact time is computed
+                    // branch-free for every member of the 27 cells (i itself gives +∞).
+                    let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
+                    let mut horizon = best.t - self.t;
+                    let mut partner = None;
                     for nbc in cells.around(cell_of[i]) {
+                        let base = [0, 1, 2].map(|k| nbc.shift[k] as i32 + img[i][k]);
                         for &j in cells.members(nbc.cell) {
                             let ju = j as usize;
-                            if ju == i {
-                                continue;
-                            }
                             let bj = &self.bodies[ju];
-                            let s = ll_shift(nbc.shift, img[i], img[ju]);
-                            let b = Body {
-                                r: bj.r + bj.v * (self.t - bj.t) + self.shift_vec(s),
-                                v: bj.v,
-                                rot: a.rot,
-                                w: a.w,
-                                t: self.t,
-                            };
-                            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
-                                && self.t + tau < best.t
-                            {
-                                best = Event {
-                                    t: self.t + tau,
-                                    a: i as u32,
-                                    b: j,
-                                    ca: self.count[i],
-                                    cb: self.count[ju],
-                                    kind: Kind::Collision { shift: s },
-                                    extra,
-                                };
+                            let s = [0, 1, 2].map(|k| base[k] - img[ju][k]);
+                            let dr = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(s) - a.r;
+                            let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
+                            if tau < horizon {
+                                horizon = tau;
+                                partner = Some((self.t + tau, j, s));
                             }
                         }
+                    }
+                    if let Some((t, j, shift)) = partner {
+                        best = Event {
+                            t,
+                            a: i as u32,
+                            b: j,
+                            ca: self.count[i],
+                            cb: self.count[j as usize],
+                            kind: Kind::Collision { shift },
+                            extra: M::Extra::default(),
+                        };
                     }
                     self.scratch = cand;
                     if best.t.is_finite() {
@@ -317,10 +343,12 @@ impl<M: Model> Engine<M> {
                     );
                 }
             }
-            Neighbourhood::Nnl { lists, t_r, .. } => {
-                cand.extend(lists[i].iter().map(|&(j, s)| (j, s.map(i32::from))));
-                // Nothing needs scheduling past the rebuild, which predicts everything anew (Eq. 65).
-                best.t = *t_r;
+            Neighbourhood::Nnl {
+                lists, escape_at, ..
+            } => {
+                cand.extend_from_slice(lists.of(i));
+                // Nothing needs scheduling past the escape, which predicts this body anew (Eq. 65).
+                best.t = escape_at[i];
             }
         }
         let lb = self.m.surface().s.max();
@@ -337,31 +365,40 @@ impl<M: Model> Engine<M> {
                 b.r += self.shift_vec(shift);
                 if let Some((t1, _)) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), 2.0 * lb)
                 {
-                    // Bounding spheres already overlap: the distance now and ḋ_max (Eq. 32) give a
-                    // better lower bound on the contact time than the bounding spheres.
+                    // Bounding spheres already overlap: a better bound is needed, cheap first.
                     let (lower, estimate) = if t1 == 0.0 {
-                        self.m.lower_bound(&a, &b)
+                        self.m.quick_bound(&a, &b)
                     } else {
                         (t1, t1)
                     };
-                    order.push((estimate, lower, j, shift));
+                    order.push((estimate, lower, j, shift, t1 == 0.0));
                 }
             } else {
-                order.push((0.0, 0.0, j, shift));
+                order.push((0.0, 0.0, j, shift, false));
             }
         }
         if M::ROTATES {
             order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         }
-        // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
-        for &(_, lower, j, shift) in &order {
+        // Likely first partners first, so that the horizon shrinks early; the bounds decide
+        // skipping, the distance (Eq. 9) only where the cheap bound cannot.
+        for &(_, lower, j, shift, close) in &order {
             if self.t + lower >= best.t {
                 continue;
             }
             let ju = j as usize;
             let mut b = self.bodies[ju];
             b.r += self.shift_vec(shift);
-            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
+            let probe = if close {
+                let (lower, probe) = self.m.lower_bound(&a, &b);
+                if self.t + lower >= best.t {
+                    continue;
+                }
+                probe
+            } else {
+                None
+            };
+            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t, probe.as_ref())
                 && self.t + tau < best.t
             {
                 best = Event {
@@ -377,148 +414,39 @@ impl<M: Model> Engine<M> {
         }
         self.order = order;
         self.scratch = cand;
-        // `Rebuild` here is the placeholder for "nothing before the horizon": the global rebuild
-        // event, scheduled separately, predicts this particle again.
-        if best.t.is_finite() && best.kind != Kind::Rebuild {
+        if best.t.is_finite() {
             self.cal.push(best);
         }
     }
 
-    /// Sec. 3.5 step 4: new boxes around every body, new lists, escape times, all collisions.
-    fn rebuild(&mut self) {
-        let t = self.t;
-        let l = self.l;
+    /// Body `i` reached the face of its box: a new box and list for it alone, then its events.
+    fn rebuild_box(&mut self, i: usize) {
+        self.bodies[i].advance_to(self.t);
         let surf = self.m.surface();
-        for b in self.bodies.iter_mut() {
-            b.advance_to(t);
-            b.r = b.r.map(|x| x.rem_euclid(l));
-        }
-        let n = self.bodies.len();
         let Neighbourhood::Nnl {
-            obps,
             lists,
-            t_r,
-            epoch,
-            delta,
+            escape_at,
             eps,
         } = &mut self.nb
         else {
             return;
         };
-        *obps = self
-            .bodies
-            .iter()
-            .map(|b| Obp::around(&surf, b, *delta))
-            .collect();
-        for li in lists.iter_mut() {
-            li.clear();
-        }
-        let rho = obps.iter().map(|o| o.radius()).fold(0.0, f64::max);
-        let sv = |s: [i8; 3]| V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l;
-        match Cells::new(l, 2.0 * rho) {
-            Some(mut cells) => {
-                let cell_of: Vec<usize> = self
-                    .bodies
-                    .iter()
-                    .map(|b| cells.index(cells.coords_of(&b.r)))
-                    .collect();
-                for (i, &c) in cell_of.iter().enumerate() {
-                    cells.insert(c, i as u32);
-                }
-                for i in 0..n {
-                    for nbc in cells.around(cell_of[i]) {
-                        for &j in cells.members(nbc.cell) {
-                            let ju = j as usize;
-                            if ju > i && overlap(&obps[i], &obps[ju], &sv(nbc.shift)) {
-                                lists[i].push((j, nbc.shift));
-                                lists[ju].push((i as u32, nbc.shift.map(|s| -s)));
-                            }
-                        }
-                    }
-                }
-            }
-            None => {
-                // Small box: every pair, every neighbouring image.
-                for i in 0..n {
-                    for j in (i + 1)..n {
-                        for k in 0..27 {
-                            let s = [
-                                (k % 3 - 1) as i8,
-                                ((k / 3) % 3 - 1) as i8,
-                                (k / 9 - 1) as i8,
-                            ];
-                            let d = obps[j].c + sv(s) - obps[i].c;
-                            if d.norm() < obps[i].radius() + obps[j].radius()
-                                && overlap(&obps[i], &obps[j], &sv(s))
-                            {
-                                lists[i].push((j as u32, s));
-                                lists[j].push((i as u32, s.map(|x| -x)));
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        let e = *eps;
-        *t_r = self
-            .bodies
-            .iter()
-            .zip(obps.iter())
-            .map(|(b, o)| t + escape_time(&surf, b, o, e))
-            .fold(f64::INFINITY, f64::min);
-        *epoch += 1;
-        let (tr, ep) = (*t_r, *epoch);
-        self.cal.clear();
+        lists.rebuild(&surf, i, &self.bodies[i]);
+        escape_at[i] = self.t + escape_time(&surf, &self.bodies[i], lists.obp(i), *eps);
         self.acc.rebuilds += 1;
-        for i in 0..n {
-            self.predict_for(i);
-        }
-        if tr.is_finite() {
-            self.cal.push(Event {
-                t: tr,
-                a: 0,
-                b: 0,
-                ca: ep,
-                cb: 0,
-                kind: Kind::Rebuild,
-                extra: M::Extra::default(),
-            });
-        }
+        self.predict_for(i);
     }
 
-    /// After a collision of `i`: an earlier escape from its box brings the rebuild forward (Sec. 3.5, 5c).
+    /// After a collision: the escape time of `i` follows its new trajectory (Sec. 3.5, 5c).
     fn update_escape(&mut self, i: usize) {
         let surf = self.m.surface();
-        let t = self.t;
-        let Neighbourhood::Nnl {
-            obps,
-            t_r,
-            epoch,
+        if let Neighbourhood::Nnl {
+            lists,
+            escape_at,
             eps,
-            ..
         } = &mut self.nb
-        else {
-            return;
-        };
-        let te = t + escape_time(&surf, &self.bodies[i], &obps[i], *eps);
-        if te < *t_r {
-            *t_r = te;
-            self.cal.push(Event {
-                t: te,
-                a: 0,
-                b: 0,
-                ca: *epoch,
-                cb: 0,
-                kind: Kind::Rebuild,
-                extra: M::Extra::default(),
-            });
-        }
-    }
-
-    fn epoch(&self) -> Option<u32> {
-        match self.nb {
-            Neighbourhood::Nnl { epoch, .. } => Some(epoch),
-            Neighbourhood::Ll { .. } => None,
+        {
+            escape_at[i] = self.t + escape_time(&surf, &self.bodies[i], lists.obp(i), *eps);
         }
     }
 
@@ -532,23 +460,17 @@ impl<M: Model> Engine<M> {
         let compact_at = 8 * self.bodies.len() + 1024;
         while self.acc.collisions < target {
             if self.cal.len() > compact_at {
-                let (count, epoch) = (&self.count, self.epoch());
-                self.cal.retain(|e| match e.kind {
-                    Kind::Rebuild => epoch == Some(e.ca),
-                    _ => e.ca == count[e.a as usize],
-                });
+                let count = &self.count;
+                self.cal.retain(|e| e.ca == count[e.a as usize]);
             }
             let ev = self.cal.pop().ok_or(EdmdError::Stalled)?;
             match ev.kind {
-                Kind::Rebuild => {
-                    if self.epoch() == Some(ev.ca) {
-                        self.t = ev.t.max(self.t);
-                        self.rebuild();
-                    }
-                }
                 _ if ev.ca != self.count[ev.a as usize] => {}
+                Kind::BoxEscape => {
+                    self.t = ev.t.max(self.t);
+                    self.rebuild_box(ev.a as usize);
+                }
                 Kind::Collision { .. } if ev.cb != self.count[ev.b as usize] => {
-                    // The partner moved on: this particle's earliest event must be found again.
                     self.t = ev.t.max(self.t);
                     self.predict_for(ev.a as usize);
                 }

@@ -22,6 +22,11 @@ pub trait Surface {
     fn ray_point(&self, dir: &V3) -> V3;
     /// Half-width of the body along the unit body-frame direction `n` (the support function).
     fn support(&self, n: &V3) -> f64;
+    /// The point of the surface farthest along the unit body-frame direction `n` (body frame).
+    fn support_point(&self, n: &V3) -> V3;
+    /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
+    /// support function: for an ellipsoid s_max²/s_min.
+    fn max_curvature_radius(&self) -> f64;
     /// Semi-axes, for the guess of Sec. 3.2 (Eq. 51) and the bounding parallelepiped (Eq. 52).
     fn semi_axes(&self) -> V3;
 }

@@ -12,17 +12,24 @@
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
 //! - [`calendar`]: binary-heap event calendar with per-particle counters.
-//! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times.
+//! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
+//!   [`lists`]: the neighbour lists built from them, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle.
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
 //! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
 //!
 //! Where this engine departs from the paper, and why:
-//! - The calendar holds one event per particle (its earliest collision, cell crossing or, for NNL,
-//!   nothing past the rebuild); a popped event whose partner has moved on re-predicts the particle.
-//!   The earliest event found so far bounds every further contact search (the horizon of Eq. 65,
-//!   generalised), and rigid-body partners are searched in the order of a lower bound on their
-//!   contact time (bounding spheres, or d/ḋ_max), which prunes most searches.
+//! - The calendar holds one event per particle (its earliest collision, cell crossing or box
+//!   escape); a popped event whose partner has moved on re-predicts the particle. The earliest event
+//!   found so far bounds every further contact search (the horizon of Eq. 65, generalised), and
+//!   rigid-body partners are searched in the order of a lower bound on their contact time.
+//! - Neighbour lists are updated per particle, as Donev et al. [26] do: a body that escapes its box
+//!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4.
+//! - Lower bounds on contact times go beyond ḋ_max (Eq. 32): the support gap along a fixed
+//!   direction bounds the distance from below at all times and changes at a rate and acceleration
+//!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`]).
+//!   They prune partners before any Newton–Raphson, and they let the search of Eq. (39) step over
+//!   intervals that are provably free of contact, e.g. just after two bodies collided.
 //! - The contact search adds a speculative secant step to the ε_d stepping of Eq. (39); only a
 //!   sign change found by it is used (see [`contact::predict`]).
 //! - The escape time from a bounding parallelepiped uses the ellipsoid's support function, exact
@@ -43,6 +50,7 @@ pub mod ellipsoid;
 pub mod engine;
 pub mod geometry;
 pub mod init;
+pub mod lists;
 pub mod nnl;
 pub mod pw;
 pub mod rigid;

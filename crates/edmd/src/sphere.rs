@@ -11,21 +11,28 @@ pub fn distance(r: &V3, sigma: f64) -> f64 {
 /// the smaller root of |r + v t| = σ. Returns 0 for overlapping spheres that still approach
 /// (numerical overlap after a collision is thereby resolved, never amplified).
 pub fn contact_time(r: &V3, v: &V3, sigma: f64) -> Option<f64> {
-    let b = r.dot(v);
-    if b >= 0.0 {
-        return None;
-    }
-    let c = r.norm_squared() - sigma * sigma;
-    if c <= 0.0 {
-        return Some(0.0);
-    }
-    let vv = v.norm_squared();
+    let t = contact_time_or_inf(r, v, sigma * sigma);
+    t.is_finite().then_some(t)
+}
+
+/// [`contact_time`] as +∞ for "never". Two coincident centres (a body against itself) give +∞.
+pub fn contact_time_or_inf(r: &V3, v: &V3, sigma2: f64) -> f64 {
+    contact_time_from(r.dot(v), r.norm_squared() - sigma2, v.norm_squared())
+}
+
+/// The contact time from b = r·v, c = |r|² − σ² and |v|², without data-dependent branches: whether
+/// a pair approaches is a coin flip, and mispredictions would serialise the square roots and
+/// divisions that the sphere path's hot loop otherwise overlaps (and vectorises) over a batch.
+#[inline(always)]
+pub fn contact_time_from(b: f64, c: f64, vv: f64) -> f64 {
     let disc = b * b - vv * c;
-    if disc < 0.0 {
-        return None;
+    // c / (−b + √disc) is the small root without cancellation; c ≤ 0 (overlap) gives ≤ 0, hence 0.
+    let t = (c / (-b + disc.max(0.0).sqrt())).max(0.0);
+    if b < 0.0 && disc >= 0.0 {
+        t
+    } else {
+        f64::INFINITY
     }
-    // c / (−b + √disc) is the small root without cancellation.
-    Some(c / (-b + disc.sqrt()))
 }
 
 #[cfg(test)]
