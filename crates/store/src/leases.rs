@@ -126,8 +126,9 @@ impl Store {
         Ok(leases)
     }
 
-    /// Extends the given leases of `worker_id` to at least `extend_to` and returns those still valid
-    /// (still running under this worker and token); a lease missing from the answer is lost and its job
+    /// Extends the given leases of `worker_id` to at least `extend_to` and returns those still the
+    /// worker's: running under this worker and token, or already completed under them (a heartbeat
+    /// races the report of the job it covers). A lease missing from the answer is lost and its job
     /// should be abandoned.
     pub async fn heartbeat(
         &self,
@@ -157,9 +158,27 @@ impl Store {
         .iter()
         .map(|row| Ok((row.try_get(0)?, row.try_get(1)?)))
         .collect::<Result<_>>()?;
+        let mut kept = extended;
+        if kept.len() < leases.len() {
+            let completed: Vec<(String, i64)> = sqlx::query(
+                "SELECT jobs.id, jobs.lease_token
+                 FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
+                       FROM json_each(?2)) AS c
+                 JOIN jobs ON jobs.id = c.job_id
+                 WHERE jobs.state = 'done' AND jobs.lease_owner = ?1 AND jobs.lease_token = c.token",
+            )
+            .bind(worker_id)
+            .bind(&document)
+            .fetch_all(&mut *tx)
+            .await?
+            .iter()
+            .map(|row| Ok((row.try_get(0)?, row.try_get(1)?)))
+            .collect::<Result<_>>()?;
+            kept.extend(completed);
+        }
         let valid = leases
             .iter()
-            .filter(|l| extended.contains(&(l.job_id.clone(), l.token)))
+            .filter(|l| kept.contains(&(l.job_id.clone(), l.token)))
             .cloned()
             .collect();
         tx.commit().await?;
@@ -372,11 +391,13 @@ impl Store {
     /// any lost lease. Returns how many leases were reaped.
     pub async fn reclaim(&self, worker_id: &str, now: f64, max_attempts: u32) -> Result<u64> {
         let mut tx = self.begin_write().await?;
-        sqlx::query("UPDATE jobs SET lease_expires_at = ?1 WHERE lease_owner = ?2 AND state = 'running'")
-            .bind(now - 1.0)
-            .bind(worker_id)
-            .execute(&mut *tx)
-            .await?;
+        sqlx::query(
+            "UPDATE jobs SET lease_expires_at = ?1 WHERE lease_owner = ?2 AND state = 'running'",
+        )
+        .bind(now - 1.0)
+        .bind(worker_id)
+        .execute(&mut *tx)
+        .await?;
         tx.commit().await?;
         self.expire_leases(now, max_attempts).await
     }

@@ -260,6 +260,49 @@ async fn heartbeats_extend_leases() {
 }
 
 #[tokio::test]
+async fn a_heartbeat_racing_the_report_keeps_the_completed_lease() {
+    let (_dir, _path, store) = temp_store().await;
+    for w in ["w1", "w2"] {
+        store.register_worker(&worker(w), T0).await.unwrap();
+    }
+    store
+        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
+        .await
+        .unwrap();
+    let lease = store
+        .lease("w1", 1, LEASE, T0, true)
+        .await
+        .unwrap()
+        .remove(0);
+    let held = LeaseRef {
+        job_id: lease.job_id.clone(),
+        token: lease.token,
+    };
+    store
+        .complete("w1", &lease.job_id, lease.token, None, &[], T0 + 1.0)
+        .await
+        .unwrap();
+    // Completed under this very lease: not lost. Another worker or token: lost.
+    let beat = |worker: &'static str, token: i64| {
+        let store = &store;
+        let job_id = lease.job_id.clone();
+        async move {
+            store
+                .heartbeat(worker, &[LeaseRef { job_id, token }], T0 + 30.0, T0 + 2.0)
+                .await
+                .unwrap()
+        }
+    };
+    assert_eq!(beat("w1", lease.token).await, [held]);
+    assert!(beat("w2", lease.token).await.is_empty());
+    assert!(beat("w1", lease.token + 1).await.is_empty());
+    assert_eq!(
+        store.job(&lease.job_id).await.unwrap().state,
+        JobState::Done
+    );
+}
+
+#[tokio::test]
 async fn a_job_failing_max_attempts_times_is_failed_with_its_last_error() {
     let (_dir, _path, store) = temp_store().await;
     store.register_worker(&worker("w1"), T0).await.unwrap();

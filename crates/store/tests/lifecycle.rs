@@ -258,7 +258,10 @@ async fn a_campaign_is_leased_in_id_order_and_older_campaigns_first() {
     let older: Vec<NewJob> = ["c9", "a3", "f0", "07"].into_iter().map(job).collect();
     let newer: Vec<NewJob> = ["55", "00"].into_iter().map(job).collect();
     store.submit(&campaign("old"), &older, T0).await.unwrap();
-    store.submit(&campaign("new"), &newer, T0 + 1.0).await.unwrap();
+    store
+        .submit(&campaign("new"), &newer, T0 + 1.0)
+        .await
+        .unwrap();
 
     let mut leased = Vec::new();
     for _ in 0..6 {
