@@ -5,7 +5,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::distance::{Distance, Guess, SolverStats, Tolerances, distance, solve5};
-use crate::geometry::{Placed, Surface, V3};
+use crate::geometry::{Placed, Pose, Surface, V3};
 use crate::rigid::{Body, GapSide, ddot_max, gap_closing_rates, gap_safe_time};
 
 /// Everything the contact search needs besides the solver tolerances.
@@ -31,16 +31,17 @@ pub struct Hit {
 const MAX_STEPS: u32 = 1_000_000;
 
 /// First contact of A and B within `horizon` after their common current time (both bodies
-/// must be at the same time; B's position already carries the periodic image shift). `now`, if
-/// known, is their distance at that time.
-#[allow(clippy::too_many_arguments)]
+/// must be at the same time; B's position already carries the periodic image shift).
+///
+/// While the bodies are far apart (a separating-axis gap above [`FAR_GAP`]), the search steps by
+/// the contact-free times of [`gap_safe_time`] from the cheap [`separating_axis`] gap; Newton–Raphson
+/// distances (Eq. 9) and the stepping of Eq. (39) take over near contact.
 pub fn predict<S: Surface>(
     sa: &S,
     a: &Body,
     sb: &S,
     b: &Body,
     horizon: f64,
-    now: Option<&Distance>,
     p: &ContactParams,
     stats: &mut SolverStats,
 ) -> Option<Hit> {
@@ -64,10 +65,18 @@ pub fn predict<S: Surface>(
         stats,
     };
     let mut t = t1;
-    let mut cur = match now {
-        Some(d) if t == 0.0 => Some(*d),
-        _ => search.dist(t, None),
-    };
+    loop {
+        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        let gap = separating_axis(sa, &pa, sb, &pb);
+        if gap.gap <= FAR_GAP {
+            break;
+        }
+        t += gap.safe_time(sa, a, sb, b);
+        if t > t2 {
+            return None;
+        }
+    }
+    let mut cur = search.dist(t, None);
     if let Some(d0) = cur
         && d0.d <= 0.0
         && approaching(sa, a, b, &d0, t)
@@ -176,34 +185,87 @@ pub fn predict<S: Surface>(
     None
 }
 
-/// Without any solver: a lower bound on the contact time of A and B (at their common current time,
-/// B's position carrying its image shift), and an estimate of it to order searches by. The support
-/// gap along the line of centres bounds the distance from below (a separating axis), now and, by
-/// [`gap_safe_time`], later; the estimate is the time it takes to close at its present rate.
-/// Both are 0 when the gap along that line is not positive.
-pub fn centre_line_bound<S: Surface>(sa: &S, a: &Body, sb: &S, b: &Body) -> (f64, f64) {
-    let r = b.r - a.r;
-    let n = r / r.norm();
-    let offset_a = a.rot.transpose() * sa.support_point(&(a.rot * n));
-    let offset_b = b.rot.transpose() * sb.support_point(&(b.rot * -n));
-    let gap = n.dot(&(r + offset_b - offset_a));
-    if gap.is_nan() || gap <= 0.0 {
-        return (0.0, 0.0);
+/// Below this separating-axis gap (in units of σ) the contact search switches from the cheap
+/// bounds to Newton–Raphson distances. Only a matter of speed: both ways are rigorous.
+pub const FAR_GAP: f64 = 0.01;
+
+/// The best separating axis found between two placed bodies: the support gap along `n` (a lower
+/// bound on their distance), and the offsets of the support points from the centres (lab frame).
+pub struct AxisGap {
+    pub gap: f64,
+    pub n: V3,
+    pub offset_a: V3,
+    pub offset_b: V3,
+}
+
+/// The support gap g(n) = n·(r_B − r_A) − h_A(n) − h_B(−n) along any direction n bounds the
+/// distance from below (a separating axis); its maximum over n is the distance. A few steps of
+/// gradient ascent on the unit sphere from the line of centres come close: ∇g = x_B − x_A, the
+/// vector between the support points, and the step is damped by the largest radii of curvature,
+/// which bound how fast the support points move with n. No Newton–Raphson, no failure.
+pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
+    const STEPS: usize = 4;
+    let r = pb.r - pa.r;
+    let damping = 1.0 / (sa.max_curvature_radius() + sb.max_curvature_radius());
+    let mut n = r.normalize();
+    let mut best = AxisGap {
+        gap: f64::NEG_INFINITY,
+        n,
+        offset_a: V3::zeros(),
+        offset_b: V3::zeros(),
+    };
+    for _ in 0..STEPS {
+        let offset_a = pa.rot.transpose() * sa.support_point(&(pa.rot * n));
+        let offset_b = pb.rot.transpose() * sb.support_point(&(pb.rot * -n));
+        let between = r + offset_b - offset_a;
+        let gap = n.dot(&between);
+        if gap > best.gap {
+            best = AxisGap {
+                gap,
+                n,
+                offset_a,
+                offset_b,
+            };
+        }
+        n = (n + (between - n * gap) * damping).normalize();
     }
-    let side = |body, offset, s: &S| GapSide {
-        body,
-        offset,
-        l: s.bounding_radius(),
-        rho_max: s.max_curvature_radius(),
-    };
-    let lower = gap_safe_time(&side(a, offset_a, sa), &side(b, offset_b, sb), &n, gap);
-    let rate = n.dot(&((b.v + b.w.cross(&offset_b)) - (a.v + a.w.cross(&offset_a))));
-    let estimate = if rate < 0.0 {
-        gap / -rate
-    } else {
-        f64::INFINITY
-    };
-    (lower, estimate.max(lower))
+    best
+}
+
+impl AxisGap {
+    /// How long A and B (moving freely from the poses the gap was found at) provably stay apart.
+    pub fn safe_time<S: Surface>(&self, sa: &S, a: &Body, sb: &S, b: &Body) -> f64 {
+        if self.gap.is_nan() || self.gap <= 0.0 {
+            return 0.0;
+        }
+        let side = |body, offset, s: &S| GapSide {
+            body,
+            offset,
+            l: s.bounding_radius(),
+            rho_max: s.max_curvature_radius(),
+        };
+        gap_safe_time(
+            &side(a, self.offset_a, sa),
+            &side(b, self.offset_b, sb),
+            &self.n,
+            self.gap,
+        )
+    }
+
+    /// The time the gap takes to close at its present rate (+∞ if it opens): an estimate to
+    /// order searches by.
+    pub fn closing_estimate(&self, a: &Body, b: &Body) -> f64 {
+        let rate = self
+            .n
+            .dot(&((b.v + b.w.cross(&self.offset_b)) - (a.v + a.w.cross(&self.offset_a))));
+        if self.gap > 0.0 && rate < 0.0 {
+            self.gap / -rate
+        } else if self.gap > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        }
+    }
 }
 
 /// [t1, t2] during which the bounding spheres (radii summing to `sigma`) overlap (Sec. 2.4.2).

@@ -8,14 +8,14 @@ use serde::Serialize;
 use crate::EdmdError;
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
-use crate::contact::{ContactParams, bounding_sphere_window, centre_line_bound, predict};
-use crate::distance::{Distance, SolverStats, Tolerances, distance};
+use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_axis};
+use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::V3;
 use crate::init::{Geom, initial_configuration, min_image};
 use crate::lists::Lists;
 use crate::nnl::escape_time;
-use crate::rigid::{Body, Inertia, collide, gap_closing_rates};
+use crate::rigid::{Body, Inertia, collide};
 use crate::rng::Rng;
 use crate::scene::{Neighbours, Scene, ShapeKind};
 use crate::sphere;
@@ -24,28 +24,17 @@ use crate::sphere;
 trait Model {
     /// Stored with a predicted collision (contact point and normal for rigid bodies).
     type Extra: Copy + Default;
-    /// What [`Model::lower_bound`] learnt about a pair that the contact search can start from.
-    type Probe: Copy;
     /// Whether bodies rotate, i.e. whether contact searches are costly enough to be ordered.
     const ROTATES: bool;
     fn surface(&self) -> Ellipsoid;
-    /// The first contact before `horizon`; `probe`, if any, describes the pair now.
-    fn predict(
-        &mut self,
-        a: &Body,
-        b: &Body,
-        horizon: f64,
-        probe: Option<&Self::Probe>,
-    ) -> Option<(f64, Self::Extra)>;
+    /// The first contact before `horizon`.
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, Self::Extra)>;
     /// Applies the collision; returns the impulse given to `b`, or `None` if the bodies separate.
     fn collide(&self, a: &mut Body, b: &mut Body, x: &Self::Extra) -> Option<V3>;
     fn stats(&self) -> SolverStats;
     /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
     /// overlap, and an estimate of it to order the searches by.
     fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64);
-    /// A sharper lower bound on the contact time of two bodies whose bounding spheres overlap,
-    /// from their distance now.
-    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, Option<Self::Probe>);
 }
 
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
@@ -55,13 +44,12 @@ struct SphereModel {
 
 impl Model for SphereModel {
     type Extra = ();
-    type Probe = ();
     const ROTATES: bool = false;
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
     }
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64, _: Option<&()>) -> Option<(f64, ())> {
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, ())> {
         sphere::contact_time(&(b.r - a.r), &(b.v - a.v), self.sigma)
             .filter(|&t| t <= horizon)
             .map(|t| (t, ()))
@@ -83,9 +71,6 @@ impl Model for SphereModel {
     fn quick_bound(&self, _: &Body, _: &Body) -> (f64, f64) {
         (0.0, 0.0)
     }
-    fn lower_bound(&mut self, _: &Body, _: &Body) -> (f64, Option<()>) {
-        (0.0, None)
-    }
 }
 
 /// Hard ellipsoids through the general algorithm of Sec. 2 (works for any X0, including 1).
@@ -98,25 +83,17 @@ struct EllipsoidModel {
 
 impl Model for EllipsoidModel {
     type Extra = (V3, V3);
-    type Probe = Distance;
     const ROTATES: bool = true;
     fn surface(&self) -> Ellipsoid {
         self.e
     }
-    fn predict(
-        &mut self,
-        a: &Body,
-        b: &Body,
-        horizon: f64,
-        probe: Option<&Distance>,
-    ) -> Option<(f64, (V3, V3))> {
+    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
         predict(
             &self.e,
             a,
             &self.e,
             b,
             horizon,
-            probe,
             &self.params,
             &mut self.stats,
         )
@@ -129,32 +106,9 @@ impl Model for EllipsoidModel {
         self.stats
     }
     fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64) {
-        centre_line_bound(&self.e, a, &self.e, b)
-    }
-    fn lower_bound(&mut self, a: &Body, b: &Body) -> (f64, Option<Distance>) {
-        let l = self.e.s.max();
-        let pa = a.pose_after(0.0);
-        let pb = b.pose_after(0.0);
-        match distance(
-            &self.e,
-            &pa,
-            &self.e,
-            &pb,
-            None,
-            &self.params.tol,
-            &mut self.stats,
-        ) {
-            Some(d) if d.d > 0.0 => {
-                let (closing, _) = gap_closing_rates(a, b, l, l, &((d.xb - d.xa) / d.d));
-                let lower = if closing > 0.0 {
-                    d.d / closing
-                } else {
-                    f64::INFINITY
-                };
-                (lower, Some(d))
-            }
-            _ => (0.0, None),
-        }
+        let gap = separating_axis(&self.e, &a.pose_after(0.0), &self.e, &b.pose_after(0.0));
+        let lower = gap.safe_time(&self.e, a, &self.e, b);
+        (lower, gap.closing_estimate(a, b).max(lower))
     }
 }
 
@@ -182,8 +136,8 @@ struct Engine<M: Model> {
     inv_i: f64,
     nb: Neighbourhood,
     scratch: Vec<(u32, [i32; 3])>,
-    /// Candidate partners: (estimate, lower bound, partner, image shift, bounding spheres overlap).
-    order: Vec<(f64, f64, u32, [i32; 3], bool)>,
+    /// Candidate partners: (estimate, lower bound, partner, image shift).
+    order: Vec<(f64, f64, u32, [i32; 3])>,
     acc: Accounting,
 }
 
@@ -365,40 +319,30 @@ impl<M: Model> Engine<M> {
                 b.r += self.shift_vec(shift);
                 if let Some((t1, _)) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), 2.0 * lb)
                 {
-                    // Bounding spheres already overlap: a better bound is needed, cheap first.
+                    // Bounding spheres already overlap: a separating axis bounds the contact time.
                     let (lower, estimate) = if t1 == 0.0 {
                         self.m.quick_bound(&a, &b)
                     } else {
                         (t1, t1)
                     };
-                    order.push((estimate, lower, j, shift, t1 == 0.0));
+                    order.push((estimate, lower, j, shift));
                 }
             } else {
-                order.push((0.0, 0.0, j, shift, false));
+                order.push((0.0, 0.0, j, shift));
             }
         }
         if M::ROTATES {
             order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         }
-        // Likely first partners first, so that the horizon shrinks early; the bounds decide
-        // skipping, the distance (Eq. 9) only where the cheap bound cannot.
-        for &(_, lower, j, shift, close) in &order {
+        // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
+        for &(_, lower, j, shift) in &order {
             if self.t + lower >= best.t {
                 continue;
             }
             let ju = j as usize;
             let mut b = self.bodies[ju];
             b.r += self.shift_vec(shift);
-            let probe = if close {
-                let (lower, probe) = self.m.lower_bound(&a, &b);
-                if self.t + lower >= best.t {
-                    continue;
-                }
-                probe
-            } else {
-                None
-            };
-            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t, probe.as_ref())
+            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
                 && self.t + tau < best.t
             {
                 best = Event {

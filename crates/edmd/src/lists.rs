@@ -24,9 +24,11 @@ pub struct Lists {
     l: f64,
     /// The diameter of a box's circumscribed sphere: boxes farther apart cannot overlap.
     reach: f64,
-    /// Box centres binned in cells of side ≥ `reach`, when 3 fit per side (then only the nearest
-    /// image of a neighbour can overlap); otherwise every body and every image is tried.
+    /// Box centres binned in cells of side ≥ `reach`, when 3 fit per side; otherwise every body is
+    /// tried.
     grid: Option<(Cells, Vec<usize>)>,
+    /// Whether the box exceeds twice `reach`, so that only the nearest image of a body can overlap.
+    single_image: bool,
 }
 
 impl Lists {
@@ -53,6 +55,7 @@ impl Lists {
             l,
             reach,
             grid,
+            single_image: l > 2.0 * reach,
         };
         for i in 0..lists.obps.len() {
             let found = lists.find(i, |j| j > i);
@@ -102,14 +105,18 @@ impl Lists {
     fn find(&self, i: usize, take: impl Fn(usize) -> bool) -> Vec<Neighbour> {
         let mut found = Vec::new();
         let a = &self.obps[i];
-        let mut try_pair = |j: usize, single_image: bool| {
+        let mut try_pair = |j: usize| {
             if !take(j) {
                 return;
             }
             let b = &self.obps[j];
             // The image of j nearest to i first; beyond it only when the box is small.
             let nearest = ((a.c - b.c) / self.l).map(f64::round);
-            let offsets: &[[i32; 3]] = if single_image { &[[0; 3]] } else { &ALL_27 };
+            let offsets: &[[i32; 3]] = if self.single_image {
+                &[[0; 3]]
+            } else {
+                &ALL_27
+            };
             for off in offsets {
                 let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
                 let shift = V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * self.l;
@@ -122,13 +129,13 @@ impl Lists {
             Some((cells, cell_of)) => {
                 for nbc in cells.around(cell_of[i]) {
                     for &j in cells.members(nbc.cell) {
-                        try_pair(j as usize, true);
+                        try_pair(j as usize);
                     }
                 }
             }
             None => {
                 for j in 0..self.obps.len() {
-                    try_pair(j, false);
+                    try_pair(j);
                 }
             }
         }
@@ -209,11 +216,13 @@ mod tests {
     #[test]
     fn lists_match_brute_force_after_builds_and_partial_rebuilds() {
         let e = Ellipsoid::new(0.8, 0.4, 0.4);
-        // A box with a grid of centres (10 > 3 × reach) and one without (every image).
-        for (n, l) in [(300, 10.0), (40, 4.0)] {
+        // A box with a grid of centres (10 > 3 × reach), one without (5.5 > 2 × reach), and one
+        // where a box may overlap two images of another (4 < 2 × reach).
+        for (n, l) in [(300, 10.0), (60, 5.5), (40, 4.0)] {
             let mut b = bodies(n, l, 7);
             let mut lists = Lists::build(&e, &b, l, 0.15);
             assert_eq!(lists.grid.is_some(), l == 10.0);
+            assert_eq!(lists.single_image, l > 5.0);
             assert_eq!(listed(&lists), brute(&lists));
             let mut rng = crate::rng::Rng::new(11);
             for step in 0..200 {

@@ -1,7 +1,7 @@
 //! The contact-free intervals that prune and shorten contact searches, against the independent
 //! Perram–Wertheim overlap test: within a claimed interval the bodies never overlap.
 
-use edmd::contact::centre_line_bound;
+use edmd::contact::separating_axis;
 use edmd::distance::{SolverStats, Tolerances, distance};
 use edmd::ellipsoid::Ellipsoid;
 use edmd::geometry::{M3, Placed, Surface, V3};
@@ -74,14 +74,54 @@ proptest! {
     }
 
     #[test]
-    fn no_overlap_before_the_centre_line_bound((e, a, b) in pair()) {
+    fn the_separating_axis_gap_bounds_the_distance_and_stays_clear((e, a, b) in pair()) {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
         prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
-        let (lower, estimate) = centre_line_bound(&e, &a, &e, &b);
-        prop_assert!(lower >= 0.0 && estimate >= lower);
+        let gap = separating_axis(&e, &pa, &e, &pb);
+        if let Some(d) = distance(&e, &pa, &e, &pb, None, &tol(), &mut SolverStats::default()) {
+            prop_assert!(gap.gap <= d.d + 1e-12, "gap {} above the distance {}", gap.gap, d.d);
+        }
+        let lower = gap.safe_time(&e, &a, &e, &b);
+        prop_assert!(lower >= 0.0 && gap.closing_estimate(&a, &b) >= 0.0);
         let scale = min_scale(&e, &a, &b, lower.min(3.0), 600);
         prop_assert!(scale > 1.0 - 1e-9, "overlap {scale} before the bound {lower}");
     }
+}
+
+#[test]
+fn a_few_ascent_steps_find_most_of_the_distance() {
+    // The elongation of the benchmark (X0 = 2), random orientations, gaps up to 0.4 σ.
+    let e = Ellipsoid::new(0.794, 0.397, 0.397);
+    let mut rng = edmd::rng::Rng::new(5);
+    let mut ratios = Vec::new();
+    while ratios.len() < 500 {
+        let mut axis = || {
+            V3::new(
+                rng.uniform() - 0.5,
+                rng.uniform() - 0.5,
+                rng.uniform() - 0.5,
+            )
+        };
+        let (ra, rb) = (
+            rotate(&M3::identity(), &axis(), 3.0),
+            rotate(&M3::identity(), &axis(), 3.0),
+        );
+        let r = axis().normalize() * (0.8 + 1.0 * rng.uniform());
+        let pa = edmd::geometry::Pose {
+            r: V3::zeros(),
+            rot: ra,
+        };
+        let pb = edmd::geometry::Pose { r, rot: rb };
+        if let Some(d) = distance(&e, &pa, &e, &pb, None, &tol(), &mut SolverStats::default())
+            && (0.01..0.4).contains(&d.d)
+        {
+            ratios.push(separating_axis(&e, &pa, &e, &pb).gap / d.d);
+        }
+    }
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    assert!(ratios[ratios.len() - 1] <= 1.0 + 1e-9);
+    assert!(median > 0.9, "median gap / distance {median}");
 }
 
 #[test]
