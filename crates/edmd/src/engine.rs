@@ -116,7 +116,10 @@ enum Neighbourhood {
     Ll {
         cells: Cells,
         cell_of: Vec<usize>,
+        /// Periodic images crossed by each body since the start (its position is unwrapped).
         img: Vec<[i32; 3]>,
+        /// `img` in lengths, for the sphere path's hot loop.
+        img_offset: Vec<V3>,
     },
     Nnl {
         lists: Lists,
@@ -168,6 +171,7 @@ impl<M: Model> Engine<M> {
                     cells,
                     cell_of: vec![0; n],
                     img: vec![[0; 3]; n],
+                    img_offset: vec![V3::zeros(); n],
                 }
             }
             Neighbours::Nnl => {
@@ -243,6 +247,7 @@ impl<M: Model> Engine<M> {
                 cells,
                 cell_of,
                 img,
+                img_offset,
             } => {
                 let c = cells.coords(cell_of[i]);
                 let r = a.r - self.shift_vec(img[i]);
@@ -257,23 +262,25 @@ impl<M: Model> Engine<M> {
                     let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
                     let mut horizon = best.t - self.t;
                     let mut partner = None;
-                    for nbc in cells.around(cell_of[i]) {
-                        let base = [0, 1, 2].map(|k| nbc.shift[k] as i32 + img[i][k]);
+                    for (k, nbc) in cells.around(cell_of[i]).iter().enumerate() {
+                        // Where i's image sits relative to the box j lives in, minus i itself.
+                        let origin = self.shift_vec(nbc.shift.map(i32::from)) + img_offset[i] - a.r;
                         for &j in cells.members(nbc.cell) {
-                            let ju = j as usize;
-                            let bj = &self.bodies[ju];
-                            let s = [0, 1, 2].map(|k| base[k] - img[ju][k]);
-                            let dr = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(s) - a.r;
+                            let bj = &self.bodies[j as usize];
+                            let dr =
+                                bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
                             let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
                             if tau < horizon {
                                 horizon = tau;
-                                partner = Some((self.t + tau, j, s));
+                                partner = Some((k, j));
                             }
                         }
                     }
-                    if let Some((t, j, shift)) = partner {
+                    if let Some((k, j)) = partner {
+                        let cell_shift = cells.around(cell_of[i])[k].shift;
+                        let shift = ll_shift(cell_shift, img[i], img[j as usize]);
                         best = Event {
-                            t,
+                            t: self.t + horizon,
                             a: i as u32,
                             b: j,
                             ca: self.count[i],
@@ -471,6 +478,7 @@ impl<M: Model> Engine<M> {
             cells,
             cell_of,
             img,
+            img_offset,
         } = &mut self.nb
         else {
             return;
@@ -481,6 +489,7 @@ impl<M: Model> Engine<M> {
         // Positions stay unwrapped (scheduled events keep their meaning); the image counter
         // records that the body now lives in the neighbouring box.
         img[i][dim] += to.shift[dim] as i32;
+        img_offset[i][dim] = img[i][dim] as f64 * self.l;
         cells.remove(cell_of[i], i as u32);
         cells.insert(to.cell, i as u32);
         cell_of[i] = to.cell;

@@ -5,13 +5,14 @@ use crate::geometry::{M3, Pose, V3};
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Body {
+    // Position, velocity and time first: the sphere path reads only them, from one cache line.
     pub r: V3,
     pub v: V3,
+    pub t: f64,
     /// Orientational matrix R, rows = body axes (Eq. 1).
     pub rot: M3,
     /// Angular velocity w (lab frame).
     pub w: V3,
-    pub t: f64,
 }
 
 /// Ω of Eq. (3): Ω x = w × x.
