@@ -4,7 +4,9 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::distance::{Distance, Guess, SolverStats, Tolerances, distance, solve5};
+use crate::distance::{
+    Distance, Guess, SolverStats, Tolerances, distance, multipliers_guess, solve5,
+};
 use crate::geometry::{Placed, Pose, Surface, V3};
 use crate::rigid::{Body, GapSide, ddot_max, gap_closing_rates, gap_safe_time};
 
@@ -65,18 +67,27 @@ pub fn predict<S: Surface>(
         stats,
     };
     let mut t = t1;
-    loop {
+    let near = loop {
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
         let gap = separating_axis(sa, &pa, sb, &pb);
         if gap.gap <= FAR_GAP {
-            break;
+            // The support points are nearly the closest points: Newton–Raphson starts there.
+            let (xa, xb) = (pa.r + gap.offset_a, pb.r + gap.offset_b);
+            let (alpha, beta) = multipliers_guess(sa, &pa, sb, &pb, &xa, &xb);
+            break Distance {
+                d: gap.gap,
+                xa,
+                xb,
+                alpha,
+                beta,
+            };
         }
         t += gap.safe_time(sa, a, sb, b);
         if t > t2 {
             return None;
         }
-    }
-    let mut cur = search.dist(t, None);
+    };
+    let mut cur = search.dist(t, Some(&near));
     if let Some(d0) = cur
         && d0.d <= 0.0
         && approaching(sa, a, b, &d0, t)
@@ -205,31 +216,29 @@ pub struct AxisGap {
 /// which bound how fast the support points move with n. No Newton–Raphson, no failure.
 pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     const STEPS: usize = 4;
-    let r = pb.r - pa.r;
+    // Worked in A's body frame: B's axes seen from A, and the line of centres.
+    let b_to_a = pa.rot * pb.rot.transpose();
+    let r = pa.rot * (pb.r - pa.r);
     let damping = 1.0 / (sa.max_curvature_radius() + sb.max_curvature_radius());
     let mut n = r.normalize();
-    let mut best = AxisGap {
-        gap: f64::NEG_INFINITY,
-        n,
-        offset_a: V3::zeros(),
-        offset_b: V3::zeros(),
-    };
+    let mut best = (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros());
     for _ in 0..STEPS {
-        let offset_a = pa.rot.transpose() * sa.support_point(&(pa.rot * n));
-        let offset_b = pb.rot.transpose() * sb.support_point(&(pb.rot * -n));
+        let offset_a = sa.support_point(&n);
+        let offset_b = b_to_a * sb.support_point(&-(b_to_a.tr_mul(&n)));
         let between = r + offset_b - offset_a;
         let gap = n.dot(&between);
-        if gap > best.gap {
-            best = AxisGap {
-                gap,
-                n,
-                offset_a,
-                offset_b,
-            };
+        if gap > best.0 {
+            best = (gap, n, offset_a, offset_b);
         }
         n = (n + (between - n * gap) * damping).normalize();
     }
-    best
+    let to_lab = pa.rot.transpose();
+    AxisGap {
+        gap: best.0,
+        n: to_lab * best.1,
+        offset_a: to_lab * best.2,
+        offset_b: to_lab * best.3,
+    }
 }
 
 impl AxisGap {
