@@ -320,14 +320,17 @@ impl<M: Model> Engine<M> {
             if ju == i {
                 continue;
             }
-            self.bodies[ju].advance_to(self.t);
             if M::ROTATES {
-                let mut b = self.bodies[ju];
-                b.r += self.shift_vec(shift);
-                if let Some((t1, _)) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), 2.0 * lb)
-                {
+                // Where the bounding spheres are concerned, positions suffice; a body is rotated
+                // to the present only when its orientation matters.
+                let bj = &self.bodies[ju];
+                let r = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(shift);
+                if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
                     let (lower, estimate) = if t1 == 0.0 {
+                        self.bodies[ju].advance_to(self.t);
+                        let mut b = self.bodies[ju];
+                        b.r += self.shift_vec(shift);
                         self.m.quick_bound(&a, &b)
                     } else {
                         (t1, t1)
@@ -335,6 +338,7 @@ impl<M: Model> Engine<M> {
                     order.push((estimate, lower, j, shift));
                 }
             } else {
+                self.bodies[ju].advance_to(self.t);
                 order.push((0.0, 0.0, j, shift));
             }
         }
@@ -347,6 +351,7 @@ impl<M: Model> Engine<M> {
                 continue;
             }
             let ju = j as usize;
+            self.bodies[ju].advance_to(self.t);
             let mut b = self.bodies[ju];
             b.r += self.shift_vec(shift);
             if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)

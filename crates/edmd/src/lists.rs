@@ -120,7 +120,18 @@ impl Lists {
             for off in offsets {
                 let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
                 let shift = V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * self.l;
-                if (b.c + shift - a.c).norm() < self.reach && overlap(a, b, &shift) {
+                let d = b.c + shift - a.c;
+                if d.norm_squared() >= self.reach * self.reach {
+                    continue;
+                }
+                // B inside its circumsphere against A's three slabs: most candidates end here,
+                // before the 15-axis test builds its rotation.
+                let local = a.rot * d;
+                let radius = 0.5 * self.reach;
+                if (0..3).any(|k| local[k].abs() > a.half[k] + radius) {
+                    continue;
+                }
+                if overlap(a, b, &shift) {
                     found.push((j as u32, s));
                 }
             }

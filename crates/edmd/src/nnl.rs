@@ -2,7 +2,7 @@
 //! the 15-axis separation test (Eqs. 62–64), and the escape time of a body from its box (Eqs. 59–61).
 
 use crate::geometry::{M3, Surface, V3};
-use crate::rigid::Body;
+use crate::rigid::{Body, support_acceleration_bound};
 
 /// Oriented bounding parallelepiped, immobile between two rebuilds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,8 +73,9 @@ pub fn overlap(a: &Obp, b: &Obp, shift: &V3) -> bool {
 /// The distance of the body from face ±k is d = e_k ∓ (r − c)·u_k − h_k, with h_k the body's support
 /// along u_k (exact for an ellipsoid, so no Newton–Raphson is needed for the planes of Eq. 59).
 /// A body that does not rotate moves linearly and its escape time is exact. A rotating body advances
-/// by Δt = min_k d_k/ḋ_k with the bound ḋ_k ≤ |v·u_k| + L‖w‖ of Eq. (60), and the escape time is
-/// taken as soon as a gap falls below ε_d^nnl (Eq. 61): a lower bound, so a rebuild comes early, never late.
+/// by steps that no face gap can close within (a sharper bound than ḋ_k ≤ |v·u_k| + L‖w‖ of
+/// Eq. 60, see below), and the escape time is taken as soon as a gap falls below ε_d^nnl (Eq. 61):
+/// a lower bound, so a rebuild comes early, never late.
 pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f64 {
     let axes = [
         obp.rot.row(0).transpose(),
@@ -98,25 +99,45 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
         }
         return best;
     }
-    let lw = s.bounding_radius() * body.w.norm();
+    // Each face gap g = e_k ∓ o − h changes at the exact rate ġ = ∓v·u_k − ḣ (ḣ = u_k·(w × p), p
+    // the support point) with |g̈| ≤ M from `support_acceleration_bound`: g stays positive for the
+    // root of g + ġτ − ½Mτ² (the contact search's bound, applied to the six planes).
+    let (l, rho_max) = (s.bounding_radius(), s.max_curvature_radius());
+    let accel = axes.map(|u| support_acceleration_bound(&body.w, &u, l, rho_max));
     let mut tau = 0.0;
     for _ in 0..100_000 {
         let p = body.pose_after(tau);
         let mut dt = f64::INFINITY;
         for (k, u) in axes.iter().enumerate() {
-            let h = s.support(&(p.rot * u));
+            let support = p.rot.transpose() * s.support_point(&(p.rot * u));
+            let h = support.dot(u);
+            let h_rate = u.dot(&body.w.cross(&support));
             let o = (p.r - obp.c).dot(u);
-            let rate = body.v.dot(u).abs() + lw;
-            for gap in [obp.half[k] - o - h, obp.half[k] + o - h] {
+            let vu = body.v.dot(u);
+            for (gap, rate) in [
+                (obp.half[k] - o - h, -vu - h_rate),
+                (obp.half[k] + o - h, vu - h_rate),
+            ] {
                 if gap < eps_nnl {
                     return tau;
                 }
-                dt = dt.min(gap / rate);
+                dt = dt.min(positive_for(gap, rate, accel[k]));
             }
         }
         tau += dt;
     }
     tau
+}
+
+/// How long g(τ) ≥ g + ġτ − ½Mτ² stays positive, for g > 0.
+fn positive_for(gap: f64, rate: f64, accel: f64) -> f64 {
+    if accel > 0.0 {
+        (rate + (rate * rate + 2.0 * accel * gap).sqrt()) / accel
+    } else if rate < 0.0 {
+        gap / -rate
+    } else {
+        f64::INFINITY
+    }
 }
 
 #[cfg(test)]

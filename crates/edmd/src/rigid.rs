@@ -37,7 +37,8 @@ impl Body {
     pub fn pose_after(&self, tau: f64) -> Pose {
         Pose {
             r: self.r + self.v * tau,
-            rot: if self.w == V3::zeros() {
+            // Searches start at the present; a rotation by zero would still cost a sine and cosine.
+            rot: if tau == 0.0 || self.w == V3::zeros() {
                 self.rot
             } else {
                 rotate(&self.rot, &self.w, tau)
