@@ -86,6 +86,13 @@ fn random_rotation(rng: &mut Rng) -> M3 {
 /// Separation kept between bodies by the Monte Carlo, so that the dynamics starts without contact.
 const GAP: f64 = 1e-9;
 
+/// The lattice is melted at this packing fraction (or the target, if lower): a stable fluid for
+/// spheres and the elongations simulated here.
+const PHI_MELT: f64 = 0.25;
+
+/// Monte Carlo sweeps that melt the lattice: each body moves about a lattice spacing.
+const MELT_SWEEPS: usize = 60;
+
 pub struct Config {
     pub l: f64,
     pub bodies: Vec<Body>,
@@ -154,11 +161,34 @@ pub fn initial_configuration(
         }
         l *= 1.05;
     };
+    // The lattice is melted first, at a density where the fluid is stable and moves are cheap,
+    // as in Sec. 4.1: compressed without melting, an FCC lattice stays a crystal above freezing
+    // (at φ = 0.5 hard spheres then give the crystal's Z ≈ 9.5, not the fluid's 13).
+    let l_melt = (n as f64 * vp / phi.min(PHI_MELT)).cbrt();
+    if l < l_melt {
+        let s = l_melt / l;
+        l = l_melt;
+        for p in pos.iter_mut() {
+            *p *= s;
+        }
+    }
     let mut dr = 0.05 * diam;
     let mut dth = 0.1;
     // Monte Carlo moves keep pairs at least 1 + m apart (in contact-scale units) unless they were
     // closer already: the configuration then always leaves room for a compression by ~1/(1 + m).
     let mut m = 0.05;
+    for _ in 0..MELT_SWEEPS {
+        let acc = sweep(&mut pos, &mut rot, l, geom, dr, dth, m, rng);
+        let f = if acc > 0.5 {
+            1.2
+        } else if acc < 0.3 {
+            0.8
+        } else {
+            1.0
+        };
+        dr = (dr * f).min(0.25 * l);
+        dth = (dth * f).min(1.0);
+    }
     let mut rounds = 0;
     while l > l_target {
         rounds += 1;

@@ -100,6 +100,7 @@ fn no_overlaps_for_elongated_and_flat_ellipsoids_up_to_phi_half() {
         500,
     ));
     assert_eq!(r.solver_failures, 0);
+    // The fluid, not the FCC crystal a compressed lattice stays in above freezing (Z ≈ 9.5 there).
     let r = go(&scene(
         ShapeKind::Sphere,
         256,
@@ -109,7 +110,12 @@ fn no_overlaps_for_elongated_and_flat_ellipsoids_up_to_phi_half() {
         20_000,
         1_000,
     ));
-    assert!(r.pressure_z > kolafa(0.45));
+    let fluid = kolafa(0.5);
+    assert!(
+        (r.pressure_z - fluid).abs() < 0.03 * fluid,
+        "phi 0.5: Z {} vs the fluid's {fluid}",
+        r.pressure_z
+    );
 }
 
 /// Run with `--ignored`: X0 = 5 at φ = 0.5.
