@@ -328,8 +328,7 @@ impl<M: Model> Engine<M> {
                 if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
                     let (lower, estimate) = if t1 == 0.0 {
-                        self.bodies[ju].advance_to(self.t);
-                        let mut b = self.bodies[ju];
+                        let mut b = self.bodies[ju].at(self.t);
                         b.r += self.shift_vec(shift);
                         self.m.quick_bound(&a, &b)
                     } else {
@@ -351,8 +350,7 @@ impl<M: Model> Engine<M> {
                 continue;
             }
             let ju = j as usize;
-            self.bodies[ju].advance_to(self.t);
-            let mut b = self.bodies[ju];
+            let mut b = self.bodies[ju].at(self.t);
             b.r += self.shift_vec(shift);
             if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
                 && self.t + tau < best.t

@@ -46,6 +46,18 @@ impl Body {
         }
     }
 
+    /// A copy moved freely to time `t`. Candidates of a prediction are looked at this way: the
+    /// stored state stays, and a copy needs no re-orthonormalisation (it accumulates nothing).
+    pub fn at(&self, t: f64) -> Body {
+        let p = self.pose_after(t - self.t);
+        Body {
+            r: p.r,
+            rot: p.rot,
+            t,
+            ..*self
+        }
+    }
+
     /// Moves the stored state to time `t`.
     pub fn advance_to(&mut self, t: f64) {
         let tau = t - self.t;
