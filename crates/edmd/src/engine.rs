@@ -563,7 +563,9 @@ pub struct RunReport {
     pub mean_free_time: f64,
     /// Simulated time of the measured run.
     pub sim_time: f64,
+    /// Linked-cell crossings in the measured run.
     pub cell_crossings: u64,
+    /// Bounding boxes rebuilt in the measured run, one body each (NNL).
     pub nnl_rebuilds: u64,
     /// Predicted collisions found separating when due (grazing at exact tangency).
     pub separating_contacts: u64,
