@@ -67,7 +67,13 @@ pub fn predict<S: Surface>(
         stats,
     };
     let mut t = t1;
+    let mut steps = 0;
     let near = loop {
+        steps += 1;
+        if steps > MAX_STEPS {
+            search.stats.failures += 1;
+            return None;
+        }
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
         let gap = separating_axis(sa, &pa, sb, &pb);
         if gap.gap <= FAR_GAP {
@@ -94,16 +100,6 @@ pub fn predict<S: Surface>(
     {
         // Touching or overlapping (by rounding) and still approaching: collide at once.
         return Some(search.hit_from_distance(&d0, t));
-    }
-    // Most searches find nothing before the horizon (a nearer partner sets it). One distance at the
-    // far end often proves that, with the two-sided bound, before any stepping.
-    if let Some(c) = cur
-        && c.d > p.eps_d
-        && t2.is_finite()
-        && t2 > t
-        && search.certified_free(t, &c, t2)
-    {
-        return None;
     }
     // The last successful evaluation: a failed one in between must not hide a sign change.
     let mut last = cur.map(|d| (t, d));
@@ -371,19 +367,6 @@ impl<S: Surface> Search<'_, S> {
         let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &((lo.xb - lo.xa) / lo.d));
         let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &((hi.xb - hi.xa) / hi.d));
         forward <= 0.0 || backward <= 0.0 || lo.d / forward + hi.d / backward >= dt
-    }
-
-    /// One distance at `t_end` (warm-started from `d0` at `t0`) proves no contact in [t0, t_end]?
-    fn certified_free(&mut self, t0: f64, d0: &Distance, t_end: f64) -> bool {
-        let failures_before = self.stats.failures;
-        match self.dist(t_end, Some(d0)) {
-            Some(d) => self.no_zero_between(d0, &d, t_end - t0),
-            None => {
-                // The far end may lie deep in an overlap, where no distance exists: not a failure.
-                self.stats.failures = failures_before;
-                false
-            }
-        }
     }
 
     fn dist_value(&mut self, t: f64, warm: &mut Distance) -> f64 {
