@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::Args;
 use coordinator::Store;
-use report::{OverlapRow, TableFormat};
+use report::{EdmdRow, OverlapRow, TableFormat};
 
 use crate::local::report_status;
 use crate::output::{Format, print_json, print_table, write_csv};
@@ -20,7 +20,15 @@ async fn open_read_only(db: &Path) -> anyhow::Result<Store> {
     if !db.exists() {
         bail!("{}: no such database", db.display());
     }
-    Store::open_read_only(db).await.with_context(|| format!("cannot open {}", db.display()))
+    match Store::open_read_only(db).await {
+        Err(error @ store::Error::SchemaOutdated { .. }) => bail!(
+            "cannot open {}: {error}; `sweep run PLAN --db {}` or `sweep coordinator --db {}` migrates it",
+            db.display(),
+            db.display(),
+            db.display()
+        ),
+        opened => opened.with_context(|| format!("cannot open {}", db.display())),
+    }
 }
 
 #[derive(Args)]
@@ -58,7 +66,7 @@ pub fn status(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
 
 #[derive(Args)]
 pub struct ReportArgs {
-    /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64).
+    /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64), fig7 (EDMD: τ_c against φ).
     name: String,
     #[arg(long)]
     db: PathBuf,
@@ -68,6 +76,9 @@ pub struct ReportArgs {
 }
 
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    if args.name == "fig7" {
+        return report_fig7(args);
+    }
     let rows: Vec<OverlapRow> = runtime()?.block_on(async {
         let store = open_read_only(&args.db).await?;
         let rows = store.overlap_rows().await?;
@@ -92,7 +103,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "table2" => ("table", "f64"),
         "fig2" => ("figure", "f32"),
         "fig3" => ("figure", "f64"),
-        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3)"),
+        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7)"),
     };
     if kind == "figure" {
         let out = args.out.as_deref().with_context(|| format!("report {}: give --out FILE.png or FILE.svg", args.name))?;
@@ -119,6 +130,34 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
             print!("{}", report::render_table(&table, format)?);
         }
     }
+    Ok(())
+}
+
+/// Figure 7: τ_c against φ for every EDMD curve in the database.
+fn report_fig7(args: &ReportArgs) -> anyhow::Result<()> {
+    let out = args.out.as_deref().context("report fig7: give --out FILE.png or FILE.svg")?;
+    let rows: Vec<EdmdRow> = runtime()?.block_on(async {
+        let store = open_read_only(&args.db).await?;
+        let runs = store.edmd_runs().await?;
+        anyhow::Ok(
+            runs.into_iter()
+                .map(|r| EdmdRow {
+                    shape: r.shape,
+                    x0: r.x0,
+                    neighbours: r.neighbours,
+                    delta_nnl: r.delta_nnl,
+                    n: u32::try_from(r.n).unwrap_or(u32::MAX),
+                    phi: r.phi,
+                    tau_c_us: r.tau_c_us,
+                })
+                .collect(),
+        )
+    })?;
+    if rows.is_empty() {
+        bail!("report fig7: no EDMD results in {}", args.db.display());
+    }
+    report::fig7(&rows, out)?;
+    eprintln!("wrote {}", out.display());
     Ok(())
 }
 

@@ -141,3 +141,39 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         assert!(snapshot(&db) == before, "case {i} changed the database");
     }
 }
+
+#[test]
+fn an_edmd_sweep_lands_in_edmd_runs_and_draws_figure_7() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("edmd.db");
+    let db = db.to_str().unwrap();
+    let plan = write(
+        dir.path(),
+        "edmd.toml",
+        "name = \"fig7-small\"\n[[edmd]]\nshape = \"sphere\"\nn = 64\nphi = [0.2, 0.3]\ncollisions = 2000\nequilibrate = 200\n",
+    );
+    run_plan(&plan, db);
+    let out = sweep(&["query", "SELECT phi, tau_c_us > 0, overlaps FROM edmd_runs ORDER BY phi", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    for (row, phi) in rows.iter().zip([0.2, 0.3]) {
+        assert_eq!(row["phi"], phi);
+        assert_eq!(row["tau_c_us > 0"], 1);
+        assert_eq!(row["overlaps"], 0);
+    }
+
+    let png = dir.path().join("fig7.png");
+    let out = sweep(&["report", "fig7", "--db", db, "--out", png.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+
+    // A database without EDMD results: a clear error and no file.
+    let empty = dir.path().join("noops.db");
+    run_plan(&write(dir.path(), "noops.toml", &noop_plan(3, 0)), empty.to_str().unwrap());
+    let nothing = dir.path().join("none.png");
+    let out = sweep(&["report", "fig7", "--db", empty.to_str().unwrap(), "--out", nothing.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no EDMD results"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!nothing.exists());
+}

@@ -1,20 +1,13 @@
 //! Figure 2 of the papers: run time over the (L*, W*) plane, one heat map per (algorithm, R*).
 
 use std::collections::BTreeMap;
-use std::error::Error;
 use std::path::Path;
-use std::sync::OnceLock;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::{FontStyle, register_font};
 
+use crate::render::{DrawResult, Drawing, FONT, render};
 use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title};
-
-/// DejaVu Sans 2.37 (Bitstream Vera license, see `assets/fonts/DejaVuSans-LICENSE.txt`),
-/// compiled in so that no system font or fontconfig is ever needed.
-static DEJAVU_SANS: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
-const FONT: &str = "sans-serif";
 
 const PANEL_WIDTH: u32 = 330;
 const PANEL_HEIGHT: u32 = 290;
@@ -28,45 +21,8 @@ const MISSING: RGBColor = RGBColor(225, 225, 225);
 /// mean run time (ms), on a colour scale shared by an algorithm's row (the bar on its right),
 /// so that the R*-dependence the papers discuss is seen across a row.
 pub fn fig2(rows: &[OverlapRow], precision: &str, path: &Path) -> Result<(), ReportError> {
-    let figure = Figure::new(rows, precision)?;
-    register_bundled_font()?;
-    let size = figure.size();
-    let drawn = match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
-        Some("png") => {
-            let root = BitMapBackend::new(path, size).into_drawing_area();
-            figure.draw(&root).and_then(|()| Ok(root.present()?))
-        }
-        Some("svg") => {
-            let root = SVGBackend::new(path, size).into_drawing_area();
-            figure.draw(&root).and_then(|()| Ok(root.present()?))
-        }
-        _ => {
-            return Err(ReportError::Extension {
-                path: path.display().to_string(),
-                expected: ".png or .svg",
-            });
-        }
-    };
-    drawn.map_err(|e| ReportError::Draw {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })
+    render(&Figure::new(rows, precision)?, path)
 }
-
-/// Registers the bundled font under plotters' `sans-serif` family, once per process.
-fn register_bundled_font() -> Result<(), ReportError> {
-    static REGISTERED: OnceLock<bool> = OnceLock::new();
-    let ok =
-        *REGISTERED.get_or_init(|| register_font(FONT, FontStyle::Normal, DEJAVU_SANS).is_ok());
-    if ok { Ok(()) } else { Err(ReportError::Font) }
-}
-
-type DrawResult = Result<(), Box<dyn Error>>;
 
 /// The measured grid: every distinct L*, W*, R* and algorithm of one precision.
 struct Figure {
@@ -90,6 +46,40 @@ fn distinct(values: impl Iterator<Item = f64>) -> Vec<f64> {
 /// Index of `x` in the sorted distinct `values` it was taken from.
 fn index_of(values: &[f64], x: f64) -> usize {
     values.partition_point(|v| v.total_cmp(&x).is_lt())
+}
+
+impl Drawing for Figure {
+    fn size(&self) -> (u32, u32) {
+        let columns = self.r_values.len() as u32;
+        let rows = self.algorithms.len() as u32;
+        (
+            columns * PANEL_WIDTH + COLOUR_BAR_WIDTH,
+            TITLE_HEIGHT + rows * PANEL_HEIGHT,
+        )
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        root.fill(&WHITE)?;
+        let title = format!(
+            "Mean run time per point (ms) over the L*–W* plane, {}",
+            self.precision
+        );
+        let body = root.titled(&title, (FONT, 24))?;
+        let (panels, bars) = body.split_horizontally(self.r_values.len() as u32 * PANEL_WIDTH);
+        let panels = panels.split_evenly((self.algorithms.len(), self.r_values.len()));
+        let bars = bars.split_evenly((self.algorithms.len(), 1));
+        for (a, bar) in bars.iter().enumerate() {
+            let scale = self.scale(a);
+            for r in 0..self.r_values.len() {
+                self.draw_panel(&panels[a * self.r_values.len() + r], a, r, scale)?;
+            }
+            draw_colour_bar(bar, scale)?;
+        }
+        Ok(())
+    }
 }
 
 impl Figure {
@@ -139,15 +129,6 @@ impl Figure {
         })
     }
 
-    fn size(&self) -> (u32, u32) {
-        let columns = self.r_values.len() as u32;
-        let rows = self.algorithms.len() as u32;
-        (
-            columns * PANEL_WIDTH + COLOUR_BAR_WIDTH,
-            TITLE_HEIGHT + rows * PANEL_HEIGHT,
-        )
-    }
-
     /// Smallest and largest value of an algorithm's row of panels (never an empty interval).
     fn scale(&self, algorithm: usize) -> (f64, f64) {
         let values = self
@@ -164,29 +145,6 @@ impl Figure {
             let pad = (lo.abs() * 0.05).max(1e-3);
             (lo - pad, hi + pad)
         }
-    }
-
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
-    where
-        DB::ErrorType: 'static,
-    {
-        root.fill(&WHITE)?;
-        let title = format!(
-            "Mean run time per point (ms) over the L*–W* plane, {}",
-            self.precision
-        );
-        let body = root.titled(&title, (FONT, 24))?;
-        let (panels, bars) = body.split_horizontally(self.r_values.len() as u32 * PANEL_WIDTH);
-        let panels = panels.split_evenly((self.algorithms.len(), self.r_values.len()));
-        let bars = bars.split_evenly((self.algorithms.len(), 1));
-        for (a, bar) in bars.iter().enumerate() {
-            let scale = self.scale(a);
-            for r in 0..self.r_values.len() {
-                self.draw_panel(&panels[a * self.r_values.len() + r], a, r, scale)?;
-            }
-            draw_colour_bar(bar, scale)?;
-        }
-        Ok(())
     }
 
     fn draw_panel<DB: DrawingBackend>(

@@ -4,17 +4,21 @@
 //! never touches the database. It renders the papers' Tables 1–2 ([`table1`], then
 //! [`render_table`] as Markdown, CSV, LaTeX or JSON) and Figure 2 ([`fig2`], PNG or SVG). Ours
 //! compare a second precision, f64, where the papers compare a second language: Table 1 is
-//! `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`.
+//! `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`. Figure 7 of the EDMD paper, τ_c
+//! against φ, is [`fig7`] over [`EdmdRow`]s.
 //!
 //! Figures use the DejaVu Sans file shipped in `assets/fonts/` (compiled in), never system
 //! fonts, so they render the same on a bare machine.
 
 mod fig;
+mod fig7;
+mod render;
 mod table;
 
 use serde::{Deserialize, Serialize};
 
 pub use fig::fig2;
+pub use fig7::fig7;
 pub use table::{Table1Row, TableFormat, render_table, table1};
 
 /// One benchmark point's result for one algorithm: the mean over its repeats.
@@ -32,8 +36,22 @@ pub struct OverlapRow {
     pub repeats: u32,
 }
 
+/// One EDMD point: what tells its curve apart, its packing fraction and its time per collision.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EdmdRow {
+    pub shape: String,
+    pub x0: f64,
+    pub neighbours: String,
+    pub delta_nnl: f64,
+    pub n: u32,
+    pub phi: f64,
+    pub tau_c_us: f64,
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
+    #[error("no EDMD results to plot")]
+    NoEdmdRows,
     #[error("no {precision} overlap results to plot")]
     NoRows { precision: String },
     #[error("cannot tell the format of `{path}` from its extension (expected {expected})")]

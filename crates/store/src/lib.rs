@@ -30,7 +30,7 @@ mod workers;
 pub use connect::Store;
 pub use error::{Error, Result};
 pub use types::{
-    CampaignInfo, CompleteOutcome, Completion, ExportRow, FailOutcome, JobInfo, JobState, Lease,
-    LeaseRef, NewCampaign, NewJob, OverlapRow, QueryResult, Status, SubmitOutcome, WorkerInfo,
-    WorkerRecord,
+    CampaignInfo, CompleteOutcome, Completion, EdmdRun, ExportRow, FailOutcome, JobInfo, JobState,
+    Lease, LeaseRef, NewCampaign, NewJob, OverlapRow, QueryResult, Status, SubmitOutcome,
+    WorkerInfo, WorkerRecord,
 };

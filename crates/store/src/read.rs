@@ -9,8 +9,8 @@ use sqlx::{
 use crate::Store;
 use crate::error::{Error, Result};
 use crate::types::{
-    CampaignInfo, ExportRow, JobInfo, JobState, OverlapRow, QueryResult, Status, WorkerInfo,
-    WorkerRecord,
+    CampaignInfo, EdmdRun, ExportRow, JobInfo, JobState, OverlapRow, QueryResult, Status,
+    WorkerInfo, WorkerRecord,
 };
 
 impl Store {
@@ -219,6 +219,21 @@ impl Store {
         rows.iter().map(overlap_row).collect()
     }
 
+    /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ. A record
+    /// lacking a field is reported as [`Error::Corrupt`] rather than skipped.
+    pub async fn edmd_runs(&self) -> Result<Vec<EdmdRun>> {
+        let rows = sqlx::query(
+            "SELECT job_id, shape, CAST(n AS INTEGER), CAST(phi AS REAL), CAST(x0 AS REAL),
+                    neighbours, CAST(delta_nnl AS REAL), CAST(tau_c_us AS REAL),
+                    CAST(pressure_z AS REAL)
+             FROM edmd_runs
+             ORDER BY shape, x0, neighbours, n, delta_nnl, phi",
+        )
+        .fetch_all(&self.reader)
+        .await?;
+        rows.iter().map(edmd_run).collect()
+    }
+
     /// Runs one ad-hoc query on a read-only connection (`sweep query`).
     ///
     /// Three locks: the statement must be a single `SELECT`, `WITH`, `VALUES` or `EXPLAIN` (because
@@ -265,6 +280,32 @@ fn add_state_count(status: &mut Status, state: &str, count: i64, estimate_s: f64
         status.estimate_s_remaining += estimate_s;
     }
     Ok(())
+}
+
+fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
+    let job_id: String = row.try_get(0)?;
+    let missing = |what: &str| Error::Corrupt(format!("edmd job {job_id:?} lacks {what}"));
+    let number = |index: usize, name: &str| -> Result<f64> {
+        row.try_get::<Option<f64>, _>(index)?
+            .ok_or_else(|| missing(name))
+    };
+    let text = |index: usize, name: &str| -> Result<String> {
+        row.try_get::<Option<String>, _>(index)?
+            .ok_or_else(|| missing(name))
+    };
+    Ok(EdmdRun {
+        shape: text(1, "shape")?,
+        n: row
+            .try_get::<Option<i64>, _>(2)?
+            .ok_or_else(|| missing("n"))?,
+        phi: number(3, "phi")?,
+        x0: number(4, "x0")?,
+        neighbours: text(5, "neighbours")?,
+        delta_nnl: number(6, "delta_nnl")?,
+        tau_c_us: number(7, "tau_c_us")?,
+        pressure_z: number(8, "pressure_z")?,
+        job_id,
+    })
 }
 
 fn overlap_row(row: &SqliteRow) -> Result<OverlapRow> {

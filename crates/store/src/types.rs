@@ -173,6 +173,20 @@ pub struct OverlapRow {
     pub repeats: u32,
 }
 
+/// One done EDMD point (the `edmd_runs` view): its parameters and its time per collision.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EdmdRun {
+    pub job_id: String,
+    pub shape: String,
+    pub n: i64,
+    pub phi: f64,
+    pub x0: f64,
+    pub neighbours: String,
+    pub delta_nnl: f64,
+    pub tau_c_us: f64,
+    pub pressure_z: f64,
+}
+
 /// Result of an ad-hoc read-only query: column names and rows of JSON values
 /// (INTEGER → number, REAL → number or null if not finite, TEXT → string, BLOB → lowercase hex string).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]

@@ -1,4 +1,4 @@
-//! Figure 2 renders to PNG and SVG with the bundled font only.
+//! Figures 2 and 7 render to PNG and SVG with the bundled font only.
 
 use report::{OverlapRow, ReportError, fig2};
 
@@ -101,4 +101,64 @@ fn unusable_requests_are_errors_and_write_nothing() {
     let error = fig2(&rows, "f64", &path).expect_err("no f64 rows");
     assert_eq!(error.to_string(), "no f64 overlap results to plot");
     assert!(!path.exists());
+}
+
+mod fig7 {
+    use report::{EdmdRow, ReportError, fig7};
+
+    fn row(shape: &str, x0: f64, neighbours: &str, phi: f64, tau_c_us: f64) -> EdmdRow {
+        EdmdRow {
+            shape: shape.into(),
+            x0,
+            neighbours: neighbours.into(),
+            delta_nnl: 0.08,
+            n: 256,
+            phi,
+            tau_c_us,
+        }
+    }
+
+    #[test]
+    fn curves_of_tau_c_against_phi_are_drawn() {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let mut rows = Vec::new();
+        for (k, phi) in [0.3, 0.35, 0.4, 0.45, 0.5].into_iter().enumerate() {
+            rows.push(row("sphere", 1.0, "ll", phi, 1.1));
+            rows.push(row("ellipsoid", 2.0, "nnl", phi, 35.0 - 2.5 * k as f64));
+            rows.push(row("ellipsoid", 2.0, "ll", phi, 47.0));
+        }
+        let png = dir.path().join("fig7.png");
+        fig7(&rows, &png).expect("the PNG renders");
+        let image = image::open(&png).expect("the PNG decodes").to_rgb8();
+        assert_eq!(image.dimensions(), (900, 620));
+        // Three curves in three colours (neither white, black nor grey).
+        let mut colours: Vec<[u8; 3]> = image
+            .pixels()
+            .map(|p| p.0)
+            .filter(|[r, g, b]| !(r == g && g == b))
+            .collect();
+        colours.sort_unstable();
+        colours.dedup();
+        assert!(colours.len() >= 3, "{} colours", colours.len());
+
+        let svg = dir.path().join("fig7.svg");
+        fig7(&rows, &svg).expect("the SVG renders");
+        let text = std::fs::read_to_string(&svg).expect("the SVG is text");
+        for label in [
+            "sphere, LL, N = 256",
+            "ellipsoid X0 = 2, NNL (Δ = 0.08), N = 256",
+            "ellipsoid X0 = 2, LL, N = 256",
+            "τ_c (µs)",
+        ] {
+            assert!(text.contains(label), "the SVG lacks {label:?}");
+        }
+    }
+
+    #[test]
+    fn no_edmd_rows_is_an_error_and_writes_nothing() {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let png = dir.path().join("fig7.png");
+        assert!(matches!(fig7(&[], &png), Err(ReportError::NoEdmdRows)));
+        assert!(!png.exists());
+    }
 }
