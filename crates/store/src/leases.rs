@@ -141,41 +141,35 @@ impl Store {
         touch(&mut tx, worker_id, now).await?;
         let document = serde_json::to_string(leases)
             .map_err(|e| Error::Corrupt(format!("cannot encode leases: {e}")))?;
-        // One set-based statement for all leases (`+state` keeps SQLite on the primary key).
-        let extended: HashSet<(String, i64)> = sqlx::query(
+        // Set-based statements for all leases (`+state` keeps SQLite on the primary key): extend
+        // the running ones, then read back every lease still the worker's, running or done.
+        sqlx::query(
             "UPDATE jobs SET lease_expires_at = max(lease_expires_at, ?2)
              FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
                    FROM json_each(?3)) AS c
              WHERE jobs.id = c.job_id AND +jobs.state = 'running' AND jobs.lease_owner = ?1
-               AND jobs.lease_token = c.token
-             RETURNING jobs.id, jobs.lease_token",
+               AND jobs.lease_token = c.token",
         )
         .bind(worker_id)
         .bind(extend_to)
+        .bind(&document)
+        .execute(&mut *tx)
+        .await?;
+        let kept: HashSet<(String, i64)> = sqlx::query(
+            "SELECT jobs.id, jobs.lease_token
+             FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
+                   FROM json_each(?2)) AS c
+             JOIN jobs ON jobs.id = c.job_id
+             WHERE jobs.state IN ('running', 'done') AND jobs.lease_owner = ?1
+               AND jobs.lease_token = c.token",
+        )
+        .bind(worker_id)
         .bind(&document)
         .fetch_all(&mut *tx)
         .await?
         .iter()
         .map(|row| Ok((row.try_get(0)?, row.try_get(1)?)))
         .collect::<Result<_>>()?;
-        let mut kept = extended;
-        if kept.len() < leases.len() {
-            let completed: Vec<(String, i64)> = sqlx::query(
-                "SELECT jobs.id, jobs.lease_token
-                 FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
-                       FROM json_each(?2)) AS c
-                 JOIN jobs ON jobs.id = c.job_id
-                 WHERE jobs.state = 'done' AND jobs.lease_owner = ?1 AND jobs.lease_token = c.token",
-            )
-            .bind(worker_id)
-            .bind(&document)
-            .fetch_all(&mut *tx)
-            .await?
-            .iter()
-            .map(|row| Ok((row.try_get(0)?, row.try_get(1)?)))
-            .collect::<Result<_>>()?;
-            kept.extend(completed);
-        }
         let valid = leases
             .iter()
             .filter(|l| kept.contains(&(l.job_id.clone(), l.token)))
