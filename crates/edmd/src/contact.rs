@@ -243,15 +243,9 @@ impl AxisGap {
         if self.gap.is_nan() || self.gap <= 0.0 {
             return 0.0;
         }
-        let side = |body, offset, s: &S| GapSide {
-            body,
-            offset,
-            l: s.bounding_radius(),
-            rho_max: s.max_curvature_radius(),
-        };
         gap_safe_time(
-            &side(a, self.offset_a, sa),
-            &side(b, self.offset_b, sb),
+            &GapSide::new(sa, a, self.offset_a),
+            &GapSide::new(sb, b, self.offset_b),
             &self.n,
             self.gap,
         )
@@ -343,15 +337,9 @@ impl<S: Surface> Search<'_, S> {
         let pa = self.a.pose_after(t);
         let pb = self.b.pose_after(t);
         let n = self.sa.place(&pa).grad(&d.xa).normalize();
-        let side = |body, offset, s: &S| GapSide {
-            body,
-            offset,
-            l: s.bounding_radius(),
-            rho_max: s.max_curvature_radius(),
-        };
         gap_safe_time(
-            &side(self.a, d.xa - pa.r, self.sa),
-            &side(self.b, d.xb - pb.r, self.sb),
+            &GapSide::new(self.sa, self.a, d.xa - pa.r),
+            &GapSide::new(self.sb, self.b, d.xb - pb.r),
             &n,
             d.d.max(0.0),
         )

@@ -93,6 +93,26 @@ const PHI_MELT: f64 = 0.25;
 /// Monte Carlo sweeps that melt the lattice: each body moves about a lattice spacing.
 const MELT_SWEEPS: usize = 60;
 
+/// Monte Carlo step sizes (displacement, rotation angle), kept near 30–50 % acceptance.
+struct Steps {
+    dr: f64,
+    dth: f64,
+}
+
+impl Steps {
+    fn adapt(&mut self, acceptance: f64, l: f64) {
+        let f = if acceptance > 0.5 {
+            1.2
+        } else if acceptance < 0.3 {
+            0.8
+        } else {
+            1.0
+        };
+        self.dr = (self.dr * f).min(0.25 * l);
+        self.dth = (self.dth * f).min(1.0);
+    }
+}
+
 pub struct Config {
     pub l: f64,
     pub bodies: Vec<Body>,
@@ -172,22 +192,16 @@ pub fn initial_configuration(
             *p *= s;
         }
     }
-    let mut dr = 0.05 * diam;
-    let mut dth = 0.1;
+    let mut steps = Steps {
+        dr: 0.05 * diam,
+        dth: 0.1,
+    };
     // Monte Carlo moves keep pairs at least 1 + m apart (in contact-scale units) unless they were
     // closer already: the configuration then always leaves room for a compression by ~1/(1 + m).
     let mut m = 0.05;
     for _ in 0..MELT_SWEEPS {
-        let acc = sweep(&mut pos, &mut rot, l, geom, dr, dth, m, rng);
-        let f = if acc > 0.5 {
-            1.2
-        } else if acc < 0.3 {
-            0.8
-        } else {
-            1.0
-        };
-        dr = (dr * f).min(0.25 * l);
-        dth = (dth * f).min(1.0);
+        let acc = sweep(&mut pos, &mut rot, l, geom, steps.dr, steps.dth, m, rng);
+        steps.adapt(acc, l);
     }
     let mut rounds = 0;
     while l > l_target {
@@ -220,16 +234,8 @@ pub fn initial_configuration(
             m = (m * 0.7).max(1e-4);
         }
         for _ in 0..2 {
-            let acc = sweep(&mut pos, &mut rot, l, geom, dr, dth, m, rng);
-            let f = if acc > 0.5 {
-                1.2
-            } else if acc < 0.3 {
-                0.8
-            } else {
-                1.0
-            };
-            dr = (dr * f).min(0.25 * l);
-            dth = (dth * f).min(1.0);
+            let acc = sweep(&mut pos, &mut rot, l, geom, steps.dr, steps.dth, m, rng);
+            steps.adapt(acc, l);
         }
     }
 

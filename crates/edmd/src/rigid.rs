@@ -1,6 +1,6 @@
 //! Free motion of a rigid body with an isotropic inertia tensor (Eqs. 3–6) and the collision rule (Eqs. 40–41).
 
-use crate::geometry::{M3, Pose, V3};
+use crate::geometry::{M3, Pose, Surface, V3};
 
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +116,18 @@ pub struct GapSide<'a> {
     pub offset: V3,
     pub l: f64,
     pub rho_max: f64,
+}
+
+impl<'a> GapSide<'a> {
+    /// Body `body` of shape `s` with its support point `offset` from its centre.
+    pub fn new<S: Surface>(s: &S, body: &'a Body, offset: V3) -> Self {
+        GapSide {
+            body,
+            offset,
+            l: s.bounding_radius(),
+            rho_max: s.max_curvature_radius(),
+        }
+    }
 }
 
 /// How long the support gap `gap` ≥ 0 between A and B along the fixed unit direction `n` (from A

@@ -65,8 +65,7 @@ proptest! {
         prop_assume!(matches!(d, Some(d) if d.d > 0.0));
         let d = d.unwrap();
         let n = e.place(&pa).grad(&d.xa).normalize();
-        let side = |body, offset| GapSide { body, offset, l: e.bounding_radius(), rho_max: e.max_curvature_radius() };
-        let safe = gap_safe_time(&side(&a, d.xa - pa.r), &side(&b, d.xb - pb.r), &n, d.d);
+        let safe = gap_safe_time(&GapSide::new(&e, &a, d.xa - pa.r), &GapSide::new(&e, &b, d.xb - pb.r), &n, d.d);
         // Never shorter than the step of Eq. (39), d/ḋ_max.
         prop_assert!(safe >= d.d / ddot_max(&a, &b, e.bounding_radius(), e.bounding_radius()) * (1.0 - 1e-9));
         let scale = min_scale(&e, &a, &b, safe.min(3.0), 600);
@@ -143,14 +142,8 @@ fn touching_bodies_that_separate_are_safe_for_a_while_and_then_not() {
         w: V3::new(0.0, 0.0, -6.0),
         t: 0.0,
     };
-    let side = |body, offset| GapSide {
-        body,
-        offset,
-        l: e.bounding_radius(),
-        rho_max: e.max_curvature_radius(),
-    };
     let n = V3::new(1.0, 0.0, 0.0);
-    let safe = gap_safe_time(&side(&a, n), &side(&b, -n), &n, 0.0);
+    let safe = gap_safe_time(&GapSide::new(&e, &a, n), &GapSide::new(&e, &b, -n), &n, 0.0);
     assert!(safe > 0.005 && safe.is_finite(), "{safe}");
     assert!(min_scale(&e, &a, &b, safe, 2000) > 1.0 - 1e-12);
     // Spinning tips swing back within a quarter turn: the bound must stop before they could.
