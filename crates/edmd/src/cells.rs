@@ -3,12 +3,24 @@
 
 use crate::geometry::V3;
 
+/// What a cell holds: a particle index, possibly with data kept beside it for the loops over
+/// neighbouring cells.
+pub trait Member: Copy {
+    fn particle(&self) -> u32;
+}
+
+impl Member for u32 {
+    fn particle(&self) -> u32 {
+        *self
+    }
+}
+
 #[derive(Clone, Debug)]
-pub struct Cells {
+pub struct Cells<T = u32> {
     /// Cells per side.
     pub m: usize,
     pub side: f64,
-    members: Vec<Vec<u32>>,
+    members: Vec<Vec<T>>,
     /// The 27 neighbours of every cell, computed once (the hot loop of the sphere path reads them).
     table: Vec<[Neighbour; 27]>,
 }
@@ -20,9 +32,9 @@ pub struct Neighbour {
     pub shift: [i8; 3],
 }
 
-impl Cells {
+impl<T: Member> Cells<T> {
     /// Cells of side ≥ `min_side` in a box of side `l`; `None` if fewer than 3 fit per side.
-    pub fn new(l: f64, min_side: f64) -> Option<Cells> {
+    pub fn new(l: f64, min_side: f64) -> Option<Self> {
         let m = (l / min_side).floor();
         // Also rejects NaN.
         if m.is_nan() || m < 3.0 {
@@ -64,18 +76,19 @@ impl Cells {
         ]
     }
 
-    pub fn insert(&mut self, cell: usize, i: u32) {
-        self.members[cell].push(i);
+    pub fn insert(&mut self, cell: usize, member: T) {
+        self.members[cell].push(member);
     }
 
+    /// Removes particle `i` from `cell`.
     pub fn remove(&mut self, cell: usize, i: u32) {
         let v = &mut self.members[cell];
-        if let Some(p) = v.iter().position(|&j| j == i) {
+        if let Some(p) = v.iter().position(|m| m.particle() == i) {
             v.swap_remove(p);
         }
     }
 
-    pub fn members(&self, cell: usize) -> &[u32] {
+    pub fn members(&self, cell: usize) -> &[T] {
         &self.members[cell]
     }
 
@@ -130,7 +143,7 @@ mod tests {
 
     #[test]
     fn neighbours_wrap_with_shift() {
-        let c = Cells::new(6.0, 2.0).unwrap();
+        let c = Cells::<u32>::new(6.0, 2.0).unwrap();
         assert_eq!(c.m, 3);
         let n = c.neighbour([0, 2, 1], [-1, 1, 0]);
         assert_eq!(c.coords(n.cell), [2, 0, 1]);
@@ -142,6 +155,6 @@ mod tests {
                 .count(),
             27
         );
-        assert!(Cells::new(5.9, 2.0).is_none());
+        assert!(Cells::<u32>::new(5.9, 2.0).is_none());
     }
 }

@@ -6,6 +6,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::EdmdError;
+use crate::ball::Ball;
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
 use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_axis};
@@ -13,8 +14,8 @@ use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::V3;
 use crate::init::{Geom, initial_configuration, min_image};
-use crate::lists::Lists;
-use crate::nnl::escape_time;
+use crate::lists::{Lists, Region};
+use crate::nnl::Obp;
 use crate::rigid::{Body, Inertia, collide};
 use crate::rng::Rng;
 use crate::scene::{Neighbours, Scene, ShapeKind};
@@ -26,6 +27,8 @@ trait Model {
     type Extra: Copy + Default;
     /// Whether bodies rotate, i.e. whether contact searches are costly enough to be ordered.
     const ROTATES: bool;
+    /// The region a body's neighbour list is built for.
+    type Region: Region;
     fn surface(&self) -> Ellipsoid;
     /// The first contact before `horizon`.
     fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, Self::Extra)>;
@@ -45,6 +48,7 @@ struct SphereModel {
 impl Model for SphereModel {
     type Extra = ();
     const ROTATES: bool = false;
+    type Region = Ball;
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
@@ -84,6 +88,7 @@ struct EllipsoidModel {
 impl Model for EllipsoidModel {
     type Extra = (V3, V3);
     const ROTATES: bool = true;
+    type Region = Obp;
     fn surface(&self) -> Ellipsoid {
         self.e
     }
@@ -112,7 +117,7 @@ impl Model for EllipsoidModel {
     }
 }
 
-enum Neighbourhood {
+enum Neighbourhood<R: Region> {
     Ll {
         cells: Cells,
         cell_of: Vec<usize>,
@@ -122,7 +127,7 @@ enum Neighbourhood {
         img_offset: Vec<V3>,
     },
     Nnl {
-        lists: Lists,
+        lists: Lists<R>,
         /// When each body may first touch its box (Eq. 61), for its present trajectory and box.
         escape_at: Vec<f64>,
         eps: f64,
@@ -137,7 +142,7 @@ struct Engine<M: Model> {
     cal: Calendar<M::Extra>,
     t: f64,
     inv_i: f64,
-    nb: Neighbourhood,
+    nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
     /// Candidate partners: (estimate, lower bound, partner, image shift).
     order: Vec<(f64, f64, u32, [i32; 3])>,
@@ -176,11 +181,11 @@ impl<M: Model> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists = Lists::build(&surf, &bodies, l, scene.delta_nnl);
+                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl);
                 let escape_at = bodies
                     .iter()
                     .enumerate()
-                    .map(|(i, b)| escape_time(&surf, b, lists.obp(i), scene.eps_nnl))
+                    .map(|(i, b)| lists.region(i).escape_time(&surf, b, scene.eps_nnl))
                     .collect();
                 Neighbourhood::Nnl {
                     lists,
@@ -224,21 +229,17 @@ impl<M: Model> Engine<M> {
     }
 
     /// Schedules the earliest event of `i`: its cell crossing or box escape, or its first collision,
-    /// whichever comes first (one event per particle). The crossing time (LL) or the box escape (NNL) is the
-    /// horizon of every contact search, and rigid-body partners are searched in the order in which
-    /// their bounding spheres meet, so that a search stops as soon as it cannot beat the best event.
+    /// whichever comes first (one event per particle). The crossing time (LL) or the box escape
+    /// (NNL) is the horizon of every contact search.
     fn predict_for(&mut self, i: usize) {
-        let mut cand = std::mem::take(&mut self.scratch);
-        cand.clear();
         self.bodies[i].advance_to(self.t);
         let a = self.bodies[i];
-        let mut best = Event {
+        let mut own = Event {
             t: f64::INFINITY,
             a: i as u32,
             b: u32::MAX,
             ca: self.count[i],
             cb: 0,
-            // Replaced by whatever is found; an event at +∞ is never scheduled.
             kind: Kind::BoxEscape,
             extra: M::Extra::default(),
         };
@@ -247,54 +248,105 @@ impl<M: Model> Engine<M> {
                 cells,
                 cell_of,
                 img,
-                img_offset,
+                ..
             } => {
                 let c = cells.coords(cell_of[i]);
                 let r = a.r - self.shift_vec(img[i]);
                 if let Some((tau, dim, up)) = cells.exit(c, &r, &a.v) {
-                    best.t = self.t + tau;
-                    best.kind = Kind::CellCross { dim, up };
+                    own.t = self.t + tau;
+                    own.kind = Kind::CellCross { dim, up };
                 }
-                if !M::ROTATES {
-                    // Translating spheres: the hot loop of the sphere path. Partners are
-                    // extrapolated to now without being stored, and the contact time is computed
-                    // branch-free for every member of the 27 cells (i itself gives +∞).
-                    let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
-                    let mut horizon = best.t - self.t;
-                    let mut partner = None;
-                    for (k, nbc) in cells.around(cell_of[i]).iter().enumerate() {
-                        // Where i's image sits relative to the box j lives in, minus i itself.
-                        let origin = self.shift_vec(nbc.shift.map(i32::from)) + img_offset[i] - a.r;
-                        for &j in cells.members(nbc.cell) {
-                            let bj = &self.bodies[j as usize];
-                            let dr =
-                                bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
-                            let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
-                            if tau < horizon {
-                                horizon = tau;
-                                partner = Some((k, j));
-                            }
-                        }
+            }
+            // Nothing needs scheduling past the escape, which predicts this body anew (Eq. 65).
+            Neighbourhood::Nnl { escape_at, .. } => own.t = escape_at[i],
+        }
+        let best = if M::ROTATES {
+            self.first_rigid_collision(i, &a, own)
+        } else {
+            self.first_sphere_collision(i, &a, own)
+        };
+        // An event at +∞ (nothing moves) is never scheduled.
+        if best.t.is_finite() {
+            self.cal.push(best);
+        }
+    }
+
+    /// The hot loop of the sphere path: partners are extrapolated to now without being stored,
+    /// and the contact time of every candidate is computed without data-dependent branches (i
+    /// itself gives +∞). Which candidate is the earliest so far is a select, not a branch: it is
+    /// unpredictable, and mispredictions would serialise the square roots and divisions.
+    fn first_sphere_collision(&self, i: usize, a: &Body, own: Event<M::Extra>) -> Event<M::Extra> {
+        let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
+        let mut horizon = own.t - self.t;
+        let found = match &self.nb {
+            Neighbourhood::Ll {
+                cells,
+                cell_of,
+                img,
+                img_offset,
+            } => {
+                let mut partner = None;
+                for (k, nbc) in cells.around(cell_of[i]).iter().enumerate() {
+                    // Where i's image sits relative to the box j lives in, minus i itself.
+                    let origin = self.shift_vec(nbc.shift.map(i32::from)) + img_offset[i] - a.r;
+                    for &j in cells.members(nbc.cell) {
+                        let bj = &self.bodies[j as usize];
+                        let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
+                        let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
+                        partner = if tau < horizon { Some((k, j)) } else { partner };
+                        horizon = horizon.min(tau);
                     }
-                    if let Some((k, j)) = partner {
-                        let cell_shift = cells.around(cell_of[i])[k].shift;
-                        let shift = ll_shift(cell_shift, img[i], img[j as usize]);
-                        best = Event {
-                            t: self.t + horizon,
-                            a: i as u32,
-                            b: j,
-                            ca: self.count[i],
-                            cb: self.count[j as usize],
-                            kind: Kind::Collision { shift },
-                            extra: M::Extra::default(),
-                        };
-                    }
-                    self.scratch = cand;
-                    if best.t.is_finite() {
-                        self.cal.push(best);
-                    }
-                    return;
                 }
+                partner.map(|(k, j)| {
+                    let cell_shift = cells.around(cell_of[i])[k].shift;
+                    (j, ll_shift(cell_shift, img[i], img[j as usize]))
+                })
+            }
+            Neighbourhood::Nnl { lists, .. } => {
+                let list = lists.of(i);
+                let mut partner = usize::MAX;
+                for (k, &(j, shift)) in list.iter().enumerate() {
+                    let bj = &self.bodies[j as usize];
+                    let dr = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(shift) - a.r;
+                    let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
+                    partner = if tau < horizon { k } else { partner };
+                    horizon = horizon.min(tau);
+                }
+                list.get(partner).copied()
+            }
+        };
+        match found {
+            Some((j, shift)) => Event {
+                t: self.t + horizon,
+                a: i as u32,
+                b: j,
+                ca: self.count[i],
+                cb: self.count[j as usize],
+                kind: Kind::Collision { shift },
+                extra: M::Extra::default(),
+            },
+            None => own,
+        }
+    }
+
+    /// Rigid bodies: partners are searched in the order in which their bounding spheres meet (or,
+    /// where they already overlap, of a separating-axis estimate), so that the search stops as
+    /// soon as a lower bound cannot beat the best event so far.
+    fn first_rigid_collision(
+        &mut self,
+        i: usize,
+        a: &Body,
+        mut best: Event<M::Extra>,
+    ) -> Event<M::Extra> {
+        let mut cand = std::mem::take(&mut self.scratch);
+        cand.clear();
+        match &self.nb {
+            Neighbourhood::Ll {
+                cells,
+                cell_of,
+                img,
+                ..
+            } => {
                 for nbc in cells.around(cell_of[i]) {
                     cand.extend(
                         cells
@@ -304,13 +356,7 @@ impl<M: Model> Engine<M> {
                     );
                 }
             }
-            Neighbourhood::Nnl {
-                lists, escape_at, ..
-            } => {
-                cand.extend_from_slice(lists.of(i));
-                // Nothing needs scheduling past the escape, which predicts this body anew (Eq. 65).
-                best.t = escape_at[i];
-            }
+            Neighbourhood::Nnl { lists, .. } => cand.extend_from_slice(lists.of(i)),
         }
         let lb = self.m.surface().s.max();
         let mut order = std::mem::take(&mut self.order);
@@ -320,30 +366,23 @@ impl<M: Model> Engine<M> {
             if ju == i {
                 continue;
             }
-            if M::ROTATES {
-                // Where the bounding spheres are concerned, positions suffice; a body is rotated
-                // to the present only when its orientation matters.
-                let bj = &self.bodies[ju];
-                let r = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(shift);
-                if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
-                    // Bounding spheres already overlap: a separating axis bounds the contact time.
-                    let (lower, estimate) = if t1 == 0.0 {
-                        let mut b = self.bodies[ju].at(self.t);
-                        b.r += self.shift_vec(shift);
-                        self.m.quick_bound(&a, &b)
-                    } else {
-                        (t1, t1)
-                    };
-                    order.push((estimate, lower, j, shift));
-                }
-            } else {
-                self.bodies[ju].advance_to(self.t);
-                order.push((0.0, 0.0, j, shift));
+            // Where the bounding spheres are concerned, positions suffice; a body is rotated to
+            // the present only when its orientation matters.
+            let bj = &self.bodies[ju];
+            let r = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(shift);
+            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
+                // Bounding spheres already overlap: a separating axis bounds the contact time.
+                let (lower, estimate) = if t1 == 0.0 {
+                    let mut b = self.bodies[ju].at(self.t);
+                    b.r += self.shift_vec(shift);
+                    self.m.quick_bound(a, &b)
+                } else {
+                    (t1, t1)
+                };
+                order.push((estimate, lower, j, shift));
             }
         }
-        if M::ROTATES {
-            order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
-        }
+        order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
         for &(_, lower, j, shift) in &order {
             if self.t + lower >= best.t {
@@ -352,7 +391,7 @@ impl<M: Model> Engine<M> {
             let ju = j as usize;
             let mut b = self.bodies[ju].at(self.t);
             b.r += self.shift_vec(shift);
-            if let Some((tau, extra)) = self.m.predict(&a, &b, best.t - self.t)
+            if let Some((tau, extra)) = self.m.predict(a, &b, best.t - self.t)
                 && self.t + tau < best.t
             {
                 best = Event {
@@ -368,9 +407,7 @@ impl<M: Model> Engine<M> {
         }
         self.order = order;
         self.scratch = cand;
-        if best.t.is_finite() {
-            self.cal.push(best);
-        }
+        best
     }
 
     /// Body `i` reached the face of its box: a new box and list for it alone, then its events.
@@ -386,7 +423,7 @@ impl<M: Model> Engine<M> {
             return;
         };
         lists.rebuild(&surf, i, &self.bodies[i]);
-        escape_at[i] = self.t + escape_time(&surf, &self.bodies[i], lists.obp(i), *eps);
+        escape_at[i] = self.t + lists.region(i).escape_time(&surf, &self.bodies[i], *eps);
         self.acc.rebuilds += 1;
         self.predict_for(i);
     }
@@ -400,7 +437,7 @@ impl<M: Model> Engine<M> {
             eps,
         } = &mut self.nb
         {
-            escape_at[i] = self.t + escape_time(&surf, &self.bodies[i], lists.obp(i), *eps);
+            escape_at[i] = self.t + lists.region(i).escape_time(&surf, &self.bodies[i], *eps);
         }
     }
 

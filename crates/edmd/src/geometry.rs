@@ -5,6 +5,14 @@ use nalgebra::{Matrix3, Vector3};
 pub type V3 = Vector3<f64>;
 pub type M3 = Matrix3<f64>;
 
+/// `x` rounded to the nearest integer, ties to even, for |x| < 2⁵¹: adding and subtracting
+/// 1.5·2⁵² leaves no fraction bits. `f64::round` is a libm call on baseline x86-64 (no SSE4.1),
+/// and nearest images are taken for every pair the Monte Carlo compression looks at.
+pub fn round_nearest(x: f64) -> f64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    (x + MAGIC) - MAGIC
+}
+
 /// A convex body given by an implicit function in its own frame, centred at its centre of mass.
 pub trait Surface {
     type Placed: Placed;
@@ -61,4 +69,27 @@ pub trait Placed {
     fn eval(&self, x: &V3) -> LabEval;
     fn f(&self, x: &V3) -> f64;
     fn grad(&self, x: &V3) -> V3;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn round_nearest_is_round_away_from_ties(x in -1e12f64..1e12) {
+            prop_assume!((x.fract().abs() - 0.5).abs() > 1e-9);
+            prop_assert_eq!(round_nearest(x), x.round());
+        }
+    }
+
+    #[test]
+    fn round_nearest_at_ties_and_signs() {
+        assert_eq!(round_nearest(0.5), 0.0);
+        assert_eq!(round_nearest(1.5), 2.0);
+        assert_eq!(round_nearest(-2.5), -2.0);
+        assert_eq!(round_nearest(-0.49999999999999994), 0.0);
+        assert_eq!(round_nearest(3.0), 3.0);
+    }
 }

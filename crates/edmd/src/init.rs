@@ -4,7 +4,7 @@
 
 use crate::EdmdError;
 use crate::ellipsoid::Ellipsoid;
-use crate::geometry::{M3, V3};
+use crate::geometry::{M3, V3, round_nearest};
 use crate::nnl::{Obp, overlap};
 use crate::pw::contact_scale;
 use crate::rigid::{Body, Inertia, orthonormalize, rotate};
@@ -66,7 +66,7 @@ impl Geom {
 
 /// Minimum-image vector in a cubic box of side `l`.
 pub fn min_image(d: V3, l: f64) -> V3 {
-    d.map(|x| x - l * (x / l).round())
+    d.map(|x| x - l * round_nearest(x / l))
 }
 
 /// A uniformly random rotation matrix (from a random unit quaternion).

@@ -13,7 +13,8 @@
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
 //! - [`calendar`]: binary-heap event calendar with per-particle counters.
 //! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
-//!   [`lists`]: the neighbour lists built from them, kept per particle.
+//!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
+//!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle.
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
 //! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
@@ -24,7 +25,9 @@
 //!   found so far bounds every further contact search (the horizon of Eq. 65, generalised), and
 //!   rigid-body partners are searched in the order of a lower bound on their contact time.
 //! - Neighbour lists are updated per particle, as Donev et al. [26] do: a body that escapes its box
-//!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4.
+//!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4. Spheres,
+//!   which do not rotate, get a ball instead of a box (the centre may wander Δ_NNL), with an exact
+//!   escape time and no 15-axis test.
 //! - Lower bounds on contact times go beyond ḋ_max (Eq. 32): the support gap along a fixed
 //!   direction bounds the distance from below at all times and changes at a rate and acceleration
 //!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`]).
@@ -42,6 +45,7 @@
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
 //! and the isotropic moment of inertia (2/5) m min(a, b)² of their inscribed sphere.
 
+pub mod ball;
 pub mod calendar;
 pub mod cells;
 pub mod contact;

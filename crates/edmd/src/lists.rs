@@ -1,64 +1,84 @@
-//! Nearest-neighbour lists kept per particle (Sec. 3.3 boxes, with the partial update of Donev et
-//! al. [26] instead of the global rebuild of Sec. 3.5 step 4).
+//! Nearest-neighbour lists kept per particle (Sec. 3.3, with the partial update of Donev et al.
+//! [26] instead of the global rebuild of Sec. 3.5 step 4).
 //!
-//! Each body has its own oriented bounding parallelepiped, built when it last escaped the previous
-//! one, and its list holds every body whose box overlaps its own, with the periodic image of the
-//! overlap. The relation is symmetric, so a new box for one body touches only the lists of its old
-//! and new neighbours: one escape costs one box and one prediction, not N of each.
+//! Each body has its own [`Region`], built when it last escaped the previous one: the oriented
+//! bounding parallelepiped of Sec. 3.3 for a rigid body, a ball for a sphere. Its list holds every
+//! body whose region overlaps its own, with the periodic image of the overlap. Two bodies can touch
+//! only where their regions overlap, so the list holds every possible partner until one of the two
+//! escapes. The relation is symmetric, so a new region for one body touches only the lists of its
+//! old and new neighbours: one escape costs one region and one prediction, not N of each.
 //!
 //! Positions are never wrapped (scheduled events keep their image shifts), so an image shift is
 //! relative to the unwrapped positions and stays valid while both bodies keep moving.
 
-use crate::cells::Cells;
-use crate::geometry::{Surface, V3};
-use crate::nnl::{Obp, overlap};
+use crate::cells::{Cells, Member};
+use crate::geometry::{Surface, V3, round_nearest};
 use crate::rigid::Body;
 
 /// A neighbour: its index and the image shift (in box lengths) that puts it next to the body.
 pub type Neighbour = (u32, [i32; 3]);
 
-pub struct Lists {
-    obps: Vec<Obp>,
+/// The region a body may not leave until its list is rebuilt, fixed when it is built.
+pub trait Region: Copy {
+    /// The region around `body` (at its present pose) with margin `delta` (Δ_NNL).
+    fn around<S: Surface>(s: &S, body: &Body, delta: f64) -> Self;
+    /// The diameter of the sphere circumscribing a region: regions whose centres are farther
+    /// apart cannot overlap.
+    fn reach<S: Surface>(s: &S, delta: f64) -> f64;
+    fn centre(&self) -> &V3;
+    /// Whether `other`, with `shift` added to its centre, overlaps this region; only asked of
+    /// regions whose centres are at most `reach` apart.
+    fn overlaps(&self, other: &Self, shift: &V3, reach: f64) -> bool;
+    /// Time after `body.t` when the body may first touch the boundary of its region: exact or
+    /// early, never late (ε_d^nnl of Eq. 61 where it has to be stepped to).
+    fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64;
+}
+
+pub struct Lists<R: Region> {
+    regions: Vec<R>,
     lists: Vec<Vec<Neighbour>>,
     delta: f64,
     l: f64,
-    /// The diameter of a box's circumscribed sphere: boxes farther apart cannot overlap.
+    /// [`Region::reach`]: regions farther apart cannot overlap.
     reach: f64,
-    /// Box centres binned in cells of side ≥ `reach`, when 3 fit per side; otherwise every body is
-    /// tried.
-    grid: Option<(Cells, Vec<usize>)>,
+    /// Region centres binned in cells of side ≥ `reach`, when 3 fit per side; otherwise every
+    /// body is tried.
+    grid: Option<Grid>,
     /// Whether the box exceeds twice `reach`, so that only the nearest image of a body can overlap.
     single_image: bool,
 }
 
-impl Lists {
-    /// Boxes around every body with margin `delta` (Δ_NNL) and all lists, in a periodic box of side `l`.
-    pub fn build<S: Surface>(s: &S, bodies: &[Body], l: f64, delta: f64) -> Lists {
-        let obps: Vec<Obp> = bodies.iter().map(|b| Obp::around(s, b, delta)).collect();
-        let reach = 2.0 * s.semi_axes().add_scalar(delta).norm();
-        let grid = Cells::new(l, reach).map(|mut cells| {
-            let cell_of: Vec<usize> = obps
-                .iter()
-                .enumerate()
-                .map(|(i, o)| {
-                    let c = cells.index(cells.coords_of(&o.c));
-                    cells.insert(c, i as u32);
-                    c
-                })
-                .collect();
-            (cells, cell_of)
+impl<R: Region> Lists<R> {
+    /// Regions around every body with margin `delta` (Δ_NNL) and all lists, in a periodic box of
+    /// side `l`.
+    pub fn build<S: Surface>(s: &S, bodies: &[Body], l: f64, delta: f64) -> Self {
+        let regions: Vec<R> = bodies.iter().map(|b| R::around(s, b, delta)).collect();
+        let reach = R::reach(s, delta);
+        let grid = Cells::new(l, reach).map(|cells| {
+            let mut grid = Grid {
+                cells,
+                cell_of: vec![0; regions.len()],
+                wrapped: vec![V3::zeros(); regions.len()],
+                img: vec![[0; 3]; regions.len()],
+                hits: vec![(0, 0); regions.len()],
+            };
+            for (i, r) in regions.iter().enumerate() {
+                grid.place(i, r.centre(), l);
+            }
+            grid
         });
         let mut lists = Lists {
-            lists: vec![Vec::new(); obps.len()],
-            obps,
+            lists: vec![Vec::new(); regions.len()],
+            regions,
             delta,
             l,
             reach,
             grid,
             single_image: l > 2.0 * reach,
         };
-        for i in 0..lists.obps.len() {
-            let found = lists.find(i, |j| j > i);
+        for i in 0..lists.regions.len() {
+            let mut found = Vec::new();
+            lists.find(i, |j| j > i, &mut found);
             for &(j, s) in &found {
                 lists.lists[j as usize].push((i as u32, s.map(|x| -x)));
             }
@@ -71,13 +91,16 @@ impl Lists {
         &self.lists[i]
     }
 
-    pub fn obp(&self, i: usize) -> &Obp {
-        &self.obps[i]
+    pub fn region(&self, i: usize) -> &R {
+        &self.regions[i]
     }
 
-    /// A new box around `body` (particle `i`, at the present time), and the lists updated to match.
+    /// A new region around `body` (particle `i`, at the present time), and the lists updated to
+    /// match.
     pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, body: &Body) {
-        for (j, shift) in std::mem::take(&mut self.lists[i]) {
+        // The old list's buffer is reused for the new one: rebuilds are frequent for spheres.
+        let mut mine = std::mem::take(&mut self.lists[i]);
+        for &(j, shift) in &mine {
             let theirs = &mut self.lists[j as usize];
             let back = shift.map(|x| -x);
             if let Some(p) = theirs
@@ -87,70 +110,127 @@ impl Lists {
                 theirs.swap_remove(p);
             }
         }
-        self.obps[i] = Obp::around(s, body, self.delta);
-        if let Some((cells, cell_of)) = &mut self.grid {
-            let c = cells.index(cells.coords_of(&self.obps[i].c));
-            cells.remove(cell_of[i], i as u32);
-            cells.insert(c, i as u32);
-            cell_of[i] = c;
+        self.regions[i] = R::around(s, body, self.delta);
+        if let Some(grid) = &mut self.grid {
+            grid.cells.remove(grid.cell_of[i], i as u32);
+            grid.place(i, self.regions[i].centre(), self.l);
         }
-        let found = self.find(i, |j| j != i);
-        for &(j, shift) in &found {
+        mine.clear();
+        self.find(i, |j| j != i, &mut mine);
+        for &(j, shift) in &mine {
             self.lists[j as usize].push((i as u32, shift.map(|x| -x)));
         }
-        self.lists[i] = found;
+        self.lists[i] = mine;
     }
 
-    /// The boxes, among those of bodies `j` with `take(j)`, that overlap box `i`, with their images.
-    fn find(&self, i: usize, take: impl Fn(usize) -> bool) -> Vec<Neighbour> {
-        let mut found = Vec::new();
-        let a = &self.obps[i];
-        let mut try_pair = |j: usize| {
-            if !take(j) {
-                return;
-            }
-            let b = &self.obps[j];
-            // The image of j nearest to i first; beyond it only when the box is small.
-            let nearest = ((a.c - b.c) / self.l).map(f64::round);
+    /// Appends to `found` the regions, among those of bodies `j` with `take(j)`, that overlap
+    /// region `i`, with their images.
+    fn find(&mut self, i: usize, take: impl Fn(usize) -> bool, found: &mut Vec<Neighbour>) {
+        let a = &self.regions[i];
+        let reach2 = self.reach * self.reach;
+        let Some(grid) = &mut self.grid else {
+            // Without cells, every body, at the image nearest to i and, when the box is small,
+            // the images around that one.
             let offsets: &[[i32; 3]] = if self.single_image {
                 &[[0; 3]]
             } else {
                 &ALL_27
             };
-            for off in offsets {
-                let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
-                let shift = V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * self.l;
-                let d = b.c + shift - a.c;
-                if d.norm_squared() >= self.reach * self.reach {
+            for (j, b) in self.regions.iter().enumerate() {
+                if !take(j) {
                     continue;
                 }
-                // B inside its circumsphere against A's three slabs: most candidates end here,
-                // before the 15-axis test builds its rotation.
-                let local = a.rot * d;
-                let radius = 0.5 * self.reach;
-                if (0..3).any(|k| local[k].abs() > a.half[k] + radius) {
-                    continue;
-                }
-                if overlap(a, b, &shift) {
-                    found.push((j as u32, s));
-                }
-            }
-        };
-        match &self.grid {
-            Some((cells, cell_of)) => {
-                for nbc in cells.around(cell_of[i]) {
-                    for &j in cells.members(nbc.cell) {
-                        try_pair(j as usize);
+                let nearest = ((a.centre() - b.centre()) / self.l).map(round_nearest);
+                for off in offsets {
+                    let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
+                    let shift = shift_vec(s, self.l);
+                    let d = b.centre() + shift - a.centre();
+                    if d.norm_squared() <= reach2 && a.overlaps(b, &shift, self.reach) {
+                        found.push((j as u32, s));
                     }
                 }
             }
-            None => {
-                for j in 0..self.obps.len() {
-                    try_pair(j);
-                }
+            return;
+        };
+        // With cells, each of the 27 around i fixes the image of its members: no rounding. The
+        // members within reach are gathered first without a branch (about one in four is), and
+        // only they are looked at further.
+        let img_i = grid.img[i];
+        let around = grid.cells.around(grid.cell_of[i]);
+        let mut hits = std::mem::take(&mut grid.hits);
+        let mut n = 0;
+        for (k, nbc) in around.iter().enumerate() {
+            let origin = shift_vec(nbc.shift.map(i32::from), self.l) - grid.wrapped[i];
+            for m in grid.cells.members(nbc.cell) {
+                hits[n] = (m.particle, k as u8);
+                n += usize::from((m.wrapped + origin).norm_squared() <= reach2);
             }
         }
-        found
+        for &(j, k) in &hits[..n] {
+            let j = j as usize;
+            if !take(j) {
+                continue;
+            }
+            let cell_shift = around[usize::from(k)].shift;
+            let s = [0, 1, 2].map(|c| i32::from(cell_shift[c]) + img_i[c] - grid.img[j][c]);
+            if a.overlaps(&self.regions[j], &shift_vec(s, self.l), self.reach) {
+                found.push((j as u32, s));
+            }
+        }
+        grid.hits = hits;
+    }
+}
+
+fn shift_vec(s: [i32; 3], l: f64) -> V3 {
+    V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l
+}
+
+/// Region centres binned in cells. Each centre is kept wrapped into the box, in its cell and
+/// beside it, together with the image it was wrapped from, so that the shift of a neighbouring
+/// cell gives every candidate's image directly.
+struct Grid {
+    cells: Cells<Centre>,
+    cell_of: Vec<usize>,
+    wrapped: Vec<V3>,
+    img: Vec<[i32; 3]>,
+    /// Scratch for [`Lists::find`]: a body is in at most one of the 27 cells, so N entries do.
+    hits: Vec<(u32, u8)>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Centre {
+    particle: u32,
+    wrapped: V3,
+}
+
+impl Member for Centre {
+    fn particle(&self) -> u32 {
+        self.particle
+    }
+}
+
+impl Grid {
+    /// Bins centre `c` of region `i` (not yet in any cell).
+    fn place(&mut self, i: usize, c: &V3, l: f64) {
+        let img = [0, 1, 2].map(|k| (c[k] / l).floor());
+        let wrapped = c - V3::new(img[0], img[1], img[2]) * l;
+        // Rounding may leave a wrapped coordinate a hair outside [0, l): it belongs to the edge
+        // cell it touches, never to the opposite side of the box.
+        let last = self.cells.m - 1;
+        let coord = |x: f64| ((x / self.cells.side) as usize).min(last);
+        let cell = self
+            .cells
+            .index([coord(wrapped.x), coord(wrapped.y), coord(wrapped.z)]);
+        self.cells.insert(
+            cell,
+            Centre {
+                particle: i as u32,
+                wrapped,
+            },
+        );
+        self.cell_of[i] = cell;
+        self.wrapped[i] = wrapped;
+        self.img[i] = img.map(|x| x as i32);
     }
 }
 
@@ -171,8 +251,10 @@ const ALL_27: [[i32; 3]; 27] = {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ball::Ball;
     use crate::ellipsoid::Ellipsoid;
     use crate::geometry::M3;
+    use crate::nnl::{Obp, overlap};
     use crate::rigid::rotate;
 
     fn bodies(n: usize, l: f64, seed: u64) -> Vec<Body> {
@@ -193,20 +275,24 @@ mod tests {
             .collect()
     }
 
-    /// Every overlapping pair of boxes, by brute force over all images.
-    fn brute(l: &Lists) -> Vec<(usize, usize, [i32; 3])> {
+    /// Every overlapping pair of regions, by brute force over all images, with `overlap` as the
+    /// oracle.
+    fn brute<R: Region>(
+        l: &Lists<R>,
+        overlap: impl Fn(&R, &R, &V3) -> bool,
+    ) -> Vec<(usize, usize, [i32; 3])> {
         let mut all = Vec::new();
-        let n = l.obps.len();
+        let n = l.regions.len();
         for i in 0..n {
             for j in 0..n {
                 if i == j {
                     continue;
                 }
-                let nearest = ((l.obps[i].c - l.obps[j].c) / l.l).map(f64::round);
+                let (a, b) = (&l.regions[i], &l.regions[j]);
+                let nearest = ((a.centre() - b.centre()) / l.l).map(f64::round);
                 for off in ALL_27 {
                     let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
-                    let shift = V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l.l;
-                    if overlap(&l.obps[i], &l.obps[j], &shift) {
+                    if overlap(a, b, &shift_vec(s, l.l)) {
                         all.push((i, j, s));
                     }
                 }
@@ -216,34 +302,94 @@ mod tests {
         all
     }
 
-    fn listed(l: &Lists) -> Vec<(usize, usize, [i32; 3])> {
-        let mut all: Vec<_> = (0..l.obps.len())
+    fn listed<R: Region>(l: &Lists<R>) -> Vec<(usize, usize, [i32; 3])> {
+        let mut all: Vec<_> = (0..l.regions.len())
             .flat_map(|i| l.of(i).iter().map(move |&(j, s)| (i, j as usize, s)))
             .collect();
         all.sort();
         all
     }
 
+    /// Builds lists for `b`, then moves and rebuilds 200 bodies, comparing with brute force each
+    /// time: every pair for which `must` holds is listed, and only pairs for which `may` holds.
+    fn check<R: Region>(
+        s: &Ellipsoid,
+        mut b: Vec<Body>,
+        l: f64,
+        delta: f64,
+        must: impl Fn(&R, &R, &V3) -> bool,
+        may: impl Fn(&R, &R, &V3) -> bool,
+    ) -> Lists<R> {
+        let n = b.len();
+        let mut lists = Lists::<R>::build(s, &b, l, delta);
+        same(&lists, &must, &may, "after the build");
+        let mut rng = crate::rng::Rng::new(11);
+        for step in 0..200 {
+            let i = step * 7 % n;
+            b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
+            b[i].rot = rotate(&b[i].rot, &V3::new(1.0, rng.uniform(), 0.0), 0.3);
+            lists.rebuild(s, i, &b[i]);
+        }
+        assert!(!listed(&lists).is_empty());
+        same(&lists, &must, &may, "after the rebuilds");
+        lists
+    }
+
+    fn same<R: Region>(
+        lists: &Lists<R>,
+        must: impl Fn(&R, &R, &V3) -> bool,
+        may: impl Fn(&R, &R, &V3) -> bool,
+        when: &str,
+    ) {
+        let got = listed(lists);
+        let (required, allowed) = (brute(lists, must), brute(lists, may));
+        let missing: Vec<_> = required.iter().filter(|p| !got.contains(p)).collect();
+        let extra: Vec<_> = got.iter().filter(|p| !allowed.contains(p)).collect();
+        assert!(
+            missing.is_empty() && extra.is_empty(),
+            "{when}: missing {missing:?}, extra {extra:?}"
+        );
+    }
+
     #[test]
-    fn lists_match_brute_force_after_builds_and_partial_rebuilds() {
+    fn box_lists_match_brute_force_after_builds_and_partial_rebuilds() {
         let e = Ellipsoid::new(0.8, 0.4, 0.4);
         // A box with a grid of centres (10 > 3 × reach), one without (5.5 > 2 × reach), and one
         // where a box may overlap two images of another (4 < 2 × reach).
         for (n, l) in [(300, 10.0), (60, 5.5), (40, 4.0)] {
-            let mut b = bodies(n, l, 7);
-            let mut lists = Lists::build(&e, &b, l, 0.15);
+            let lists = check::<Obp>(&e, bodies(n, l, 7), l, 0.15, overlap, overlap);
             assert_eq!(lists.grid.is_some(), l == 10.0);
             assert_eq!(lists.single_image, l > 5.0);
-            assert_eq!(listed(&lists), brute(&lists));
-            let mut rng = crate::rng::Rng::new(11);
-            for step in 0..200 {
-                let i = step * 7 % n;
-                b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
-                b[i].rot = rotate(&b[i].rot, &V3::new(1.0, rng.uniform(), 0.0), 0.3);
-                lists.rebuild(&e, i, &b[i]);
+        }
+    }
+
+    #[test]
+    fn ball_lists_match_brute_force_including_centres_on_cell_and_box_faces() {
+        let e = Ellipsoid::new(0.5, 0.5, 0.5);
+        let delta = 0.2;
+        let reach = 2.0 * (0.5 + delta);
+        // Centres exactly `reach` apart may go either way by rounding.
+        let within = |k: f64| move |a: &Ball, b: &Ball, shift: &V3| (b.c + shift - a.c).norm() <= k;
+        for (n, l) in [(300, 7.0), (60, 3.0)] {
+            let mut b = bodies(n, l, 3);
+            // Centres on box faces and cell faces, one rounding step inside or outside them,
+            // and at a distance of exactly `reach` from another.
+            let side = l / (l / reach).floor();
+            let on = [0.0, -0.0, l, -l, 2.0 * l, side, 2.0 * side, l - side];
+            for (k, x) in on.into_iter().enumerate() {
+                b[3 * k].r = V3::new(x, 0.5, 0.5);
+                b[3 * k + 1].r = V3::new(x.next_down(), x.next_up(), l * 0.5);
+                b[3 * k + 2].r = b[3 * k].r + V3::new(0.0, reach, 0.0);
             }
-            assert!(!listed(&lists).is_empty());
-            assert_eq!(listed(&lists), brute(&lists));
+            let lists = check::<Ball>(
+                &e,
+                b,
+                l,
+                delta,
+                within(reach * (1.0 - 1e-12)),
+                within(reach * (1.0 + 1e-12)),
+            );
+            assert_eq!(lists.grid.is_some(), l == 7.0);
         }
     }
 }

@@ -2,6 +2,7 @@
 //! the 15-axis separation test (Eqs. 62–64), and the escape time of a body from its box (Eqs. 59–61).
 
 use crate::geometry::{M3, Surface, V3};
+use crate::lists::Region;
 use crate::rigid::{Body, support_acceleration_bound};
 
 /// Oriented bounding parallelepiped, immobile between two rebuilds.
@@ -26,6 +27,32 @@ impl Obp {
     /// Radius of the sphere circumscribing the box.
     pub fn radius(&self) -> f64 {
         self.half.norm()
+    }
+}
+
+impl Region for Obp {
+    fn around<S: Surface>(s: &S, body: &Body, delta: f64) -> Self {
+        Obp::around(s, body, delta)
+    }
+
+    fn reach<S: Surface>(s: &S, delta: f64) -> f64 {
+        2.0 * s.semi_axes().add_scalar(delta).norm()
+    }
+
+    fn centre(&self) -> &V3 {
+        &self.c
+    }
+
+    fn overlaps(&self, other: &Self, shift: &V3, reach: f64) -> bool {
+        // The other box inside its circumsphere against this box's three slabs: most candidates
+        // end here, before the 15-axis test builds its rotation.
+        let local = self.rot * (other.c + shift - self.c);
+        let radius = 0.5 * reach;
+        (0..3).all(|k| local[k].abs() <= self.half[k] + radius) && overlap(self, other, shift)
+    }
+
+    fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64 {
+        escape_time(s, body, self, eps_nnl)
     }
 }
 

@@ -45,7 +45,8 @@ pub struct Scene {
     /// ε_d of Eq. (39): below this distance the contact search takes small steps and looks for grazing.
     #[serde(default = "d_eps_d")]
     pub eps_d: f64,
-    /// Δ_NNL of Eq. (52): the thickness of the bounding parallelepiped.
+    /// Δ_NNL of Eq. (52): the thickness of the bounding parallelepiped; for spheres, how far the
+    /// centre may move before its list is rebuilt (the radius of its ball exceeds σ/2 by it).
     #[serde(default = "d_delta_nnl")]
     pub delta_nnl: f64,
     /// ε_d^nnl of Eq. (61): the escape time from the parallelepiped is taken when the gap falls below it.

@@ -40,18 +40,21 @@ fn kolafa_reference_values() {
 
 #[test]
 fn spheres_conserve_energy_and_momentum_over_1e5_collisions() {
-    let r = go(&scene(
-        ShapeKind::Sphere,
-        256,
-        0.45,
-        1.0,
-        Neighbours::Ll,
-        100_000,
-        1_000,
-    ));
-    assert!(r.energy_drift_rel < 1e-10, "{}", r.energy_drift_rel);
-    assert!(r.momentum_drift < 1e-12, "{}", r.momentum_drift);
-    assert_eq!(r.solver_failures, 0);
+    for nb in [Neighbours::Ll, Neighbours::Nnl] {
+        let r = go(&scene(
+            ShapeKind::Sphere,
+            256,
+            0.45,
+            1.0,
+            nb,
+            100_000,
+            1_000,
+        ));
+        assert!(r.energy_drift_rel < 1e-10, "{nb:?}: {}", r.energy_drift_rel);
+        assert!(r.momentum_drift < 1e-12, "{nb:?}: {}", r.momentum_drift);
+        assert_eq!(r.solver_failures, 0);
+        assert_eq!(r.nnl_rebuilds > 0, nb == Neighbours::Nnl, "{r:?}");
+    }
 }
 
 #[test]
