@@ -12,7 +12,7 @@ use crate::cells::Cells;
 use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_axis};
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
-use crate::geometry::V3;
+use crate::geometry::{V3, image_offset};
 use crate::init::{Geom, initial_configuration, min_image};
 use crate::lists::{Lists, Region};
 use crate::nnl::Obp;
@@ -224,10 +224,6 @@ impl<M: Model> Engine<M> {
         Ok(e)
     }
 
-    fn shift_vec(&self, s: [i32; 3]) -> V3 {
-        V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * self.l
-    }
-
     /// Schedules the earliest event of `i`: its cell crossing or box escape, or its first collision,
     /// whichever comes first (one event per particle). The crossing time (LL) or the box escape
     /// (NNL) is the horizon of every contact search.
@@ -251,7 +247,7 @@ impl<M: Model> Engine<M> {
                 ..
             } => {
                 let c = cells.coords(cell_of[i]);
-                let r = a.r - self.shift_vec(img[i]);
+                let r = a.r - image_offset(img[i], self.l);
                 if let Some((tau, dim, up)) = cells.exit(c, &r, &a.v) {
                     own.t = self.t + tau;
                     own.kind = Kind::CellCross { dim, up };
@@ -288,7 +284,8 @@ impl<M: Model> Engine<M> {
                 let mut partner = None;
                 for (k, nbc) in cells.around(cell_of[i]).iter().enumerate() {
                     // Where i's image sits relative to the box j lives in, minus i itself.
-                    let origin = self.shift_vec(nbc.shift.map(i32::from)) + img_offset[i] - a.r;
+                    let origin =
+                        image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
                     for &j in cells.members(nbc.cell) {
                         let bj = &self.bodies[j as usize];
                         let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
@@ -307,7 +304,7 @@ impl<M: Model> Engine<M> {
                 let mut partner = usize::MAX;
                 for (k, &(j, shift)) in list.iter().enumerate() {
                     let bj = &self.bodies[j as usize];
-                    let dr = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(shift) - a.r;
+                    let dr = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l) - a.r;
                     let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
                     partner = if tau < horizon { k } else { partner };
                     horizon = horizon.min(tau);
@@ -369,12 +366,12 @@ impl<M: Model> Engine<M> {
             // Where the bounding spheres are concerned, positions suffice; a body is rotated to
             // the present only when its orientation matters.
             let bj = &self.bodies[ju];
-            let r = bj.r + bj.v * (self.t - bj.t) + self.shift_vec(shift);
+            let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
             if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
                 // Bounding spheres already overlap: a separating axis bounds the contact time.
                 let (lower, estimate) = if t1 == 0.0 {
                     let mut b = self.bodies[ju].at(self.t);
-                    b.r += self.shift_vec(shift);
+                    b.r += image_offset(shift, self.l);
                     self.m.quick_bound(a, &b)
                 } else {
                     (t1, t1)
@@ -390,7 +387,7 @@ impl<M: Model> Engine<M> {
             }
             let ju = j as usize;
             let mut b = self.bodies[ju].at(self.t);
-            b.r += self.shift_vec(shift);
+            b.r += image_offset(shift, self.l);
             if let Some((tau, extra)) = self.m.predict(a, &b, best.t - self.t)
                 && self.t + tau < best.t
             {
@@ -485,7 +482,7 @@ impl<M: Model> Engine<M> {
         self.bodies[a].advance_to(self.t);
         self.bodies[b].advance_to(self.t);
         let mut bb = self.bodies[b];
-        bb.r += self.shift_vec(shift);
+        bb.r += image_offset(shift, self.l);
         let ke_before = 0.5 * (self.bodies[a].v.norm_squared() + bb.v.norm_squared());
         let imp = self.m.collide(&mut self.bodies[a], &mut bb, &ev.extra);
         self.bodies[b].v = bb.v;

@@ -13,6 +13,11 @@ pub fn round_nearest(x: f64) -> f64 {
     (x + MAGIC) - MAGIC
 }
 
+/// The displacement of the periodic image `s` (in box lengths) of a box of side `l`.
+pub fn image_offset(s: [i32; 3], l: f64) -> V3 {
+    V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l
+}
+
 /// A convex body given by an implicit function in its own frame, centred at its centre of mass.
 pub trait Surface {
     type Placed: Placed;

@@ -12,7 +12,7 @@
 //! relative to the unwrapped positions and stays valid while both bodies keep moving.
 
 use crate::cells::{Cells, Member};
-use crate::geometry::{Surface, V3, round_nearest};
+use crate::geometry::{Surface, V3, image_offset, round_nearest};
 use crate::rigid::Body;
 
 /// A neighbour: its index and the image shift (in box lengths) that puts it next to the body.
@@ -58,7 +58,6 @@ impl<R: Region> Lists<R> {
             let mut grid = Grid {
                 cells,
                 cell_of: vec![0; regions.len()],
-                wrapped: vec![V3::zeros(); regions.len()],
                 img: vec![[0; 3]; regions.len()],
                 hits: vec![(0, 0); regions.len()],
             };
@@ -143,7 +142,7 @@ impl<R: Region> Lists<R> {
                 let nearest = ((a.centre() - b.centre()) / self.l).map(round_nearest);
                 for off in offsets {
                     let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
-                    let shift = shift_vec(s, self.l);
+                    let shift = image_offset(s, self.l);
                     let d = b.centre() + shift - a.centre();
                     if d.norm_squared() <= reach2 && a.overlaps(b, &shift, self.reach) {
                         found.push((j as u32, s));
@@ -156,11 +155,13 @@ impl<R: Region> Lists<R> {
         // members within reach are gathered first without a branch (about one in four is), and
         // only they are looked at further.
         let img_i = grid.img[i];
+        // As `Grid::place` wrapped it, to the bit.
+        let wrapped_i = a.centre() - image_offset(img_i, self.l);
         let around = grid.cells.around(grid.cell_of[i]);
         let mut hits = std::mem::take(&mut grid.hits);
         let mut n = 0;
         for (k, nbc) in around.iter().enumerate() {
-            let origin = shift_vec(nbc.shift.map(i32::from), self.l) - grid.wrapped[i];
+            let origin = image_offset(nbc.shift.map(i32::from), self.l) - wrapped_i;
             for m in grid.cells.members(nbc.cell) {
                 hits[n] = (m.particle, k as u8);
                 n += usize::from((m.wrapped + origin).norm_squared() <= reach2);
@@ -173,16 +174,12 @@ impl<R: Region> Lists<R> {
             }
             let cell_shift = around[usize::from(k)].shift;
             let s = [0, 1, 2].map(|c| i32::from(cell_shift[c]) + img_i[c] - grid.img[j][c]);
-            if a.overlaps(&self.regions[j], &shift_vec(s, self.l), self.reach) {
+            if a.overlaps(&self.regions[j], &image_offset(s, self.l), self.reach) {
                 found.push((j as u32, s));
             }
         }
         grid.hits = hits;
     }
-}
-
-fn shift_vec(s: [i32; 3], l: f64) -> V3 {
-    V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l
 }
 
 /// Region centres binned in cells. Each centre is kept wrapped into the box, in its cell and
@@ -191,7 +188,6 @@ fn shift_vec(s: [i32; 3], l: f64) -> V3 {
 struct Grid {
     cells: Cells<Centre>,
     cell_of: Vec<usize>,
-    wrapped: Vec<V3>,
     img: Vec<[i32; 3]>,
     /// Scratch for [`Lists::find`]: a body is in at most one of the 27 cells, so N entries do.
     hits: Vec<(u32, u8)>,
@@ -212,8 +208,8 @@ impl Member for Centre {
 impl Grid {
     /// Bins centre `c` of region `i` (not yet in any cell).
     fn place(&mut self, i: usize, c: &V3, l: f64) {
-        let img = [0, 1, 2].map(|k| (c[k] / l).floor());
-        let wrapped = c - V3::new(img[0], img[1], img[2]) * l;
+        let img = [0, 1, 2].map(|k| (c[k] / l).floor() as i32);
+        let wrapped = c - image_offset(img, l);
         // Rounding may leave a wrapped coordinate a hair outside [0, l): it belongs to the edge
         // cell it touches, never to the opposite side of the box.
         let last = self.cells.m - 1;
@@ -229,8 +225,7 @@ impl Grid {
             },
         );
         self.cell_of[i] = cell;
-        self.wrapped[i] = wrapped;
-        self.img[i] = img.map(|x| x as i32);
+        self.img[i] = img;
     }
 }
 
@@ -292,7 +287,7 @@ mod tests {
                 let nearest = ((a.centre() - b.centre()) / l.l).map(f64::round);
                 for off in ALL_27 {
                     let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
-                    if overlap(a, b, &shift_vec(s, l.l)) {
+                    if overlap(a, b, &image_offset(s, l.l)) {
                         all.push((i, j, s));
                     }
                 }
