@@ -37,6 +37,11 @@ pub trait Region: Copy {
 pub struct Lists<R: Region> {
     regions: Vec<R>,
     lists: Vec<Vec<Neighbour>>,
+    /// Where each entry's mirror is: `lists[i][p] = (j, s)` ⇔ `lists[j][back[i][p]] = (i, −s)`.
+    /// A rebuild thereby drops a body from its old neighbours' lists without searching them.
+    back: Vec<Vec<u32>>,
+    /// Scratch for [`Lists::rebuild`].
+    found: Vec<Neighbour>,
     delta: f64,
     l: f64,
     /// [`Region::reach`]: regions farther apart cannot overlap.
@@ -68,6 +73,8 @@ impl<R: Region> Lists<R> {
         });
         let mut lists = Lists {
             lists: vec![Vec::new(); regions.len()],
+            back: vec![Vec::new(); regions.len()],
+            found: Vec::new(),
             regions,
             delta,
             l,
@@ -75,15 +82,37 @@ impl<R: Region> Lists<R> {
             grid,
             single_image: l > 2.0 * reach,
         };
+        let mut found = Vec::new();
         for i in 0..lists.regions.len() {
-            let mut found = Vec::new();
+            found.clear();
             lists.find(i, |j| j > i, &mut found);
             for &(j, s) in &found {
-                lists.lists[j as usize].push((i as u32, s.map(|x| -x)));
+                lists.link(i, j as usize, s);
             }
-            lists.lists[i].extend(found);
         }
         lists
+    }
+
+    /// Lists j in i's list with shift `s`, and i in j's with −s.
+    fn link(&mut self, i: usize, j: usize, s: [i32; 3]) {
+        let (p, q) = (self.lists[i].len() as u32, self.lists[j].len() as u32);
+        self.lists[i].push((j as u32, s));
+        self.back[i].push(q);
+        self.lists[j].push((i as u32, s.map(|x| -x)));
+        self.back[j].push(p);
+    }
+
+    /// Removes entry `q` of j's list, moving its last entry into the gap (and telling that entry's
+    /// mirror where it went).
+    fn unlink_entry(&mut self, j: usize, q: usize) {
+        let last = self.lists[j].len() - 1;
+        self.lists[j].swap_remove(q);
+        self.back[j].swap_remove(q);
+        if q != last {
+            let (m, _) = self.lists[j][q];
+            let mirror = self.back[j][q] as usize;
+            self.back[m as usize][mirror] = q as u32;
+        }
     }
 
     pub fn of(&self, i: usize) -> &[Neighbour] {
@@ -97,29 +126,28 @@ impl<R: Region> Lists<R> {
     /// A new region around `body` (particle `i`, at the present time), and the lists updated to
     /// match.
     pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, body: &Body) {
-        // The old list's buffer is reused for the new one: rebuilds are frequent for spheres.
-        let mut mine = std::mem::take(&mut self.lists[i]);
-        for &(j, shift) in &mine {
-            let theirs = &mut self.lists[j as usize];
-            let back = shift.map(|x| -x);
-            if let Some(p) = theirs
-                .iter()
-                .position(|&(k, s)| k as usize == i && s == back)
-            {
-                theirs.swap_remove(p);
-            }
+        // Mirrors first: removing one may move another mirror of i (two images of i in one list),
+        // which updates `back[i]` as it goes.
+        for p in 0..self.lists[i].len() {
+            let j = self.lists[i][p].0 as usize;
+            let q = self.back[i][p] as usize;
+            self.unlink_entry(j, q);
         }
+        self.lists[i].clear();
+        self.back[i].clear();
+        // Rebuilds are frequent for spheres: no allocation in them.
+        let mut found = std::mem::take(&mut self.found);
+        found.clear();
         self.regions[i] = R::around(s, body, self.delta);
         if let Some(grid) = &mut self.grid {
             grid.cells.remove(grid.cell_of[i], i as u32);
             grid.place(i, self.regions[i].centre(), self.l);
         }
-        mine.clear();
-        self.find(i, |j| j != i, &mut mine);
-        for &(j, shift) in &mine {
-            self.lists[j as usize].push((i as u32, shift.map(|x| -x)));
+        self.find(i, |j| j != i, &mut found);
+        for &(j, shift) in &found {
+            self.link(i, j as usize, shift);
         }
-        self.lists[i] = mine;
+        self.found = found;
     }
 
     /// Appends to `found` the regions, among those of bodies `j` with `take(j)`, that overlap
@@ -336,6 +364,17 @@ mod tests {
         may: impl Fn(&R, &R, &V3) -> bool,
         when: &str,
     ) {
+        for (i, list) in lists.lists.iter().enumerate() {
+            assert_eq!(list.len(), lists.back[i].len(), "{when}: list {i}");
+            for (&(j, s), &q) in list.iter().zip(&lists.back[i]) {
+                let mirror = lists.lists[j as usize][q as usize];
+                assert_eq!(
+                    mirror,
+                    (i as u32, s.map(|x| -x)),
+                    "{when}: mirror of {i} → {j}"
+                );
+            }
+        }
         let got = listed(lists);
         let (required, allowed) = (brute(lists, must), brute(lists, may));
         let missing: Vec<_> = required.iter().filter(|p| !got.contains(p)).collect();
