@@ -72,11 +72,16 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} points, {elapsed} elapsed, ETA {eta}")?);
     bar.set_message(campaign.plan.name.clone());
     let id = submitted.campaign_id.clone();
+    let mut halted = None;
     let interrupted = runtime.block_on(async {
         let mut ticker = tokio::time::interval(Duration::from_millis(200));
         loop {
             tokio::select! {
                 _ = tokio::signal::ctrl_c() => return Ok::<_, anyhow::Error>(true),
+                reason = slots.halted() => {
+                    halted = Some(reason);
+                    return Ok(false);
+                }
                 _ = ticker.tick() => {
                     let status = coordinator.status(Some(&id)).await?;
                     bar.set_position(status.done + status.failed + status.cancelled);
@@ -108,6 +113,9 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
             println!("{} new points, {} already known", submitted.new_jobs, submitted.already_known);
             report_status(&id, &status, format)?;
         }
+    }
+    if let Some(reason) = halted {
+        anyhow::bail!("the worker stopped ({reason}) with {} of {} points left", status.queued + status.running, status.total);
     }
     if interrupted {
         anyhow::bail!("interrupted with {} of {} points left", status.queued + status.running, status.total);

@@ -202,11 +202,19 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         lease_batch: args.lease_batch.max(1),
     };
     let slots = Slots::start(Arc::new(remote), options, runtime.handle().clone())?;
-    runtime.block_on(shutdown_signal());
+    let halted = runtime.block_on(async {
+        tokio::select! {
+            _ = shutdown_signal() => None,
+            reason = slots.halted() => Some(reason),
+        }
+    });
     tracing::info!("stopping: finishing the jobs in hand, returning the rest");
     slots.stop();
     slots.join();
-    Ok(())
+    match halted {
+        Some(reason) => bail!("the worker stopped: {reason}"),
+        None => Ok(()),
+    }
 }
 
 #[derive(Args)]

@@ -28,12 +28,26 @@ pub enum ServeError {
     Transport(#[from] tonic::transport::Error),
 }
 
+/// The status code tells a worker whether to retry: `internal` may pass, the others will recur.
 fn status(error: Error) -> Status {
-    match error {
-        Error::Store(store::Error::InvalidRecord { .. }) => Status::invalid_argument(error.to_string()),
-        other => {
-            tracing::error!(error = %other, "coordinator operation failed");
-            Status::internal(other.to_string())
+    use store::Error as E;
+    match &error {
+        Error::Store(
+            E::InvalidRecord { .. }
+            | E::DuplicateCompletion(_)
+            | E::InvalidParams { .. }
+            | E::InvalidEstimate { .. }
+            | E::JobConflict { .. }
+            | E::WorkerConflict { .. }
+            | E::NotAQuery(_),
+        ) => Status::invalid_argument(error.to_string()),
+        Error::Store(E::UnknownWorker(_) | E::UnknownJob(_) | E::UnknownCampaign(_)) => {
+            Status::not_found(error.to_string())
+        }
+        Error::Store(E::ReadOnly) => Status::failed_precondition(error.to_string()),
+        _ => {
+            tracing::error!(%error, "coordinator operation failed");
+            Status::internal(error.to_string())
         }
     }
 }
@@ -264,4 +278,25 @@ pub async fn serve(
         .await;
     reaper.abort();
     Ok(result?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_that_will_recur_are_not_internal() {
+        let code = |e: store::Error| status(Error::Store(e)).code();
+        let record = store::Error::InvalidRecord { job_id: "j".into(), index: 0, reason: "an array".into() };
+        assert_eq!(code(record), tonic::Code::InvalidArgument);
+        assert_eq!(code(store::Error::DuplicateCompletion("j".into())), tonic::Code::InvalidArgument);
+        assert_eq!(code(store::Error::UnknownJob("j".into())), tonic::Code::NotFound);
+        assert_eq!(code(store::Error::UnknownWorker("w".into())), tonic::Code::NotFound);
+        assert_eq!(code(store::Error::ReadOnly), tonic::Code::FailedPrecondition);
+        // A busy database may pass: the worker retries what comes as `internal`.
+        let busy = || store::Error::Database(sqlx::Error::PoolTimedOut);
+        assert!(Error::Store(busy()).is_transient());
+        assert!(!Error::Store(store::Error::ReadOnly).is_transient());
+        assert_eq!(code(busy()), tonic::Code::Internal);
+    }
 }

@@ -39,6 +39,14 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+impl Error {
+    /// Whether the same request may succeed later: the database was busy or unavailable. Every
+    /// other error (an unknown job, a malformed record, a read-only store) will recur.
+    pub fn is_transient(&self) -> bool {
+        matches!(self, Error::Store(store::Error::Database(_)))
+    }
+}
+
 /// Scheduling policy.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Config {

@@ -21,8 +21,13 @@ pub use slots::{Slots, WorkerOptions};
 pub enum WorkerError {
     #[error("coordinator: {0}")]
     Coordinator(#[from] coordinator::Error),
+    /// The coordinator could not be reached, or failed inside: worth retrying.
     #[error("transport: {0}")]
     Transport(String),
+    /// The coordinator answered that this request cannot succeed (an unknown job, a malformed
+    /// record): retrying it would only repeat the answer.
+    #[error("rejected by the coordinator: {0}")]
+    Rejected(String),
     /// The coordinator refused our credentials: retrying cannot help.
     #[error("refused by the coordinator: {0}")]
     Refused(String),
@@ -30,6 +35,17 @@ pub enum WorkerError {
     NoSuchCore(usize),
     #[error("cannot list this machine's cores")]
     NoCores,
+}
+
+impl WorkerError {
+    /// Whether the same request may succeed later (the coordinator is away or busy).
+    pub fn is_transient(&self) -> bool {
+        match self {
+            WorkerError::Transport(_) => true,
+            WorkerError::Coordinator(error) => error.is_transient(),
+            _ => false,
+        }
+    }
 }
 
 /// What a worker needs from a coordinator, wherever it is.
@@ -42,7 +58,7 @@ pub trait JobQueue: Send + Sync + 'static {
         &self,
         completions: Vec<Completion>,
     ) -> impl Future<Output = Result<Vec<CompleteOutcome>, WorkerError>> + Send;
-    fn fail(&self, lease: &Lease, error: String) -> impl Future<Output = Result<FailOutcome, WorkerError>> + Send;
+    fn fail(&self, lease: &LeaseRef, error: String) -> impl Future<Output = Result<FailOutcome, WorkerError>> + Send;
     /// Gives unstarted leases back without counting an attempt.
     fn release(&self, leases: Vec<LeaseRef>) -> impl Future<Output = Result<(), WorkerError>> + Send;
 }
@@ -67,7 +83,7 @@ impl JobQueue for Embedded {
         Ok(self.coordinator.complete_batch(&self.worker_id, &completions).await?)
     }
 
-    async fn fail(&self, lease: &Lease, error: String) -> Result<FailOutcome, WorkerError> {
+    async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, WorkerError> {
         Ok(self.coordinator.fail(&self.worker_id, &lease.job_id, lease.token, &error).await?)
     }
 

@@ -21,10 +21,19 @@ pub struct Remote {
     worker_id: String,
 }
 
+/// Sorts a failed call by whether retrying it can help (see the coordinator's `status`).
 fn transport(status: tonic::Status) -> WorkerError {
+    use tonic::Code;
+    let message = status.message().to_string();
     match status.code() {
-        tonic::Code::Unauthenticated | tonic::Code::PermissionDenied => WorkerError::Refused(status.message().to_string()),
-        code => WorkerError::Transport(format!("{code:?}: {}", status.message())),
+        Code::Unauthenticated | Code::PermissionDenied => WorkerError::Refused(message),
+        Code::InvalidArgument
+        | Code::NotFound
+        | Code::AlreadyExists
+        | Code::FailedPrecondition
+        | Code::OutOfRange
+        | Code::Unimplemented => WorkerError::Rejected(message),
+        code => WorkerError::Transport(format!("{code:?}: {message}")),
     }
 }
 
@@ -118,7 +127,7 @@ impl JobQueue for Remote {
             .collect()
     }
 
-    async fn fail(&self, lease: &Lease, error: String) -> Result<FailOutcome, WorkerError> {
+    async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, WorkerError> {
         let message =
             pb::FailRequest { worker_id: self.worker_id.clone(), job_id: lease.job_id.clone(), token: lease.token, error };
         match self.client.clone().fail(request(message)).await.map_err(transport)?.into_inner().outcome() {
@@ -133,5 +142,23 @@ impl JobQueue for Remote {
         let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(held).collect() };
         self.client.clone().release(request(message)).await.map_err(transport)?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_calls_that_may_pass_are_retried() {
+        let sort = |code| transport(tonic::Status::new(code, "why"));
+        for code in [tonic::Code::Unavailable, tonic::Code::DeadlineExceeded, tonic::Code::Internal, tonic::Code::Unknown] {
+            assert!(sort(code).is_transient(), "{code:?}");
+        }
+        for code in [tonic::Code::InvalidArgument, tonic::Code::NotFound, tonic::Code::FailedPrecondition] {
+            assert!(matches!(sort(code), WorkerError::Rejected(m) if m == "why"), "{code:?}");
+        }
+        assert!(matches!(sort(tonic::Code::Unauthenticated), WorkerError::Refused(_)));
+        assert!(!sort(tonic::Code::PermissionDenied).is_transient());
     }
 }

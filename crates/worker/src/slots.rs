@@ -1,6 +1,11 @@
 //! The slots: one OS thread per core, pinned before it runs anything, each looping lease → run →
 //! report. A heartbeat task extends every lease held. Stopping lets each slot finish the job in
 //! hand (a timing cannot be interrupted without being lost) and lease nothing more.
+//!
+//! Calls that fail for a reason that may pass (the coordinator away or busy) are retried; a report
+//! is never dropped for that. A call the coordinator rejects is not retried: a rejected result is
+//! reported as a failure of its job instead, and refused credentials halt the worker
+//! ([`Slots::halted`]).
 
 use std::collections::HashMap;
 use std::panic::AssertUnwindSafe;
@@ -14,6 +19,7 @@ use std::future::Future;
 use coordinator::{CompleteOutcome, Completion, Lease, LeaseRef};
 use jobs::JobSpec;
 use tokio::runtime::Handle;
+use tokio::sync::watch;
 
 use crate::{JobQueue, WorkerError};
 
@@ -31,8 +37,34 @@ pub struct WorkerOptions {
 /// Leases currently held by this worker, by job id.
 type Held = Arc<Mutex<HashMap<String, LeaseRef>>>;
 
+/// Shared by the slots, the heartbeat and the owner of [`Slots`]: the stop flag, and why the worker
+/// halted by itself, if it did.
+struct Control {
+    stop: AtomicBool,
+    halted: watch::Sender<Option<String>>,
+}
+
+impl Control {
+    fn stopping(&self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
+
+    /// Stops every slot because of an error no retry can fix; the first reason is kept.
+    fn halt(&self, reason: String) {
+        tracing::error!(%reason, "the worker stops");
+        self.halted.send_if_modified(|halted| {
+            let first = halted.is_none();
+            if first {
+                *halted = Some(reason);
+            }
+            first
+        });
+        self.stop.store(true, Ordering::SeqCst);
+    }
+}
+
 pub struct Slots {
-    stop: Arc<AtomicBool>,
+    control: Arc<Control>,
     threads: Vec<JoinHandle<()>>,
     heartbeat: tokio::task::JoinHandle<()>,
 }
@@ -46,7 +78,7 @@ impl Slots {
         for &core in &options.cores {
             cores.push(*available.iter().find(|c| c.id == core).ok_or(WorkerError::NoSuchCore(core))?);
         }
-        let stop = Arc::new(AtomicBool::new(false));
+        let control = Arc::new(Control { stop: AtomicBool::new(false), halted: watch::Sender::new(None) });
         let held: Held = Arc::default();
         let threads = cores
             .into_iter()
@@ -54,7 +86,7 @@ impl Slots {
                 let slot = Slot {
                     queue: queue.clone(),
                     core,
-                    stop: stop.clone(),
+                    control: control.clone(),
                     held: held.clone(),
                     runtime: runtime.clone(),
                     options: options.clone(),
@@ -65,16 +97,27 @@ impl Slots {
                     .map_err(|e| WorkerError::Transport(format!("cannot start a slot thread: {e}")))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let heartbeat = runtime.spawn(heartbeat_loop(queue, held, options.heartbeat_every));
-        Ok(Slots { stop, threads, heartbeat })
+        let heartbeat = runtime.spawn(heartbeat_loop(queue, held, options.heartbeat_every, control.clone()));
+        Ok(Slots { control, threads, heartbeat })
     }
 
     /// Asks every slot to finish its current job and lease nothing more.
     pub fn stop(&self) {
-        self.stop.store(true, Ordering::SeqCst);
+        self.control.stop.store(true, Ordering::SeqCst);
     }
 
-    /// Waits for every slot to exit (after [`Slots::stop`]).
+    /// Resolves, with the reason, once the worker has stopped by itself: its credentials were
+    /// refused, or the coordinator rejected its requests for work. Never resolves otherwise.
+    pub async fn halted(&self) -> String {
+        let mut halted = self.control.halted.subscribe();
+        match halted.wait_for(Option::is_some).await {
+            Ok(reason) => reason.clone().unwrap_or_default(),
+            // The sender lives in `self.control`: it cannot be dropped while `self` is borrowed.
+            Err(_) => std::future::pending().await,
+        }
+    }
+
+    /// Waits for every slot to exit (after [`Slots::stop`], or once [`Slots::halted`]).
     pub fn join(self) {
         for thread in self.threads {
             if thread.join().is_err() {
@@ -85,7 +128,7 @@ impl Slots {
     }
 }
 
-async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration) {
+async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration, control: Arc<Control>) {
     let mut interval = tokio::time::interval(every);
     loop {
         interval.tick().await;
@@ -99,6 +142,7 @@ async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration)
                     tracing::warn!(job = %lost.job_id, "lease lost: the result will be recorded as late");
                 }
             }
+            Err(error @ WorkerError::Refused(_)) => control.halt(error.to_string()),
             Err(error) => tracing::warn!(%error, "heartbeat failed; retrying at the next beat"),
         }
     }
@@ -107,7 +151,7 @@ async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration)
 struct Slot<Q> {
     queue: Arc<Q>,
     core: core_affinity::CoreId,
-    stop: Arc<AtomicBool>,
+    control: Arc<Control>,
     held: Held,
     runtime: Handle,
     options: WorkerOptions,
@@ -139,13 +183,14 @@ impl<Q: JobQueue> Slot<Q> {
             }
         };
         let mut failures = 0usize;
-        while !self.stop.load(Ordering::SeqCst) {
+        while !self.control.stopping() {
             match self.runtime.block_on(self.queue.lease(self.options.lease_batch)) {
                 Ok(leases) if leases.is_empty() => self.sleep(self.options.idle_poll),
                 Ok(leases) => {
                     failures = 0;
                     self.run_batch(leases, &pool);
                 }
+                Err(error) if !error.is_transient() => self.control.halt(format!("cannot lease jobs: {error}")),
                 Err(error) => {
                     tracing::warn!(%error, "lease failed; backing off");
                     self.sleep(Duration::from_millis(BACKOFF[failures.min(BACKOFF.len() - 1)]));
@@ -159,7 +204,7 @@ impl<Q: JobQueue> Slot<Q> {
     fn sleep(&self, duration: Duration) {
         let step = Duration::from_millis(20);
         let mut left = duration;
-        while !left.is_zero() && !self.stop.load(Ordering::SeqCst) {
+        while !left.is_zero() && !self.control.stopping() {
             let nap = left.min(step);
             std::thread::sleep(nap);
             left -= nap;
@@ -194,12 +239,11 @@ impl<Q: JobQueue> Slot<Q> {
                     records,
                 }),
                 Err(error) => {
-                    self.deliver(|| self.queue.fail(&lease, error.clone()));
                     tracing::warn!(job = %lease.job_id, %error, "job failed");
-                    self.forget(&lease.job_id);
+                    self.report_failure(&LeaseRef { job_id: lease.job_id, token: lease.token }, error);
                 }
             }
-            if self.stop.load(Ordering::SeqCst) {
+            if self.control.stopping() {
                 break;
             }
         }
@@ -209,30 +253,66 @@ impl<Q: JobQueue> Slot<Q> {
                 tracing::warn!(%error, "could not return unstarted leases; they will expire");
             }
         }
-        if !completions.is_empty() {
-            let ids: Vec<String> = completions.iter().map(|c| c.job_id.clone()).collect();
-            let outcomes = self.deliver(|| self.queue.complete(completions.clone()));
-            for (id, outcome) in ids.iter().zip(outcomes) {
-                if outcome != CompleteOutcome::Accepted {
-                    tracing::warn!(job = %id, ?outcome, "result not counted");
+        self.report(completions);
+    }
+
+    /// Reports finished jobs in one call. The coordinator takes a batch whole or not at all, so
+    /// when it rejects one, each job is reported on its own: one malformed result must not cost
+    /// the others theirs.
+    fn report(&self, completions: Vec<Completion>) {
+        if completions.is_empty() {
+            return;
+        }
+        match self.deliver(|| self.queue.complete(completions.clone())) {
+            Ok(outcomes) => {
+                for (completion, outcome) in completions.iter().zip(outcomes) {
+                    if outcome != CompleteOutcome::Accepted {
+                        tracing::warn!(job = %completion.job_id, ?outcome, "result not counted");
+                    }
+                    self.forget(&completion.job_id);
                 }
-                self.forget(id);
+            }
+            Err(error @ WorkerError::Refused(_)) => {
+                // The leases expire and the jobs run again elsewhere.
+                self.control.halt(error.to_string());
+                completions.iter().for_each(|c| self.forget(&c.job_id));
+            }
+            Err(_) if completions.len() > 1 => completions.into_iter().for_each(|c| self.report(vec![c])),
+            Err(error) => {
+                let lease = LeaseRef { job_id: completions[0].job_id.clone(), token: completions[0].token };
+                tracing::error!(job = %lease.job_id, %error, "result rejected; reporting the job as failed");
+                self.report_failure(&lease, format!("the coordinator rejected the result: {error}"));
             }
         }
     }
 
-    /// Delivers a report, retrying while the coordinator is unreachable: a result is only lost if
-    /// the worker itself dies, and then the lease expires and the job runs again.
-    fn deliver<T, F: Future<Output = Result<T, WorkerError>>>(&self, call: impl Fn() -> F) -> T {
+    /// Reports that a job failed (the coordinator retries it or marks it failed), then lets its
+    /// lease go.
+    fn report_failure(&self, lease: &LeaseRef, error: String) {
+        match self.deliver(|| self.queue.fail(lease, error.clone())) {
+            Ok(_) => {}
+            Err(refused @ WorkerError::Refused(_)) => self.control.halt(refused.to_string()),
+            Err(rejected) => {
+                tracing::error!(job = %lease.job_id, error = %rejected, "failure report rejected; the lease will expire")
+            }
+        }
+        self.forget(&lease.job_id);
+    }
+
+    /// Makes a call, retrying while the coordinator is unreachable or busy: a report is only lost
+    /// if the worker itself dies, and then the lease expires and the job runs again. An error that
+    /// would recur is returned at once.
+    fn deliver<T, F: Future<Output = Result<T, WorkerError>>>(&self, call: impl Fn() -> F) -> Result<T, WorkerError> {
         let mut attempt = 0;
         loop {
             match self.runtime.block_on(call()) {
-                Ok(value) => return value,
-                Err(error) => {
+                Ok(value) => return Ok(value),
+                Err(error) if error.is_transient() => {
                     tracing::warn!(%error, "report failed; retrying");
                     std::thread::sleep(Duration::from_millis(BACKOFF[attempt.min(BACKOFF.len() - 1)]));
                     attempt += 1;
                 }
+                Err(error) => return Err(error),
             }
         }
     }
