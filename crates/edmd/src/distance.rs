@@ -17,6 +17,19 @@ pub struct Tolerances {
     pub sd_tol: f64,
 }
 
+/// The defaults of the scene keys `nr_tol`, `nr_max_iter`, `nr_relax`, `sd_max_iter`, `sd_tol`.
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            nr_tol: 1e-12,
+            nr_max_iter: 50,
+            nr_relax: 0.5,
+            sd_max_iter: 200,
+            sd_tol: 1e-3,
+        }
+    }
+}
+
 /// Counters that make the cost of accuracy visible.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SolverStats {
@@ -377,16 +390,6 @@ mod tests {
     use crate::ellipsoid::Ellipsoid;
     use crate::rigid::rotate;
 
-    fn tol() -> Tolerances {
-        Tolerances {
-            nr_tol: 1e-12,
-            nr_max_iter: 50,
-            nr_relax: 0.5,
-            sd_max_iter: 200,
-            sd_tol: 1e-3,
-        }
-    }
-
     proptest::proptest! {
         #[test]
         fn the_bordered_solve_matches_elimination_with_pivoting(
@@ -432,7 +435,7 @@ mod tests {
                 r: V3::new(x, 0.2, -0.1),
                 rot: rotate(&M3::identity(), &V3::new(1.0, 2.0, 3.0), 0.7),
             };
-            let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut st).unwrap();
+            let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut st).unwrap();
             assert!(
                 (d.d - (pb.r.norm() - 1.0)).abs() < 1e-12,
                 "{} vs {}",
@@ -455,7 +458,7 @@ mod tests {
             rot: rotate(&M3::identity(), &V3::new(1.0, 0.0, 1.0), 1.1),
         };
         let mut st = SolverStats::default();
-        let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut st).unwrap();
+        let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut st).unwrap();
         let (xa, xb) = steepest_descent(
             &e,
             &pa,
@@ -464,7 +467,7 @@ mod tests {
             &Tolerances {
                 sd_max_iter: 5000,
                 sd_tol: 1e-10,
-                ..tol()
+                ..Tolerances::default()
             },
         );
         assert!(

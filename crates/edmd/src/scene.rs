@@ -1,5 +1,6 @@
 //! The scene: what one EDMD run simulates, parsed from TOML and validated before any work.
 
+use crate::distance::Tolerances;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -109,19 +110,19 @@ fn d_seed() -> u64 {
     1
 }
 fn d_nr_tol() -> f64 {
-    1e-12
+    Tolerances::default().nr_tol
 }
 fn d_nr_max_iter() -> u32 {
-    50
+    Tolerances::default().nr_max_iter
 }
 fn d_nr_relax() -> f64 {
-    0.5
+    Tolerances::default().nr_relax
 }
 fn d_sd_max_iter() -> u32 {
-    200
+    Tolerances::default().sd_max_iter
 }
 fn d_sd_tol() -> f64 {
-    1e-3
+    Tolerances::default().sd_tol
 }
 fn d_brent_tol() -> f64 {
     1e-12

@@ -9,16 +9,6 @@ use edmd::pw::contact_scale;
 use edmd::rigid::{Body, GapSide, ddot_max, gap_safe_time, rotate};
 use proptest::prelude::*;
 
-fn tol() -> Tolerances {
-    Tolerances {
-        nr_tol: 1e-12,
-        nr_max_iter: 50,
-        nr_relax: 0.5,
-        sd_max_iter: 200,
-        sd_tol: 1e-3,
-    }
-}
-
 /// The smallest Perram–Wertheim scale factor over `samples` times in [0, t_end): below 1 is an overlap.
 fn min_scale(e: &Ellipsoid, a: &Body, b: &Body, t_end: f64, samples: usize) -> f64 {
     (0..samples)
@@ -61,7 +51,7 @@ proptest! {
     fn no_overlap_within_the_safe_time_from_the_closest_points((e, a, b) in pair()) {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
         prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
-        let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut SolverStats::default());
+        let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut SolverStats::default());
         prop_assume!(matches!(d, Some(d) if d.d > 0.0));
         let d = d.unwrap();
         let n = e.place(&pa).grad(&d.xa).normalize();
@@ -77,7 +67,7 @@ proptest! {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
         prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
         let gap = separating_axis(&e, &pa, &e, &pb);
-        if let Some(d) = distance(&e, &pa, &e, &pb, None, &tol(), &mut SolverStats::default()) {
+        if let Some(d) = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut SolverStats::default()) {
             prop_assert!(gap.gap <= d.d + 1e-12, "gap {} above the distance {}", gap.gap, d.d);
         }
         let lower = gap.safe_time(&e, &a, &e, &b);
@@ -111,8 +101,15 @@ fn a_few_ascent_steps_find_most_of_the_distance() {
             rot: ra,
         };
         let pb = edmd::geometry::Pose { r, rot: rb };
-        if let Some(d) = distance(&e, &pa, &e, &pb, None, &tol(), &mut SolverStats::default())
-            && (0.01..0.4).contains(&d.d)
+        if let Some(d) = distance(
+            &e,
+            &pa,
+            &e,
+            &pb,
+            None,
+            &Tolerances::default(),
+            &mut SolverStats::default(),
+        ) && (0.01..0.4).contains(&d.d)
         {
             ratios.push(separating_axis(&e, &pa, &e, &pb).gap / d.d);
         }

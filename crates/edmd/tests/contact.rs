@@ -12,13 +12,7 @@ fn params() -> ContactParams {
     ContactParams {
         eps_d: 1e-5,
         brent_tol: 1e-12,
-        tol: Tolerances {
-            nr_tol: 1e-12,
-            nr_max_iter: 50,
-            nr_relax: 0.5,
-            sd_max_iter: 200,
-            sd_tol: 1e-3,
-        },
+        tol: Tolerances::default(),
     }
 }
 

@@ -8,16 +8,6 @@ use edmd::pw::contact_scale;
 use edmd::rigid::rotate;
 use proptest::prelude::*;
 
-fn tol() -> Tolerances {
-    Tolerances {
-        nr_tol: 1e-12,
-        nr_max_iter: 50,
-        nr_relax: 0.5,
-        sd_max_iter: 200,
-        sd_tol: 1e-3,
-    }
-}
-
 fn uniaxial(x0: f64) -> Ellipsoid {
     let b = 0.5 / x0.cbrt();
     Ellipsoid::new(x0 * b, b, b)
@@ -56,7 +46,7 @@ proptest! {
         let pa = Pose { r: V3::zeros(), rot: ra };
         let pb = Pose { r, rot: rb };
         let mut st = SolverStats::default();
-        let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut st);
+        let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut st);
         prop_assert!(d.is_some(), "solver failed: x0 {x0} mu {target}");
         let d = d.unwrap();
         prop_assert_eq!(d.d > 0.0, outside, "x0 {} mu {} distance {}", x0, target, d.d);
@@ -80,7 +70,7 @@ proptest! {
         let pa = Pose { r: V3::new(0.1, -0.2, 0.3), rot: orientation(axa, anga) };
         let pb = Pose { r: pa.r + r, rot: M3::identity() };
         let mut st = SolverStats::default();
-        let d = distance(&e, &pa, &e, &pb, None, &tol(), &mut st).unwrap();
+        let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut st).unwrap();
         prop_assert!((d.d - gap).abs() < 1e-12, "{} vs {}", d.d, gap);
     }
 }
