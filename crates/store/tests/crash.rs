@@ -18,12 +18,7 @@ async fn killed_mid_transaction_leaves_no_partial_results() {
     if let Ok(db) = std::env::var(CHILD_ENV) {
         crash_in_the_middle_of_a_completion(&db).await;
     }
-    let (_dir, path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, path, store) = store_with(&["w1"], 1).await;
     let lease = store
         .lease("w1", 1, Duration::from_secs(60), T0, true)
         .await

@@ -16,12 +16,7 @@ fn records(n: usize) -> Vec<String> {
 
 #[tokio::test]
 async fn completing_twice_is_already_done_and_writes_nothing() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 1).await;
     let lease = store
         .lease("w1", 1, LEASE, T0, true)
         .await
@@ -72,14 +67,7 @@ async fn completing_twice_is_already_done_and_writes_nothing() {
 
 #[tokio::test]
 async fn a_report_after_expiry_and_re_lease_is_late_and_not_counted() {
-    let (_dir, _path, store) = temp_store().await;
-    for w in ["w1", "w2"] {
-        store.register_worker(&worker(w), T0).await.unwrap();
-    }
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1", "w2"], 1).await;
     let old = store
         .lease("w1", 1, LEASE, T0, true)
         .await
@@ -195,12 +183,7 @@ async fn a_report_after_expiry_and_re_lease_is_late_and_not_counted() {
 
 #[tokio::test]
 async fn an_expired_but_unreaped_lease_still_completes() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 1).await;
     let lease = store
         .lease("w1", 1, LEASE, T0, true)
         .await
@@ -223,12 +206,7 @@ async fn an_expired_but_unreaped_lease_still_completes() {
 
 #[tokio::test]
 async fn heartbeats_extend_leases() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 2), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 2).await;
     let leases = store.lease("w1", 2, LEASE, T0, true).await.unwrap();
     let refs: Vec<LeaseRef> = leases
         .iter()
@@ -261,14 +239,7 @@ async fn heartbeats_extend_leases() {
 
 #[tokio::test]
 async fn a_heartbeat_racing_the_report_keeps_the_completed_lease() {
-    let (_dir, _path, store) = temp_store().await;
-    for w in ["w1", "w2"] {
-        store.register_worker(&worker(w), T0).await.unwrap();
-    }
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1", "w2"], 1).await;
     let lease = store
         .lease("w1", 1, LEASE, T0, true)
         .await
@@ -304,12 +275,7 @@ async fn a_heartbeat_racing_the_report_keeps_the_completed_lease() {
 
 #[tokio::test]
 async fn a_job_failing_max_attempts_times_is_failed_with_its_last_error() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 1).await;
     for attempt in 1..=3u32 {
         let lease = store
             .lease("w1", 1, LEASE, T0, true)
@@ -342,12 +308,7 @@ async fn a_job_failing_max_attempts_times_is_failed_with_its_last_error() {
 
 #[tokio::test]
 async fn a_job_whose_lease_expires_max_attempts_times_is_failed() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 1).await;
     let mut now = T0;
     for _ in 0..2 {
         assert_eq!(
@@ -367,12 +328,7 @@ async fn a_job_whose_lease_expires_max_attempts_times_is_failed() {
 
 #[tokio::test]
 async fn a_complete_with_an_invalid_record_writes_nothing_and_leaves_the_job_running() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 1), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 1).await;
     let lease = store
         .lease("w1", 1, LEASE, T0, true)
         .await
@@ -409,14 +365,7 @@ async fn a_complete_with_an_invalid_record_writes_nothing_and_leaves_the_job_run
 
 #[tokio::test]
 async fn a_batch_of_completions_sorts_out_each_report() {
-    let (_dir, _path, store) = temp_store().await;
-    for w in ["w1", "w2"] {
-        store.register_worker(&worker(w), T0).await.unwrap();
-    }
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 4), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1", "w2"], 4).await;
     let mine = store.lease("w1", 3, LEASE, T0, true).await.unwrap();
     let theirs = store
         .lease("w2", 1, LEASE, T0, true)
@@ -472,12 +421,7 @@ async fn a_batch_of_completions_sorts_out_each_report() {
 
 #[tokio::test]
 async fn a_bad_batch_of_completions_writes_nothing() {
-    let (_dir, _path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 2), T0)
-        .await
-        .unwrap();
+    let (_dir, _path, store) = store_with(&["w1"], 2).await;
     let leases = store.lease("w1", 2, LEASE, T0, true).await.unwrap();
     let good = |i: usize| Completion {
         job_id: leases[i].job_id.clone(),

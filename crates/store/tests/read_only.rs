@@ -34,12 +34,7 @@ async fn read_only_open_refuses_a_foreign_database() {
 
 #[tokio::test]
 async fn read_only_store_cannot_write_and_leaves_the_bytes_alone() {
-    let (_dir, path, store) = temp_store().await;
-    store.register_worker(&worker("w1"), T0).await.unwrap();
-    store
-        .submit(&campaign("c"), &noop_jobs(0, 5), T0)
-        .await
-        .unwrap();
+    let (_dir, path, store) = store_with(&["w1"], 5).await;
     let lease = store
         .lease("w1", 1, Duration::from_secs(9), T0, true)
         .await

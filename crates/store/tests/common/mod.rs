@@ -14,6 +14,19 @@ pub async fn temp_store() -> (TempDir, std::path::PathBuf, Store) {
     (dir, path, store)
 }
 
+/// A fresh store with `workers` registered and campaign `c` of `jobs` no-op jobs submitted, at T0.
+pub async fn store_with(workers: &[&str], jobs: usize) -> (TempDir, std::path::PathBuf, Store) {
+    let (dir, path, store) = temp_store().await;
+    for w in workers {
+        store.register_worker(&worker(w), T0).await.unwrap();
+    }
+    store
+        .submit(&campaign("c"), &noop_jobs(0, jobs), T0)
+        .await
+        .unwrap();
+    (dir, path, store)
+}
+
 pub fn worker(id: &str) -> WorkerInfo {
     WorkerInfo {
         id: id.to_owned(),
