@@ -31,9 +31,9 @@ fn benches(c: &mut Criterion) {
     let mut s = Scene::new(ShapeKind::Sphere, 256, 0.45);
     s.equilibrate = 20_000;
     tau_c(c, "sphere_n256_phi0.45_ll", s.clone());
-    // Bounding balls whose centre may wander 0.25 σ: the fastest in a scan of 0.15-0.4.
+    // Bounding balls whose centre may wander 0.3 σ: the fastest in a scan of 0.2-0.4.
     s.neighbours = Neighbours::Nnl;
-    s.delta_nnl = 0.25;
+    s.delta_nnl = 0.3;
     tau_c(c, "sphere_n256_phi0.45_nnl", s);
 
     // The same hard spheres through the general rigid-body path: what the analytic path saves.

@@ -50,11 +50,12 @@ pub fn leaves_ball(p: &V3, v: &V3, delta: f64) -> f64 {
         return f64::INFINITY;
     }
     let root = (b * b - vv * c).sqrt();
-    if b > 0.0 {
-        -c / (b + root)
-    } else {
-        (root - b) / vv
-    }
+    // Both forms of the root, chosen without a branch: whether the point moves outwards is a
+    // coin flip after every collision, and one division serves either.
+    let outwards = b > 0.0;
+    let num = if outwards { -c } else { root - b };
+    let den = if outwards { b + root } else { vv };
+    num / den
 }
 
 #[cfg(test)]

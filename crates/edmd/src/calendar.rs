@@ -1,8 +1,8 @@
-//! Event calendar: a binary heap (O(log N) insert and extract) whose stale entries are recognised
-//! by per-particle event counters, so invalidating all events of a particle is O(1) (Sec. 2.7).
-
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+//! Event calendar (Sec. 2.7): one event per particle, in a binary min-heap on time that knows
+//! where each particle's entry is. A particle's new event replaces its old one in place (O(log N)
+//! sift from where it sits), so the calendar never holds stale events: with one heap entry per
+//! particle there are fewer entries and no stale pops, and re-scheduling the particle whose event
+//! was just taken is a single sift down from the root.
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
@@ -14,96 +14,213 @@ pub enum Kind {
     BoxEscape,
 }
 
-/// An event; `ca`/`cb` are the counters of `a`/`b` when it was predicted.
+/// An event of particle `a`; `cb` is the collision counter of `b` when it was predicted (`a` is
+/// predicted anew whenever its counter changes, which replaces the event).
 #[derive(Clone, Copy, Debug)]
 pub struct Event<X> {
     pub t: f64,
     pub a: u32,
     pub b: u32,
-    pub ca: u32,
     pub cb: u32,
     pub kind: Kind,
     /// Model-specific payload (the contact point and normal of a rigid-body collision).
     pub extra: X,
 }
 
-struct Entry<X>(Event<X>);
+/// A heap entry: the time of a particle's event, and the particle.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    t: f64,
+    a: u32,
+}
 
-impl<X> PartialEq for Entry<X> {
-    fn eq(&self, o: &Self) -> bool {
-        self.0.t == o.0.t
-    }
-}
-impl<X> Eq for Entry<X> {}
-impl<X> PartialOrd for Entry<X> {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl<X> Ord for Entry<X> {
-    // Reversed, so that the max-heap yields the earliest event.
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.0.t.total_cmp(&self.0.t)
-    }
-}
+const NONE: u32 = u32::MAX;
 
 pub struct Calendar<X> {
-    heap: BinaryHeap<Entry<X>>,
+    /// Min-heap on `t`.
+    heap: Vec<Entry>,
+    /// `heap[pos[a]].a == a` for every particle with an event, `NONE` for the others.
+    pos: Vec<u32>,
+    /// Each particle's event (meaningful where `pos` is not `NONE`).
+    events: Vec<Event<X>>,
 }
 
-impl<X> Default for Calendar<X> {
-    fn default() -> Self {
+impl<X: Copy + Default> Calendar<X> {
+    /// An empty calendar for particles 0..n.
+    pub fn new(n: usize) -> Self {
         Calendar {
-            heap: BinaryHeap::new(),
+            heap: Vec::with_capacity(n),
+            pos: vec![NONE; n],
+            events: vec![
+                Event {
+                    t: f64::INFINITY,
+                    a: 0,
+                    b: 0,
+                    cb: 0,
+                    kind: Kind::BoxEscape,
+                    extra: X::default(),
+                };
+                n
+            ],
         }
     }
 }
 
-impl<X> Calendar<X> {
-    pub fn new() -> Self {
-        Self::default()
+impl<X: Copy> Calendar<X> {
+    /// Makes `e` the event of particle `e.a`, replacing the one it had. Times must not be NaN.
+    pub fn schedule(&mut self, e: Event<X>) {
+        let a = e.a as usize;
+        self.events[a] = e;
+        let item = Entry { t: e.t, a: e.a };
+        match self.pos[a] {
+            NONE => {
+                self.heap.push(item);
+                self.sift_up(self.heap.len() - 1, item);
+            }
+            i => {
+                let i = i as usize;
+                if i > 0 && e.t < self.heap[(i - 1) / 2].t {
+                    self.sift_up(i, item);
+                } else {
+                    self.sift_down(i, item);
+                }
+            }
+        }
     }
-    pub fn push(&mut self, e: Event<X>) {
-        self.heap.push(Entry(e));
+
+    /// Particle `a` has no event any more.
+    pub fn cancel(&mut self, a: usize) {
+        let i = self.pos[a];
+        if i == NONE {
+            return;
+        }
+        self.pos[a] = NONE;
+        let last = self
+            .heap
+            .pop()
+            .expect("a scheduled particle is in the heap");
+        let i = i as usize;
+        if i < self.heap.len() {
+            if i > 0 && last.t < self.heap[(i - 1) / 2].t {
+                self.sift_up(i, last);
+            } else {
+                self.sift_down(i, last);
+            }
+        }
     }
-    pub fn pop(&mut self) -> Option<Event<X>> {
-        self.heap.pop().map(|e| e.0)
+
+    /// The earliest event.
+    pub fn first(&self) -> Option<&Event<X>> {
+        self.heap.first().map(|e| &self.events[e.a as usize])
     }
+
     pub fn len(&self) -> usize {
         self.heap.len()
     }
+
     pub fn is_empty(&self) -> bool {
         self.heap.is_empty()
     }
-    pub fn clear(&mut self) {
-        self.heap.clear();
+
+    /// Puts `item` at the hole `i` or above it.
+    fn sift_up(&mut self, mut i: usize, item: Entry) {
+        while i > 0 {
+            let p = (i - 1) / 2;
+            let parent = self.heap[p];
+            if item.t >= parent.t {
+                break;
+            }
+            self.heap[i] = parent;
+            self.pos[parent.a as usize] = i as u32;
+            i = p;
+        }
+        self.heap[i] = item;
+        self.pos[item.a as usize] = i as u32;
     }
-    /// Drops every event for which `valid` is false (stale events pile up otherwise), O(len).
-    pub fn retain(&mut self, mut valid: impl FnMut(&Event<X>) -> bool) {
-        self.heap.retain(|e| valid(&e.0));
+
+    /// Puts `item` at the hole `i` or below it.
+    fn sift_down(&mut self, mut i: usize, item: Entry) {
+        let n = self.heap.len();
+        loop {
+            let l = 2 * i + 1;
+            if l >= n {
+                break;
+            }
+            // The earlier child, by arithmetic rather than a select, which LLVM would make a
+            // branch: which child it is is a coin flip. A lone child is compared with itself.
+            let r = (l + 1).min(n - 1);
+            let c = l + usize::from(self.heap[r].t < self.heap[l].t);
+            let child = self.heap[c];
+            if child.t >= item.t {
+                break;
+            }
+            self.heap[i] = child;
+            self.pos[child.a as usize] = i as u32;
+            i = c;
+        }
+        self.heap[i] = item;
+        self.pos[item.a as usize] = i as u32;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    fn event(a: usize, t: f64) -> Event<()> {
+        Event {
+            t,
+            a: a as u32,
+            b: 0,
+            cb: 0,
+            kind: Kind::BoxEscape,
+            extra: (),
+        }
+    }
+
+    proptest! {
+        /// Against a plain table of each particle's latest event: after any sequence of schedules
+        /// and cancellations, the first event is the earliest one and the heap and positions agree.
+        #[test]
+        fn first_is_the_earliest_latest_event(
+            ops in prop::collection::vec((0usize..12, prop::option::weighted(0.8, 0.0f64..10.0)), 1..300)
+        ) {
+            let mut cal = Calendar::new(12);
+            let mut table: Vec<Option<f64>> = vec![None; 12];
+            for (a, t) in ops {
+                match t {
+                    Some(t) => cal.schedule(event(a, t)),
+                    None => cal.cancel(a),
+                }
+                table[a] = t;
+                let want = table.iter().flatten().fold(f64::INFINITY, |m, &t| m.min(t));
+                prop_assert_eq!(cal.len(), table.iter().flatten().count());
+                prop_assert_eq!(cal.first().map_or(f64::INFINITY, |e| e.t), want);
+                if let Some(e) = cal.first() {
+                    prop_assert_eq!(table[e.a as usize], Some(want));
+                }
+                for (i, e) in cal.heap.iter().enumerate() {
+                    prop_assert_eq!(cal.pos[e.a as usize] as usize, i);
+                    prop_assert!(i == 0 || cal.heap[(i - 1) / 2].t <= e.t);
+                }
+            }
+        }
+    }
 
     #[test]
-    fn pops_in_time_order() {
-        let mut c = Calendar::new();
-        for (i, t) in [3.0, 1.0, 2.0, 0.5].into_iter().enumerate() {
-            c.push(Event {
-                t,
-                a: i as u32,
-                b: 0,
-                ca: 0,
-                cb: 0,
-                kind: Kind::BoxEscape,
-                extra: (),
-            });
+    fn drains_in_time_order() {
+        let mut c = Calendar::new(4);
+        for (a, t) in [3.0, 1.0, 2.0, 0.5].into_iter().enumerate() {
+            c.schedule(event(a, t));
         }
-        c.retain(|e| e.a != 2);
-        let ts: Vec<f64> = std::iter::from_fn(|| c.pop().map(|e| e.t)).collect();
-        assert_eq!(ts, vec![0.5, 1.0, 3.0]);
+        c.schedule(event(3, 2.5));
+        c.cancel(2);
+        let mut ts = Vec::new();
+        while let Some(&e) = c.first() {
+            ts.push(e.t);
+            c.cancel(e.a as usize);
+        }
+        assert_eq!(ts, vec![1.0, 2.5, 3.0]);
     }
 }

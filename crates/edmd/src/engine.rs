@@ -14,30 +14,35 @@ use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{V3, image_offset};
 use crate::init::{Geom, initial_configuration, min_image};
-use crate::lists::{Lists, Region};
+use crate::lists::{Lists, Region, Snapshot};
 use crate::nnl::Obp;
 use crate::rigid::{Body, Inertia, collide};
 use crate::rng::Rng;
 use crate::scene::{Neighbours, Scene, ShapeKind};
-use crate::sphere;
+use crate::sphere::{self, Probe, Trajectory};
 
 /// What one particle kind costs to simulate: the analytic sphere, or the general rigid body.
 trait Model {
     /// Stored with a predicted collision (contact point and normal for rigid bodies).
     type Extra: Copy + Default;
-    /// Whether bodies rotate, i.e. whether contact searches are costly enough to be ordered.
-    const ROTATES: bool;
     /// The region a body's neighbour list is built for.
     type Region: Region;
+    /// What the neighbour lists keep of each neighbour for the model's predictions.
+    type Snapshot: Snapshot;
     fn surface(&self) -> Ellipsoid;
-    /// The first contact before `horizon`.
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, Self::Extra)>;
+    /// The earliest collision of body `i` (state `a`, at the engine's present time) if it comes
+    /// before `own`, the body's own event; otherwise `own`.
+    fn first_collision(
+        e: &mut Engine<Self>,
+        i: usize,
+        a: &Body,
+        own: Event<Self::Extra>,
+    ) -> Event<Self::Extra>
+    where
+        Self: Sized;
     /// Applies the collision; returns the impulse given to `b`, or `None` if the bodies separate.
     fn collide(&self, a: &mut Body, b: &mut Body, x: &Self::Extra) -> Option<V3>;
     fn stats(&self) -> SolverStats;
-    /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
-    /// overlap, and an estimate of it to order the searches by.
-    fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64);
 }
 
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
@@ -47,16 +52,15 @@ struct SphereModel {
 
 impl Model for SphereModel {
     type Extra = ();
-    const ROTATES: bool = false;
     type Region = Ball;
+    type Snapshot = Trajectory;
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
     }
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, ())> {
-        sphere::contact_time(&(b.r - a.r), &(b.v - a.v), self.sigma)
-            .filter(|&t| t <= horizon)
-            .map(|t| (t, ()))
+    #[inline]
+    fn first_collision(e: &mut Engine<Self>, i: usize, a: &Body, own: Event<()>) -> Event<()> {
+        e.first_sphere_collision(i, a, own)
     }
     fn collide(&self, a: &mut Body, b: &mut Body, _: &()) -> Option<V3> {
         let n = (b.r - a.r).normalize();
@@ -72,9 +76,6 @@ impl Model for SphereModel {
     fn stats(&self) -> SolverStats {
         SolverStats::default()
     }
-    fn quick_bound(&self, _: &Body, _: &Body) -> (f64, f64) {
-        (0.0, 0.0)
-    }
 }
 
 /// Hard ellipsoids through the general algorithm of Sec. 2 (works for any X0, including 1).
@@ -87,11 +88,29 @@ struct EllipsoidModel {
 
 impl Model for EllipsoidModel {
     type Extra = (V3, V3);
-    const ROTATES: bool = true;
     type Region = Obp;
+    type Snapshot = ();
     fn surface(&self) -> Ellipsoid {
         self.e
     }
+    fn first_collision(
+        e: &mut Engine<Self>,
+        i: usize,
+        a: &Body,
+        own: Event<(V3, V3)>,
+    ) -> Event<(V3, V3)> {
+        e.first_rigid_collision(i, a, own)
+    }
+    fn collide(&self, a: &mut Body, b: &mut Body, x: &(V3, V3)) -> Option<V3> {
+        collide(a, b, &x.0, &x.1, self.inertia, self.inertia)
+    }
+    fn stats(&self) -> SolverStats {
+        self.stats
+    }
+}
+
+impl EllipsoidModel {
+    /// The first contact before `horizon`.
     fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
         predict(
             &self.e,
@@ -104,12 +123,8 @@ impl Model for EllipsoidModel {
         )
         .map(|h| (h.t, (h.xc, h.n)))
     }
-    fn collide(&self, a: &mut Body, b: &mut Body, x: &(V3, V3)) -> Option<V3> {
-        collide(a, b, &x.0, &x.1, self.inertia, self.inertia)
-    }
-    fn stats(&self) -> SolverStats {
-        self.stats
-    }
+    /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
+    /// overlap, and an estimate of it to order the searches by.
     fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64) {
         let gap = separating_axis(&self.e, &a.pose_after(0.0), &self.e, &b.pose_after(0.0));
         let lower = gap.safe_time(&self.e, a, &self.e, b);
@@ -117,7 +132,7 @@ impl Model for EllipsoidModel {
     }
 }
 
-enum Neighbourhood<R: Region> {
+enum Neighbourhood<R: Region, P: Snapshot> {
     Ll {
         cells: Cells,
         cell_of: Vec<usize>,
@@ -127,7 +142,7 @@ enum Neighbourhood<R: Region> {
         img_offset: Vec<V3>,
     },
     Nnl {
-        lists: Lists<R>,
+        lists: Lists<R, P>,
         /// When each body may first touch its box (Eq. 61), for its present trajectory and box.
         escape_at: Vec<f64>,
         eps: f64,
@@ -142,7 +157,7 @@ struct Engine<M: Model> {
     cal: Calendar<M::Extra>,
     t: f64,
     inv_i: f64,
-    nb: Neighbourhood<M::Region>,
+    nb: Neighbourhood<M::Region, M::Snapshot>,
     scratch: Vec<(u32, [i32; 3])>,
     /// Candidate partners: (estimate, lower bound, partner, image shift).
     order: Vec<(f64, f64, u32, [i32; 3])>,
@@ -181,7 +196,8 @@ impl<M: Model> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl);
+                let lists =
+                    Lists::<M::Region, M::Snapshot>::build(&surf, &bodies, l, scene.delta_nnl);
                 let escape_at = bodies
                     .iter()
                     .enumerate()
@@ -200,7 +216,7 @@ impl<M: Model> Engine<M> {
             l,
             bodies,
             count: vec![0; n],
-            cal: Calendar::new(),
+            cal: Calendar::new(n),
             t: 0.0,
             inv_i,
             nb,
@@ -234,7 +250,6 @@ impl<M: Model> Engine<M> {
             t: f64::INFINITY,
             a: i as u32,
             b: u32::MAX,
-            ca: self.count[i],
             cb: 0,
             kind: Kind::BoxEscape,
             extra: M::Extra::default(),
@@ -256,155 +271,13 @@ impl<M: Model> Engine<M> {
             // Nothing needs scheduling past the escape, which predicts this body anew (Eq. 65).
             Neighbourhood::Nnl { escape_at, .. } => own.t = escape_at[i],
         }
-        let best = if M::ROTATES {
-            self.first_rigid_collision(i, &a, own)
-        } else {
-            self.first_sphere_collision(i, &a, own)
-        };
+        let best = M::first_collision(self, i, &a, own);
         // An event at +∞ (nothing moves) is never scheduled.
         if best.t.is_finite() {
-            self.cal.push(best);
+            self.cal.schedule(best);
+        } else {
+            self.cal.cancel(i);
         }
-    }
-
-    /// The hot loop of the sphere path: partners are extrapolated to now without being stored,
-    /// and the contact time of every candidate is computed without data-dependent branches (i
-    /// itself gives +∞). Which candidate is the earliest so far is a select, not a branch: it is
-    /// unpredictable, and mispredictions would serialise the square roots and divisions.
-    fn first_sphere_collision(&self, i: usize, a: &Body, own: Event<M::Extra>) -> Event<M::Extra> {
-        let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
-        let mut horizon = own.t - self.t;
-        let found = match &self.nb {
-            Neighbourhood::Ll {
-                cells,
-                cell_of,
-                img,
-                img_offset,
-            } => {
-                let mut partner = None;
-                for (k, nbc) in cells.around(cell_of[i]).iter().enumerate() {
-                    // Where i's image sits relative to the box j lives in, minus i itself.
-                    let origin =
-                        image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
-                    for &j in cells.members(nbc.cell) {
-                        let bj = &self.bodies[j as usize];
-                        let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
-                        let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
-                        partner = if tau < horizon { Some((k, j)) } else { partner };
-                        horizon = horizon.min(tau);
-                    }
-                }
-                partner.map(|(k, j)| {
-                    let cell_shift = cells.around(cell_of[i])[k].shift;
-                    (j, ll_shift(cell_shift, img[i], img[j as usize]))
-                })
-            }
-            Neighbourhood::Nnl { lists, .. } => {
-                let list = lists.of(i);
-                let mut partner = usize::MAX;
-                for (k, &(j, shift)) in list.iter().enumerate() {
-                    let bj = &self.bodies[j as usize];
-                    let dr = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l) - a.r;
-                    let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
-                    partner = if tau < horizon { k } else { partner };
-                    horizon = horizon.min(tau);
-                }
-                list.get(partner).copied()
-            }
-        };
-        match found {
-            Some((j, shift)) => Event {
-                t: self.t + horizon,
-                a: i as u32,
-                b: j,
-                ca: self.count[i],
-                cb: self.count[j as usize],
-                kind: Kind::Collision { shift },
-                extra: M::Extra::default(),
-            },
-            None => own,
-        }
-    }
-
-    /// Rigid bodies: partners are searched in the order in which their bounding spheres meet (or,
-    /// where they already overlap, of a separating-axis estimate), so that the search stops as
-    /// soon as a lower bound cannot beat the best event so far.
-    fn first_rigid_collision(
-        &mut self,
-        i: usize,
-        a: &Body,
-        mut best: Event<M::Extra>,
-    ) -> Event<M::Extra> {
-        let mut cand = std::mem::take(&mut self.scratch);
-        cand.clear();
-        match &self.nb {
-            Neighbourhood::Ll {
-                cells,
-                cell_of,
-                img,
-                ..
-            } => {
-                for nbc in cells.around(cell_of[i]) {
-                    cand.extend(
-                        cells
-                            .members(nbc.cell)
-                            .iter()
-                            .map(|&j| (j, ll_shift(nbc.shift, img[i], img[j as usize]))),
-                    );
-                }
-            }
-            Neighbourhood::Nnl { lists, .. } => cand.extend_from_slice(lists.of(i)),
-        }
-        let lb = self.m.surface().s.max();
-        let mut order = std::mem::take(&mut self.order);
-        order.clear();
-        for &(j, shift) in &cand {
-            let ju = j as usize;
-            if ju == i {
-                continue;
-            }
-            // Where the bounding spheres are concerned, positions suffice; a body is rotated to
-            // the present only when its orientation matters.
-            let bj = &self.bodies[ju];
-            let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
-            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
-                // Bounding spheres already overlap: a separating axis bounds the contact time.
-                let (lower, estimate) = if t1 == 0.0 {
-                    let mut b = self.bodies[ju].at(self.t);
-                    b.r += image_offset(shift, self.l);
-                    self.m.quick_bound(a, &b)
-                } else {
-                    (t1, t1)
-                };
-                order.push((estimate, lower, j, shift));
-            }
-        }
-        order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
-        // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
-        for &(_, lower, j, shift) in &order {
-            if self.t + lower >= best.t {
-                continue;
-            }
-            let ju = j as usize;
-            let mut b = self.bodies[ju].at(self.t);
-            b.r += image_offset(shift, self.l);
-            if let Some((tau, extra)) = self.m.predict(a, &b, best.t - self.t)
-                && self.t + tau < best.t
-            {
-                best = Event {
-                    t: self.t + tau,
-                    a: i as u32,
-                    b: j,
-                    ca: self.count[i],
-                    cb: self.count[ju],
-                    kind: Kind::Collision { shift },
-                    extra,
-                };
-            }
-        }
-        self.order = order;
-        self.scratch = cand;
-        best
     }
 
     /// Body `i` reached the face of its box: a new box and list for it alone, then its events.
@@ -419,7 +292,7 @@ impl<M: Model> Engine<M> {
         else {
             return;
         };
-        lists.rebuild(&surf, i, &self.bodies[i]);
+        lists.rebuild(&surf, i, &self.bodies);
         escape_at[i] = self.t + lists.region(i).escape_time(&surf, &self.bodies[i], *eps);
         self.acc.rebuilds += 1;
         self.predict_for(i);
@@ -445,33 +318,21 @@ impl<M: Model> Engine<M> {
         mut on_collision: impl FnMut(&mut Self),
     ) -> Result<(), EdmdError> {
         let target = self.acc.collisions + n;
-        let compact_at = 8 * self.bodies.len() + 1024;
         while self.acc.collisions < target {
-            if self.cal.len() > compact_at {
-                let count = &self.count;
-                self.cal.retain(|e| e.ca == count[e.a as usize]);
-            }
-            let ev = self.cal.pop().ok_or(EdmdError::Stalled)?;
+            // Every branch schedules `ev.a` anew (or cancels it), which replaces this event.
+            let ev = *self.cal.first().ok_or(EdmdError::Stalled)?;
+            self.t = ev.t.max(self.t);
             match ev.kind {
-                _ if ev.ca != self.count[ev.a as usize] => {}
-                Kind::BoxEscape => {
-                    self.t = ev.t.max(self.t);
-                    self.rebuild_box(ev.a as usize);
-                }
+                Kind::BoxEscape => self.rebuild_box(ev.a as usize),
                 Kind::Collision { .. } if ev.cb != self.count[ev.b as usize] => {
-                    self.t = ev.t.max(self.t);
-                    self.predict_for(ev.a as usize);
+                    self.predict_for(ev.a as usize)
                 }
                 Kind::Collision { shift } => {
-                    self.t = ev.t.max(self.t);
                     if self.collision(&ev, shift) {
                         on_collision(self);
                     }
                 }
-                Kind::CellCross { dim, up } => {
-                    self.t = ev.t.max(self.t);
-                    self.cross(ev.a as usize, dim as usize, up);
-                }
+                Kind::CellCross { dim, up } => self.cross(ev.a as usize, dim as usize, up),
             }
         }
         Ok(())
@@ -487,6 +348,11 @@ impl<M: Model> Engine<M> {
         let imp = self.m.collide(&mut self.bodies[a], &mut bb, &ev.extra);
         self.bodies[b].v = bb.v;
         self.bodies[b].w = bb.w;
+        // The sphere path predicts from the lists' snapshots of the trajectories.
+        if let Neighbourhood::Nnl { lists, .. } = &mut self.nb {
+            lists.refresh(a, &self.bodies[a]);
+            lists.refresh(b, &self.bodies[b]);
+        }
         self.count[a] = self.count[a].wrapping_add(1);
         self.count[b] = self.count[b].wrapping_add(1);
         let happened = if let Some(j) = imp {
@@ -556,6 +422,150 @@ impl<M: Model> Engine<M> {
 
     fn momentum(&self) -> V3 {
         self.bodies.iter().fold(V3::zeros(), |p, b| p + b.v)
+    }
+}
+
+impl Engine<SphereModel> {
+    /// The hot loop of the sphere path. With lists, [`sphere::first_contact`] over the
+    /// neighbours' snapshots, four at a time. With cells, partners are extrapolated to now
+    /// without being stored, and the contact time of every candidate is computed without
+    /// data-dependent branches (i itself gives +∞); which candidate is the earliest so far is a
+    /// select, not a branch: it is unpredictable, and mispredictions would serialise the square
+    /// roots and divisions.
+    fn first_sphere_collision(&self, i: usize, a: &Body, own: Event<()>) -> Event<()> {
+        let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
+        let mut horizon = own.t - self.t;
+        let found = match &self.nb {
+            Neighbourhood::Ll {
+                cells,
+                cell_of,
+                img,
+                img_offset,
+            } => {
+                let mut partner = None;
+                for (k, nbc) in cells.around(cell_of[i]).iter().enumerate() {
+                    // Where i's image sits relative to the box j lives in, minus i itself.
+                    let origin =
+                        image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
+                    for &j in cells.members(nbc.cell) {
+                        let bj = &self.bodies[j as usize];
+                        let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
+                        let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
+                        partner = if tau < horizon { Some((k, j)) } else { partner };
+                        horizon = horizon.min(tau);
+                    }
+                }
+                partner.map(|(k, j)| {
+                    let cell_shift = cells.around(cell_of[i])[k].shift;
+                    (j, ll_shift(cell_shift, img[i], img[j as usize]))
+                })
+            }
+            Neighbourhood::Nnl { lists, .. } => {
+                let probe = Probe {
+                    r: a.r,
+                    v: a.v,
+                    now: self.t,
+                    sigma2,
+                };
+                sphere::first_contact(lists.snapshots(i), &probe, horizon).map(|(p, tau)| {
+                    horizon = tau;
+                    lists.of(i)[p]
+                })
+            }
+        };
+        match found {
+            Some((j, shift)) => Event {
+                t: self.t + horizon,
+                a: i as u32,
+                b: j,
+                cb: self.count[j as usize],
+                kind: Kind::Collision { shift },
+                extra: (),
+            },
+            None => own,
+        }
+    }
+}
+
+impl Engine<EllipsoidModel> {
+    /// Rigid bodies: partners are searched in the order in which their bounding spheres meet (or,
+    /// where they already overlap, of a separating-axis estimate), so that the search stops as
+    /// soon as a lower bound cannot beat the best event so far.
+    fn first_rigid_collision(
+        &mut self,
+        i: usize,
+        a: &Body,
+        mut best: Event<(V3, V3)>,
+    ) -> Event<(V3, V3)> {
+        let mut cand = std::mem::take(&mut self.scratch);
+        cand.clear();
+        match &self.nb {
+            Neighbourhood::Ll {
+                cells,
+                cell_of,
+                img,
+                ..
+            } => {
+                for nbc in cells.around(cell_of[i]) {
+                    cand.extend(
+                        cells
+                            .members(nbc.cell)
+                            .iter()
+                            .map(|&j| (j, ll_shift(nbc.shift, img[i], img[j as usize]))),
+                    );
+                }
+            }
+            Neighbourhood::Nnl { lists, .. } => cand.extend_from_slice(lists.of(i)),
+        }
+        let lb = self.m.surface().s.max();
+        let mut order = std::mem::take(&mut self.order);
+        order.clear();
+        for &(j, shift) in &cand {
+            let ju = j as usize;
+            if ju == i {
+                continue;
+            }
+            // Where the bounding spheres are concerned, positions suffice; a body is rotated to
+            // the present only when its orientation matters.
+            let bj = &self.bodies[ju];
+            let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
+            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
+                // Bounding spheres already overlap: a separating axis bounds the contact time.
+                let (lower, estimate) = if t1 == 0.0 {
+                    let mut b = self.bodies[ju].at(self.t);
+                    b.r += image_offset(shift, self.l);
+                    self.m.quick_bound(a, &b)
+                } else {
+                    (t1, t1)
+                };
+                order.push((estimate, lower, j, shift));
+            }
+        }
+        order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
+        for &(_, lower, j, shift) in &order {
+            if self.t + lower >= best.t {
+                continue;
+            }
+            let ju = j as usize;
+            let mut b = self.bodies[ju].at(self.t);
+            b.r += image_offset(shift, self.l);
+            if let Some((tau, extra)) = self.m.predict(a, &b, best.t - self.t)
+                && self.t + tau < best.t
+            {
+                best = Event {
+                    t: self.t + tau,
+                    a: i as u32,
+                    b: j,
+                    cb: self.count[ju],
+                    kind: Kind::Collision { shift },
+                    extra,
+                };
+            }
+        }
+        self.order = order;
+        self.scratch = cand;
+        best
     }
 }
 

@@ -11,7 +11,7 @@
 //!   Sec. 3.2 and steepest descent (Sec. 2.3.2); negative distances for slight overlaps.
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
-//! - [`calendar`]: binary-heap event calendar with per-particle counters.
+//! - [`calendar`]: one event per particle in a binary heap that knows where each particle's is.
 //! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
@@ -21,13 +21,16 @@
 //!
 //! Where this engine departs from the paper, and why:
 //! - The calendar holds one event per particle (its earliest collision, cell crossing or box
-//!   escape); a popped event whose partner has moved on re-predicts the particle. The earliest event
+//!   escape), replaced in place when the particle is predicted anew, so it never holds stale
+//!   events; an event whose partner has moved on re-predicts the particle when it comes due. The earliest event
 //!   found so far bounds every further contact search (the horizon of Eq. 65, generalised), and
 //!   rigid-body partners are searched in the order of a lower bound on their contact time.
 //! - Neighbour lists are updated per particle, as Donev et al. [26] do: a body that escapes its box
 //!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4. Spheres,
 //!   which do not rotate, get a ball instead of a box (the centre may wander Δ_NNL), with an exact
-//!   escape time and no 15-axis test.
+//!   escape time and no 15-axis test. Their lists also keep a snapshot of each neighbour's
+//!   trajectory, refreshed at its collisions, so that a prediction reads one contiguous list and
+//!   takes four neighbours at a time on AVX2 ([`sphere::first_contact`]).
 //! - Lower bounds on contact times go beyond ḋ_max (Eq. 32): the support gap along a fixed
 //!   direction bounds the distance from below at all times and changes at a rate and acceleration
 //!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`]).

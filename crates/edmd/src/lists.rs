@@ -10,6 +10,10 @@
 //!
 //! Positions are never wrapped (scheduled events keep their image shifts), so an image shift is
 //! relative to the unwrapped positions and stays valid while both bodies keep moving.
+//!
+//! Beside each entry a list may keep a [`Snapshot`] of the neighbour (its trajectory, for the
+//! sphere path), so that a prediction reads its list and nothing else. A body's snapshots sit
+//! where its entries' mirrors do; [`Lists::refresh`] rewrites them when its trajectory changes.
 
 use crate::cells::{Cells, Member};
 use crate::geometry::{Surface, V3, image_offset, round_nearest};
@@ -34,9 +38,22 @@ pub trait Region: Copy {
     fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64;
 }
 
-pub struct Lists<R: Region> {
+/// What a list keeps of each neighbour besides its index and image.
+pub trait Snapshot: Copy {
+    /// The copy of `body` as seen through the image displacement `offset`.
+    fn of(body: &Body, offset: &V3) -> Self;
+}
+
+/// Nothing: rigid bodies are extrapolated from the bodies themselves.
+impl Snapshot for () {
+    fn of(_: &Body, _: &V3) {}
+}
+
+pub struct Lists<R: Region, P: Snapshot = ()> {
     regions: Vec<R>,
     lists: Vec<Vec<Neighbour>>,
+    /// `snapshots[i][p]` is neighbour `lists[i][p]` as of its last [`Lists::refresh`].
+    snapshots: Vec<Vec<P>>,
     /// Where each entry's mirror is: `lists[i][p] = (j, s)` ⇔ `lists[j][back[i][p]] = (i, −s)`.
     /// A rebuild thereby drops a body from its old neighbours' lists without searching them.
     back: Vec<Vec<u32>>,
@@ -53,7 +70,7 @@ pub struct Lists<R: Region> {
     single_image: bool,
 }
 
-impl<R: Region> Lists<R> {
+impl<R: Region, P: Snapshot> Lists<R, P> {
     /// Regions around every body with margin `delta` (Δ_NNL) and all lists, in a periodic box of
     /// side `l`.
     pub fn build<S: Surface>(s: &S, bodies: &[Body], l: f64, delta: f64) -> Self {
@@ -73,6 +90,7 @@ impl<R: Region> Lists<R> {
         });
         let mut lists = Lists {
             lists: vec![Vec::new(); regions.len()],
+            snapshots: vec![Vec::new(); regions.len()],
             back: vec![Vec::new(); regions.len()],
             found: Vec::new(),
             regions,
@@ -87,19 +105,30 @@ impl<R: Region> Lists<R> {
             found.clear();
             lists.find(i, |j| j > i, &mut found);
             for &(j, s) in &found {
-                lists.link(i, j as usize, s);
+                lists.link(bodies, i, j as usize, s);
             }
         }
         lists
     }
 
     /// Lists j in i's list with shift `s`, and i in j's with −s.
-    fn link(&mut self, i: usize, j: usize, s: [i32; 3]) {
+    fn link(&mut self, bodies: &[Body], i: usize, j: usize, s: [i32; 3]) {
         let (p, q) = (self.lists[i].len() as u32, self.lists[j].len() as u32);
+        let offset = image_offset(s, self.l);
         self.lists[i].push((j as u32, s));
+        self.snapshots[i].push(P::of(&bodies[j], &offset));
         self.back[i].push(q);
         self.lists[j].push((i as u32, s.map(|x| -x)));
+        self.snapshots[j].push(P::of(&bodies[i], &-offset));
         self.back[j].push(p);
+    }
+
+    /// Rewrites the snapshots of body `i` in its neighbours' lists, after its trajectory changed.
+    pub fn refresh(&mut self, i: usize, body: &Body) {
+        for (&(j, s), &q) in self.lists[i].iter().zip(&self.back[i]) {
+            // i's image in j's list is displaced by −s.
+            self.snapshots[j as usize][q as usize] = P::of(body, &-image_offset(s, self.l));
+        }
     }
 
     /// Removes entry `q` of j's list, moving its last entry into the gap (and telling that entry's
@@ -107,6 +136,7 @@ impl<R: Region> Lists<R> {
     fn unlink_entry(&mut self, j: usize, q: usize) {
         let last = self.lists[j].len() - 1;
         self.lists[j].swap_remove(q);
+        self.snapshots[j].swap_remove(q);
         self.back[j].swap_remove(q);
         if q != last {
             let (m, _) = self.lists[j][q];
@@ -119,13 +149,18 @@ impl<R: Region> Lists<R> {
         &self.lists[i]
     }
 
+    /// The snapshots of the neighbours [`Lists::of`] lists, in the same order.
+    pub fn snapshots(&self, i: usize) -> &[P] {
+        &self.snapshots[i]
+    }
+
     pub fn region(&self, i: usize) -> &R {
         &self.regions[i]
     }
 
-    /// A new region around `body` (particle `i`, at the present time), and the lists updated to
-    /// match.
-    pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, body: &Body) {
+    /// A new region around body `i` (at the present time), and the lists updated to match.
+    pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, bodies: &[Body]) {
+        let body = &bodies[i];
         // Mirrors first: removing one may move another mirror of i (two images of i in one list),
         // which updates `back[i]` as it goes.
         for p in 0..self.lists[i].len() {
@@ -134,6 +169,7 @@ impl<R: Region> Lists<R> {
             self.unlink_entry(j, q);
         }
         self.lists[i].clear();
+        self.snapshots[i].clear();
         self.back[i].clear();
         // Rebuilds are frequent for spheres: no allocation in them.
         let mut found = std::mem::take(&mut self.found);
@@ -145,7 +181,7 @@ impl<R: Region> Lists<R> {
         }
         self.find(i, |j| j != i, &mut found);
         for &(j, shift) in &found {
-            self.link(i, j as usize, shift);
+            self.link(bodies, i, j as usize, shift);
         }
         self.found = found;
     }
@@ -279,6 +315,7 @@ mod tests {
     use crate::geometry::M3;
     use crate::nnl::{Obp, overlap};
     use crate::rigid::rotate;
+    use crate::sphere::Trajectory;
 
     fn bodies(n: usize, l: f64, seed: u64) -> Vec<Body> {
         let mut rng = crate::rng::Rng::new(seed);
@@ -301,7 +338,7 @@ mod tests {
     /// Every overlapping pair of regions, by brute force over all images, with `overlap` as the
     /// oracle.
     fn brute<R: Region>(
-        l: &Lists<R>,
+        l: &Lists<R, Trajectory>,
         overlap: impl Fn(&R, &R, &V3) -> bool,
     ) -> Vec<(usize, usize, [i32; 3])> {
         let mut all = Vec::new();
@@ -325,7 +362,7 @@ mod tests {
         all
     }
 
-    fn listed<R: Region>(l: &Lists<R>) -> Vec<(usize, usize, [i32; 3])> {
+    fn listed<R: Region>(l: &Lists<R, Trajectory>) -> Vec<(usize, usize, [i32; 3])> {
         let mut all: Vec<_> = (0..l.regions.len())
             .flat_map(|i| l.of(i).iter().map(move |&(j, s)| (i, j as usize, s)))
             .collect();
@@ -333,8 +370,9 @@ mod tests {
         all
     }
 
-    /// Builds lists for `b`, then moves and rebuilds 200 bodies, comparing with brute force each
-    /// time: every pair for which `must` holds is listed, and only pairs for which `may` holds.
+    /// Builds lists for `b`, then moves and rebuilds 200 bodies, and gives 200 others a new
+    /// velocity, comparing with brute force each time: every pair for which `must` holds is listed,
+    /// and only pairs for which `may` holds, each with its body's present trajectory.
     fn check<R: Region>(
         s: &Ellipsoid,
         mut b: Vec<Body>,
@@ -342,31 +380,42 @@ mod tests {
         delta: f64,
         must: impl Fn(&R, &R, &V3) -> bool,
         may: impl Fn(&R, &R, &V3) -> bool,
-    ) -> Lists<R> {
+    ) -> Lists<R, Trajectory> {
         let n = b.len();
-        let mut lists = Lists::<R>::build(s, &b, l, delta);
-        same(&lists, &must, &may, "after the build");
+        let mut lists = Lists::<R, Trajectory>::build(s, &b, l, delta);
+        same(&lists, &b, &must, &may, "after the build");
         let mut rng = crate::rng::Rng::new(11);
         for step in 0..200 {
             let i = step * 7 % n;
             b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
             b[i].rot = rotate(&b[i].rot, &V3::new(1.0, rng.uniform(), 0.0), 0.3);
-            lists.rebuild(s, i, &b[i]);
+            lists.rebuild(s, i, &b);
+            let k = (step * 5 + 3) % n;
+            b[k].v = V3::new(rng.uniform(), rng.uniform(), rng.uniform());
+            b[k].t = step as f64;
+            lists.refresh(k, &b[k]);
         }
         assert!(!listed(&lists).is_empty());
-        same(&lists, &must, &may, "after the rebuilds");
+        same(&lists, &b, &must, &may, "after the rebuilds");
         lists
     }
 
     fn same<R: Region>(
-        lists: &Lists<R>,
+        lists: &Lists<R, Trajectory>,
+        bodies: &[Body],
         must: impl Fn(&R, &R, &V3) -> bool,
         may: impl Fn(&R, &R, &V3) -> bool,
         when: &str,
     ) {
         for (i, list) in lists.lists.iter().enumerate() {
             assert_eq!(list.len(), lists.back[i].len(), "{when}: list {i}");
-            for (&(j, s), &q) in list.iter().zip(&lists.back[i]) {
+            assert_eq!(list.len(), lists.snapshots[i].len(), "{when}: list {i}");
+            for (p, (&(j, s), &q)) in list.iter().zip(&lists.back[i]).enumerate() {
+                let seen = Trajectory::of(&bodies[j as usize], &image_offset(s, lists.l));
+                assert_eq!(
+                    lists.snapshots[i][p], seen,
+                    "{when}: trajectory of {j} in list {i}"
+                );
                 let mirror = lists.lists[j as usize][q as usize];
                 assert_eq!(
                     mirror,
