@@ -77,14 +77,7 @@ impl<X: Copy> Calendar<X> {
                 self.heap.push(item);
                 self.sift_up(self.heap.len() - 1, item);
             }
-            i => {
-                let i = i as usize;
-                if i > 0 && e.t < self.heap[(i - 1) / 2].t {
-                    self.sift_up(i, item);
-                } else {
-                    self.sift_down(i, item);
-                }
-            }
+            i => self.sift(i as usize, item),
         }
     }
 
@@ -99,13 +92,8 @@ impl<X: Copy> Calendar<X> {
             .heap
             .pop()
             .expect("a scheduled particle is in the heap");
-        let i = i as usize;
-        if i < self.heap.len() {
-            if i > 0 && last.t < self.heap[(i - 1) / 2].t {
-                self.sift_up(i, last);
-            } else {
-                self.sift_down(i, last);
-            }
+        if (i as usize) < self.heap.len() {
+            self.sift(i as usize, last);
         }
     }
 
@@ -122,6 +110,21 @@ impl<X: Copy> Calendar<X> {
         self.heap.is_empty()
     }
 
+    /// Puts `item` at the hole `i`, or above or below it where the heap order wants it.
+    fn sift(&mut self, i: usize, item: Entry) {
+        if i > 0 && item.t < self.heap[(i - 1) / 2].t {
+            self.sift_up(i, item);
+        } else {
+            self.sift_down(i, item);
+        }
+    }
+
+    /// Stores `item` at `i`.
+    fn put(&mut self, i: usize, item: Entry) {
+        self.heap[i] = item;
+        self.pos[item.a as usize] = i as u32;
+    }
+
     /// Puts `item` at the hole `i` or above it.
     fn sift_up(&mut self, mut i: usize, item: Entry) {
         while i > 0 {
@@ -130,12 +133,10 @@ impl<X: Copy> Calendar<X> {
             if item.t >= parent.t {
                 break;
             }
-            self.heap[i] = parent;
-            self.pos[parent.a as usize] = i as u32;
+            self.put(i, parent);
             i = p;
         }
-        self.heap[i] = item;
-        self.pos[item.a as usize] = i as u32;
+        self.put(i, item);
     }
 
     /// Puts `item` at the hole `i` or below it.
@@ -154,12 +155,10 @@ impl<X: Copy> Calendar<X> {
             if child.t >= item.t {
                 break;
             }
-            self.heap[i] = child;
-            self.pos[child.a as usize] = i as u32;
+            self.put(i, child);
             i = c;
         }
-        self.heap[i] = item;
-        self.pos[item.a as usize] = i as u32;
+        self.put(i, item);
     }
 }
 
