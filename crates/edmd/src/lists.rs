@@ -125,6 +125,10 @@ impl<R: Region, P: Snapshot> Lists<R, P> {
 
     /// Rewrites the snapshots of body `i` in its neighbours' lists, after its trajectory changed.
     pub fn refresh(&mut self, i: usize, body: &Body) {
+        // Lists that keep nothing (rigid bodies) have nothing to rewrite: skip the walk.
+        if size_of::<P>() == 0 {
+            return;
+        }
         for (&(j, s), &q) in self.lists[i].iter().zip(&self.back[i]) {
             // i's image in j's list is displaced by −s.
             self.snapshots[j as usize][q as usize] = P::of(body, &-image_offset(s, self.l));
