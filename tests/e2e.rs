@@ -120,6 +120,21 @@ impl Cluster {
         }
     }
 
+    /// The workers the coordinator lists, once at least one has registered.
+    fn registered_workers(&self, url: &str) -> Vec<serde_json::Value> {
+        let started = Instant::now();
+        loop {
+            let out = self.sweep(&["workers", "--coordinator", url, "--token-file", self.token(), "--format", "json"]);
+            assert!(out.status.success());
+            let workers: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+            if !workers.is_empty() {
+                return workers;
+            }
+            assert!(started.elapsed() < Duration::from_secs(20), "no worker registered");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
     /// Result rows per job id, read from the database (read-only, while the coordinator runs).
     fn rows_per_job(&self) -> HashMap<String, usize> {
         let out = self.sweep(&["export", "--db", self.db.to_str().unwrap(), "--format", "json"]);
@@ -362,17 +377,7 @@ fn cancel_stops_queued_work_and_workers_are_listed() {
     let cancelled: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(cancelled["cancelled"], 25);
     let _worker = cluster.worker(&url, "0", Some(cluster.token()));
-    let started = Instant::now();
-    let listed = loop {
-        let out = cluster.sweep(&["workers", "--coordinator", &url, "--token-file", cluster.token(), "--format", "json"]);
-        assert!(out.status.success());
-        let workers: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
-        if !workers.is_empty() {
-            break workers;
-        }
-        assert!(started.elapsed() < Duration::from_secs(20), "the worker never registered");
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let listed = cluster.registered_workers(&url);
     assert_eq!(listed.len(), 1);
     assert_eq!(listed[0]["cores"], serde_json::json!([0]));
     assert!(!listed[0]["cpu_model"].as_str().unwrap().is_empty(), "provenance missing");
@@ -380,4 +385,28 @@ fn cancel_stops_queued_work_and_workers_are_listed() {
     let status = cluster.status(&url);
     assert_eq!((status["cancelled"].as_u64(), status["done"].as_u64()), (Some(25), Some(0)), "{status}");
     assert!(cluster.rows_per_job().is_empty(), "a cancelled job ran");
+}
+
+/// `--core-count N` (what the Slurm and Kubernetes recipes pass) takes the first N cores of the
+/// worker's affinity mask, and asking for more than the mask holds is a one-line error.
+#[test]
+fn a_core_count_takes_the_first_cores_of_the_affinity_mask() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let spawn = |count: &str| {
+        let mut cmd = Command::new(SWEEP);
+        cmd.args(["worker", "--coordinator", &url, "--token-file", cluster.token(), "--core-count", count]);
+        Proc(cmd.env_remove("SWEEP_TOKEN").stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap())
+    };
+    let mask: Vec<usize> = core_affinity::get_core_ids().unwrap().into_iter().map(|c| c.id).collect();
+    let _worker = spawn("1");
+    let listed = cluster.registered_workers(&url);
+    assert_eq!(listed[0]["cores"], serde_json::json!([mask[0]]));
+
+    let too_many = (mask.len() + 1).to_string();
+    let out = worker_output(spawn(&too_many), Duration::from_secs(20));
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with(&format!("error: --core-count {too_many}: only {} cores", mask.len())), "{stderr}");
 }

@@ -165,13 +165,20 @@ pub struct WorkerArgs {
     /// Cores to run on, e.g. `0,1` or `0-3` (default: every core available to this process).
     #[arg(long, value_parser = system::parse_core_list)]
     cores: Option<system::CoreList>,
+    /// Run on the first N cores available to this process, for a scheduler that gives a count
+    /// (Slurm's SLURM_CPUS_ON_NODE, a Kubernetes CPU limit) rather than a list.
+    #[arg(long, value_name = "N", conflicts_with = "cores", value_parser = clap::value_parser!(u32).range(1..))]
+    core_count: Option<u32>,
     /// Jobs leased per call (larger amortises round trips of short jobs).
     #[arg(long, default_value_t = 1)]
     lease_batch: u32,
 }
 
 pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
-    let cores = system::cores_or_all(&args.cores)?;
+    let cores = match args.core_count {
+        Some(count) => system::first_cores(&system::available_cores()?, count as usize)?,
+        None => system::cores_or_all(&args.cores)?,
+    };
     system::start_thread_pool()?;
     let runtime = runtime()?;
     let worker_id = format!("{}:{}", worker::provenance::hostname(), std::process::id());

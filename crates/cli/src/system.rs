@@ -59,6 +59,18 @@ pub fn cores_or_all(list: &Option<CoreList>) -> anyhow::Result<Vec<usize>> {
     }
 }
 
+/// The first `count` of the `available` cores (this process's affinity mask, ascending): how a
+/// worker uses a count its scheduler gives (`SLURM_CPUS_ON_NODE`, a Kubernetes CPU limit through
+/// the downward API) when the mask alone may be wider than the allocation. More than are available
+/// is an error, not a silent oversubscription of the cores that timings run on.
+pub fn first_cores(available: &[usize], count: usize) -> anyhow::Result<Vec<usize>> {
+    if count > available.len() {
+        let list = available.iter().map(usize::to_string).collect::<Vec<_>>().join(",");
+        bail!("--core-count {count}: only {} cores are available to this process ({list})", available.len());
+    }
+    Ok(available[..count].to_vec())
+}
+
 /// `0,2-3` → [0, 2, 3]: core lists as `taskset` and Slurm write them.
 pub fn parse_core_list(s: &str) -> Result<CoreList, String> {
     let mut cores = Vec::new();
@@ -86,4 +98,21 @@ pub fn parse_core_list(s: &str) -> Result<CoreList, String> {
 /// Whether process `pid` exists on this machine (Linux: its `/proc` entry).
 pub fn process_alive(pid: u32) -> bool {
     std::path::Path::new(&format!("/proc/{pid}")).exists()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_core_count_takes_the_first_cores_of_the_mask() {
+        assert_eq!(first_cores(&[2, 3, 6, 7], 2).unwrap(), vec![2, 3]);
+        assert_eq!(first_cores(&[2, 3, 6, 7], 4).unwrap(), vec![2, 3, 6, 7]);
+    }
+
+    #[test]
+    fn a_core_count_beyond_the_mask_is_refused_naming_the_flag_and_the_cores() {
+        let message = first_cores(&[4, 5], 3).unwrap_err().to_string();
+        assert_eq!(message, "--core-count 3: only 2 cores are available to this process (4,5)");
+    }
 }
