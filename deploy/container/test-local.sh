@@ -80,20 +80,8 @@ podman stop -t 30 sweep-test-worker sweep-test-coordinator >/dev/null
 [[ $(podman inspect sweep-test-worker --format '{{.State.ExitCode}}') == 0 ]] || { echo "the worker did not stop cleanly on SIGTERM"; exit 1; }
 say "ok: coordinator and worker containers finished the image's noop plan (1000 points); the worker stopped cleanly on SIGTERM"
 
-# 3b. Local mode in a container: a small overlap plan, its database and Figure 2 on the volume.
-cat >"$work/data/plan.toml" <<'EOF'
-name = "container-test"
-[[overlap]]
-l_star = [1, 4]
-w_star = [1, 4]
-r_star = 0.5
-acceptance = 0.4
-configurations = 20_000
-repeats = 1
-precision = "f32"
-algorithms = ["arvo", "qri", "qrf", "sse", "ocsi", "ocsi_batch"]
-EOF
-podman run --rm --network=none -v "$work/data:/var/lib/sweep" localhost/sweep:test run plan.toml --db local.db --cores 0 >/dev/null 2>&1
+# 3b. Local mode in a container: the image's smoke plan, its database and Figure 2 on the volume.
+podman run --rm --network=none -v "$work/data:/var/lib/sweep" localhost/sweep:test run /usr/share/sweep/plans/smoke.toml --db local.db >/dev/null 2>&1
 podman run --rm --network=none -v "$work/data:/var/lib/sweep" localhost/sweep:test report fig2 --db local.db --out fig2.svg >/dev/null 2>&1
 grep -q '<svg' "$work/data/fig2.svg"
 [[ $(stat -c %u "$work/data/local.db") == 65532 ]]

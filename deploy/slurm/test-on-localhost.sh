@@ -2,7 +2,7 @@
 # Slurm for real on this machine: installs Debian's Slurm (slurmctld + slurmd on localhost, munge
 # for authentication) if it is missing, starts private daemons (their configuration, state, logs
 # and munge socket all in a temporary directory; nothing in /etc is changed), and then:
-#   1. submits deploy/slurm/sweep.sbatch with a small plan (noop points and four overlap points)
+#   1. submits deploy/slurm/sweep.sbatch with deploy/plans/smoke.toml (120 noop points, 4 overlap points)
 #      and scancels it mid-campaign (a hard stop: SIGTERM to everything, SIGKILL after KillWait),
 #   2. resubmits it and stops it with USR1 to the batch script, as --signal=B:USR1@120 does
 #      before the time limit (the graceful stop),
@@ -101,23 +101,7 @@ cp "$sweep" "$shared/bin/sweep"
 head -c 32 /dev/urandom | base64 >"$shared/sweep/token"
 chmod 600 "$shared/sweep/token"
 total=124
-cat >"$shared/plan.toml" <<EOF
-name = "slurm-test"
-
-[[noop]]
-count = 120
-duration_ms = 300
-
-[[overlap]]
-l_star = [1, 4]
-w_star = [1, 4]
-r_star = 0.5
-acceptance = 0.4
-configurations = 20_000
-repeats = 1
-precision = "f32"
-algorithms = ["arvo", "qri", "qrf", "sse", "ocsi", "ocsi_batch"]
-EOF
+cp "$repo/deploy/plans/smoke.toml" "$shared/plan.toml"
 db=$shared/sweep/campaign.db
 export PATH=$shared/bin:$PATH SWEEP_LEASE_SECS=3
 q() { sweep query "$1" --db "$db" --format csv | tail -n +2; }
