@@ -25,16 +25,7 @@ cleanup() {
     rm -rf "$work"
 }
 trap cleanup EXIT
-# This kind of machine mounts cgroups v1 and v2 together (crun refuses that hybrid; runc copes)
-# and its root may not raise rlimits (podman's default ulimits would): settings for here only.
-cat >"$work/containers.conf" <<'EOF'
-[containers]
-default_ulimits = []
-[engine]
-cgroup_manager = "cgroupfs"
-runtime = "runc"
-EOF
-export CONTAINERS_CONF=$work/containers.conf
+export CONTAINERS_CONF=${CONTAINERS_CONF:-$repo/deploy/container/podman-here.conf}
 
 # 1. The base image, once per machine.
 base=localhost/sweep-test/debian:bookworm-minbase
