@@ -2,8 +2,8 @@
 # The container recipe built and run on this machine, where no image registry can be reached:
 #   1. a base image made from Debian's packages (debootstrap --variant=minbase), imported into podman;
 #   2. deploy/container/Containerfile built on it, its `build` stage replaced by the sweep binary
-#      built here (`--build-context build=DIR`: no Rust toolchain image can be fetched here, so the
-#      first stage's `cargo build` is the one thing of the recipe this does not run);
+#      built here (`--build-context build=DIR`: no Rust toolchain image can be fetched here); with
+#      SWEEP_CONTAINER_FULL=1, the whole recipe, its cargo build too, on a Rust image made here;
 #   3. the image run: a coordinator and a worker in two containers, a plan shipped in the image
 #      submitted from a third and finished; local mode (`sweep run`) in a container writing its
 #      database and Figure 2 to a volume, as uid 65532.
@@ -27,23 +27,44 @@ cleanup() {
 trap cleanup EXIT
 export CONTAINERS_CONF=${CONTAINERS_CONF:-$repo/deploy/container/podman-here.conf}
 
-# 1. The base image, once per machine.
-base=localhost/sweep-test/debian:bookworm-minbase
-if ! podman image exists "$base"; then
-    say "debootstrap --variant=minbase bookworm"
-    debootstrap --variant=minbase bookworm "$work/rootfs" >"$work/debootstrap.log" 2>&1 || {
+# 1. The base image, once per machine. debootstrapped NAME [PACKAGES] [podman import --change ...]
+debootstrapped() {
+    local name=$1 include=$2; shift 2
+    podman image exists "$name" && return 0
+    say "debootstrap --variant=minbase ${include:+--include=$include }bookworm for $name"
+    debootstrap --variant=minbase ${include:+--include="$include"} bookworm "$work/rootfs" >"$work/debootstrap.log" 2>&1 || {
         tail "$work/debootstrap.log"; exit 1; }
     rm -rf "$work"/rootfs/var/cache/apt/archives/*.deb "$work"/rootfs/var/lib/apt/lists/* \
         "$work"/rootfs/usr/share/{doc,man,info,locale}/*
-    tar -C "$work/rootfs" -c . | podman import -q - "$base" >/dev/null
+    if [[ -n ${toolchain:-} ]]; then mkdir -p "$work/rootfs/usr/local/rust" && cp -a "$toolchain"/{bin,lib,libexec} "$work/rootfs/usr/local/rust/"; fi
+    tar -C "$work/rootfs" -c . | podman import -q "$@" - "$name" >/dev/null
     rm -rf "$work/rootfs"
-fi
+}
+base=localhost/sweep-test/debian:bookworm-minbase
+debootstrapped "$base" ""
 
-# 2. The image: the recipe's runtime stage over the binary built here, stripped as the recipe strips it.
-mkdir -p "$work/stage/out/bin" "$work/stage/out/data"
-strip -o "$work/stage/out/bin/sweep" "$sweep"
-podman build -q -f "$repo/deploy/container/Containerfile" --build-arg RUNTIME_IMAGE="$base" \
-    --build-context build="$work/stage" -t localhost/sweep:test "$repo" >/dev/null
+# 2. The image: the recipe's runtime stage over the binary built here, stripped as the recipe strips
+# it; or, with SWEEP_CONTAINER_FULL=1, the whole recipe, its cargo build too (about 16 min on 2
+# cores), on a Rust image made here: Debian's gcc and libc6-dev, and this machine's toolchain
+# (`rustc --print sysroot`), with this machine's cargo registry mounted so that crates come from it.
+if [[ ${SWEEP_CONTAINER_FULL:-0} == 1 ]]; then
+    toolchain=$(rustc --print sysroot)
+    rust=localhost/sweep-test/rust:$(rustc --version | cut -d' ' -f2)
+    debootstrapped "$rust" gcc,libc6-dev,ca-certificates \
+        --change "ENV PATH=/usr/local/rust/bin:/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin" \
+        --change "ENV CARGO_HOME=/usr/local/cargo"
+    say "building the whole recipe on $rust"
+    registry=${CARGO_HOME:-$HOME/.cargo}/registry mount=()
+    if [[ -d $registry ]]; then mount=(-v "$registry:/usr/local/cargo/registry"); fi
+    podman build -q --network=host "${mount[@]}" \
+        -f "$repo/deploy/container/Containerfile" --build-arg RUST_IMAGE="$rust" --build-arg RUNTIME_IMAGE="$base" \
+        -t localhost/sweep:test "$repo" >/dev/null
+else
+    mkdir -p "$work/stage/out/bin" "$work/stage/out/data"
+    strip -o "$work/stage/out/bin/sweep" "$sweep"
+    podman build -q -f "$repo/deploy/container/Containerfile" --build-arg RUNTIME_IMAGE="$base" \
+        --build-context build="$work/stage" -t localhost/sweep:test "$repo" >/dev/null
+fi
 say "built localhost/sweep:test: $(podman image inspect localhost/sweep:test --format '{{.Size}}' | awk '{printf "%.0f MB", $1 / 1e6}') (base $(podman image inspect "$base" --format '{{.Size}}' | awk '{printf "%.0f MB", $1 / 1e6}'))"
 [[ $(podman run --rm --network=none localhost/sweep:test --version) == "sweep "* ]]
 [[ $(podman run --rm --network=none --entrypoint id localhost/sweep:test -u) == 65532 ]]
