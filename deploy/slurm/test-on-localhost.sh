@@ -33,6 +33,9 @@ chmod 755 "$work"
 munge_pid='' controller_started=''
 cleanup() {
     if [[ -n $controller_started ]]; then
+        # Jobs first (a failed check may leave one running), so that no slurmstepd outlives slurmd.
+        scancel --partition=test >/dev/null 2>&1 || true
+        for _ in $(seq 30); do [[ -z $(squeue -h 2>/dev/null) ]] && break; sleep 1; done
         scontrol shutdown >/dev/null 2>&1 || true
         sleep 1
     fi
