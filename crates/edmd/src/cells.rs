@@ -21,8 +21,6 @@ pub struct Cells<T = u32> {
     pub m: usize,
     pub side: f64,
     members: Vec<Vec<T>>,
-    /// The 27 neighbours of every cell, computed once (the hot loop of the sphere path reads them).
-    table: Vec<[Neighbour; 27]>,
 }
 
 /// A neighbouring cell and the image shift (in box lengths) of the particles in it.
@@ -41,22 +39,11 @@ impl<T: Member> Cells<T> {
             return None;
         }
         let m = m as usize;
-        let mut c = Cells {
+        Some(Cells {
             m,
             side: l / m as f64,
             members: vec![Vec::new(); m * m * m],
-            table: Vec::new(),
-        };
-        c.table = (0..m * m * m)
-            .map(|idx| {
-                let cc = c.coords(idx);
-                std::array::from_fn(|k| {
-                    let k = k as i32;
-                    c.neighbour(cc, [k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1])
-                })
-            })
-            .collect();
-        Some(c)
+        })
     }
 
     pub fn coords_of(&self, r: &V3) -> [usize; 3] {
@@ -112,9 +99,14 @@ impl<T: Member> Cells<T> {
         }
     }
 
-    /// All 27 cells around cell `idx` (including it).
-    pub fn around(&self, idx: usize) -> &[Neighbour; 27] {
-        &self.table[idx]
+    /// All 27 cells around cell `idx` (including it). Computed, not tabulated: a table costs
+    /// 432 bytes per cell, about 500 bytes per particle in the sphere path's cells.
+    pub fn around(&self, idx: usize) -> [Neighbour; 27] {
+        let c = self.coords(idx);
+        std::array::from_fn(|k| {
+            let k = k as i32;
+            self.neighbour(c, [k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1])
+        })
     }
 
     /// Time until a point at `r` with velocity `v` leaves cell `c`, and through which face.
@@ -137,6 +129,129 @@ impl<T: Member> Cells<T> {
     }
 }
 
+/// Points binned for proximity queries: every point within `reach` (nearest image) of a position
+/// is among the members of the 27 cells around it, so a query costs O(1) instead of O(N). A box
+/// with fewer than 3 cells of side `reach` a side is not binned: every point is a candidate.
+/// Used where the set of points changes slowly (Monte Carlo, audits), not in the event loop.
+///
+/// The cells are intrusive doubly linked lists over the points: a query reads the heads of nine
+/// runs of three adjacent cells and then only the points themselves, and a move is O(1).
+pub struct Near {
+    /// Cells per side; 0 when the box is not binned.
+    m: usize,
+    side: f64,
+    head: Vec<u32>,
+    next: Vec<u32>,
+    prev: Vec<u32>,
+    cell_of: Vec<u32>,
+    n: usize,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl Near {
+    /// `points` (any image) in a periodic box of side `l`.
+    pub fn new(points: &[V3], l: f64, reach: f64) -> Self {
+        let n = points.len();
+        let m = (l / reach).floor();
+        // Also rejects NaN.
+        let m = if m >= 3.0 { m as usize } else { 0 };
+        let mut near = Near {
+            m,
+            side: if m > 0 { l / m as f64 } else { l },
+            head: vec![NONE; m * m * m],
+            next: vec![NONE; if m > 0 { n } else { 0 }],
+            prev: vec![NONE; if m > 0 { n } else { 0 }],
+            cell_of: vec![0; if m > 0 { n } else { 0 }],
+            n,
+        };
+        if m > 0 {
+            for (i, p) in points.iter().enumerate() {
+                let c = near.cell(p);
+                near.link(i, c);
+            }
+        }
+        near
+    }
+
+    fn coords(&self, p: &V3) -> [usize; 3] {
+        let c = |x: f64| ((x / self.side).floor() as isize).rem_euclid(self.m as isize) as usize;
+        [c(p.x), c(p.y), c(p.z)]
+    }
+
+    fn cell(&self, p: &V3) -> u32 {
+        let [x, y, z] = self.coords(p);
+        (x + self.m * (y + self.m * z)) as u32
+    }
+
+    fn link(&mut self, i: usize, c: u32) {
+        let h = self.head[c as usize];
+        self.next[i] = h;
+        self.prev[i] = NONE;
+        if h != NONE {
+            self.prev[h as usize] = i as u32;
+        }
+        self.head[c as usize] = i as u32;
+        self.cell_of[i] = c;
+    }
+
+    fn unlink(&mut self, i: usize) {
+        let (p, q) = (self.prev[i], self.next[i]);
+        if p == NONE {
+            self.head[self.cell_of[i] as usize] = q;
+        } else {
+            self.next[p as usize] = q;
+        }
+        if q != NONE {
+            self.prev[q as usize] = p;
+        }
+    }
+
+    /// Whether `f` holds for every candidate near `p` (itself included, if a point is there);
+    /// stops at the first that fails.
+    pub fn all_around(&self, p: &V3, mut f: impl FnMut(usize) -> bool) -> bool {
+        if self.m == 0 {
+            return (0..self.n).all(f);
+        }
+        let m = self.m;
+        let [cx, cy, cz] = self.coords(p);
+        let wrap = |c: usize| {
+            [
+                if c == 0 { m - 1 } else { c - 1 },
+                c,
+                if c + 1 == m { 0 } else { c + 1 },
+            ]
+        };
+        let xs = wrap(cx);
+        for z in wrap(cz) {
+            for y in wrap(cy) {
+                let row = m * (y + m * z);
+                for x in xs {
+                    let mut j = self.head[row + x];
+                    while j != NONE {
+                        if !f(j as usize) {
+                            return false;
+                        }
+                        j = self.next[j as usize];
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Point `i` is now at `p`.
+    pub fn moved(&mut self, i: usize, p: &V3) {
+        if self.m > 0 {
+            let c = self.cell(p);
+            if c != self.cell_of[i] {
+                self.unlink(i);
+                self.link(i, c);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -156,5 +271,44 @@ mod tests {
             27
         );
         assert!(Cells::<u32>::new(5.9, 2.0).is_none());
+    }
+
+    /// Every pair closer than `reach` (nearest image) is found by a query, before and after moves,
+    /// in boxes with and without cells; points on cell and box faces included.
+    #[test]
+    fn near_finds_every_close_pair() {
+        let mut rng = crate::rng::Rng::new(5);
+        for (n, l) in [(400, 10.0), (30, 2.5)] {
+            let reach = 1.0;
+            let mut pts: Vec<V3> = (0..n)
+                .map(|_| V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * l)
+                .collect();
+            pts[0] = V3::new(0.0, l / 3.0, 1.0);
+            pts[1] = V3::new(l.next_down(), l / 3.0, 1.0);
+            let mut near = Near::new(&pts, l, reach);
+            for round in 0..3 {
+                for i in 0..n {
+                    let mut seen = vec![0; n];
+                    near.all_around(&pts[i], |j| {
+                        seen[j] += 1;
+                        true
+                    });
+                    for j in 0..n {
+                        let d = crate::init::min_image(pts[j] - pts[i], l).norm();
+                        assert!(seen[j] <= 1, "{j} listed twice");
+                        assert!(
+                            d >= reach || seen[j] == 1,
+                            "round {round}: {i}-{j} at {d} missed"
+                        );
+                    }
+                }
+                for i in (round..n).step_by(3) {
+                    pts[i] = (pts[i] + V3::new(rng.uniform(), rng.uniform(), -rng.uniform()))
+                        .map(|x| x.rem_euclid(l));
+                    near.moved(i, &pts[i]);
+                }
+            }
+            assert_eq!(near.m > 0, l == 10.0);
+        }
     }
 }

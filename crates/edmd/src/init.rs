@@ -1,8 +1,18 @@
-//! Initial configurations at a target φ: a dilute FCC lattice with random orientations,
-//! compressed by hard-body Monte Carlo (uniform scaling to the closest contact, then sweeps of
-//! random moves), then Maxwell–Boltzmann velocities (Sec. 4.1 melts a dilute crystal similarly).
+//! Initial configurations at a target φ: a dilute FCC lattice with random orientations, melted
+//! and compressed by hard-body Monte Carlo, then Maxwell–Boltzmann velocities (Sec. 4.1 melts a
+//! dilute crystal similarly).
+//!
+//! The compression follows the "quick compress" of hard-particle Monte Carlo codes: the box
+//! shrinks by a small step, which leaves some pairs overlapping; two sweeps in which no move may
+//! create an overlap or deepen one resolve many of them, and the rest are pushed apart along their
+//! lines of centres (Jodrey–Tory). Every pass is O(N) through cells ([`Near`]), and the number of
+//! steps does not grow with N, unlike a compression limited by the closest pair (some pair is
+//! always nearly in contact, so its steps shrink as N grows: O(N²) in all). The pushes leave pairs
+//! near contact, which the engine relaxes with a few collisions per particle before anything is
+//! measured (`engine::RELAX_COLLISIONS_PER_PARTICLE`).
 
 use crate::EdmdError;
+use crate::cells::Near;
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{M3, V3, round_nearest};
 use crate::nnl::{Obp, overlap};
@@ -37,7 +47,7 @@ impl Geom {
     /// Cheap certificate that the bodies, both scaled by `k` about their centres, do not touch:
     /// their bounding spheres or their bounding boxes are disjoint.
     pub fn surely_apart(&self, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
-        if r.norm() >= 2.0 * self.bounding_radius() * k {
+        if r.norm_squared() >= (2.0 * self.bounding_radius() * k).powi(2) {
             return true;
         }
         match self {
@@ -66,7 +76,8 @@ impl Geom {
 
 /// Minimum-image vector in a cubic box of side `l`.
 pub fn min_image(d: V3, l: f64) -> V3 {
-    d.map(|x| x - l * round_nearest(x / l))
+    let inv = 1.0 / l;
+    d.map(|x| x - l * round_nearest(x * inv))
 }
 
 /// A uniformly random rotation matrix (from a random unit quaternion).
@@ -92,6 +103,24 @@ const PHI_MELT: f64 = 0.25;
 
 /// Monte Carlo sweeps that melt the lattice: each body moves about a lattice spacing.
 const MELT_SWEEPS: usize = 60;
+
+/// The largest compression step (relative change of the box side), and the smallest, below which
+/// the state is taken to be jammed.
+const MAX_STEP: f64 = 0.02;
+const MIN_STEP: f64 = 1e-6;
+/// Sweeps after each compression step. The overlaps they leave are pushed apart; a step that
+/// leaves none is followed by a larger one, a step whose overlaps cannot be pushed apart is
+/// undone and followed by a smaller one.
+const RELAX_SWEEPS: usize = 2;
+/// Passes of pushes over the overlapping pairs after which a compression step is undone.
+const PUSH_PASSES: usize = 50;
+/// Pushed pairs are left this far from contact at least (in contact-scale units), so that tiny
+/// steps do not build a network of pairs all but touching.
+const MIN_PUSH: f64 = 2e-3;
+/// Sweeps after a compression step was undone.
+const UNJAM_SWEEPS: usize = 10;
+/// Sweeps allowed for the whole compression, whatever its steps.
+const MAX_SWEEPS: usize = 100_000;
 
 /// Monte Carlo step sizes (displacement, rotation angle), kept near 30–50 % acceptance.
 struct Steps {
@@ -128,7 +157,111 @@ pub fn initial_configuration(
 ) -> Result<Config, EdmdError> {
     let vp = std::f64::consts::PI / 6.0;
     let l_target = (n as f64 * vp / phi).cbrt();
-    let diam = 2.0 * geom.bounding_radius();
+    let sites = fcc_sites(n);
+    let rot: Vec<M3> = (0..n)
+        .map(|_| {
+            if geom.rotates() {
+                random_rotation(rng)
+            } else {
+                M3::identity()
+            }
+        })
+        .collect();
+    // The densest FCC lattice, in steps of 5 % from the target box, on which the randomly
+    // oriented bodies do not overlap: the less compression is left to the Monte Carlo, the better.
+    let mut l = l_target;
+    let mut packing = loop {
+        let packing = Packing::new(sites.iter().map(|s| s * l).collect(), rot.clone(), l, *geom);
+        if packing.overlaps == 0 {
+            break packing;
+        }
+        l *= 1.05;
+    };
+    // The lattice is melted first, at a density where the fluid is stable and moves are cheap,
+    // as in Sec. 4.1: compressed without melting, an FCC lattice stays a crystal above freezing
+    // (at φ = 0.5 hard spheres then give the crystal's Z ≈ 9.5, not the fluid's 13).
+    let l_melt = (n as f64 * vp / phi.min(PHI_MELT)).cbrt();
+    if packing.l < l_melt {
+        packing.scale(l_melt / packing.l);
+    }
+    let mut steps = Steps {
+        dr: 0.1 * geom.bounding_radius(),
+        dth: 0.1,
+    };
+    for _ in 0..MELT_SWEEPS {
+        let acc = packing.sweep(&steps, rng);
+        steps.adapt(acc, packing.l);
+    }
+    let mut step = MAX_STEP;
+    let mut sweeps = 0;
+    while packing.l > l_target {
+        let before = (packing.pos.clone(), packing.rot.clone(), packing.l);
+        packing.scale((l_target / packing.l).max(1.0 / (1.0 + step)));
+        for _ in 0..RELAX_SWEEPS {
+            let acc = packing.sweep(&steps, rng);
+            steps.adapt(acc, packing.l);
+        }
+        sweeps += RELAX_SWEEPS;
+        if packing.overlaps == 0 || packing.push_apart(1.0 + 0.5 * step.max(MIN_PUSH)) {
+            step = (step * 1.5).min(MAX_STEP);
+        } else {
+            let (pos, rot, l) = before;
+            packing = Packing::new(pos, rot, l, *geom);
+            step *= 0.5;
+            // The pushes of earlier steps left pairs near contact that block this one: the fluid
+            // relaxes at the present density before the next, smaller step.
+            for _ in 0..UNJAM_SWEEPS {
+                let acc = packing.sweep(&steps, rng);
+                steps.adapt(acc, packing.l);
+            }
+            sweeps += UNJAM_SWEEPS;
+        }
+        if step < MIN_STEP || sweeps > MAX_SWEEPS {
+            return Err(EdmdError::Compression {
+                reached: n as f64 * vp / packing.l.powi(3),
+                target: phi,
+            });
+        }
+    }
+
+    let kt = 1.0;
+    let Packing { pos, rot, l, .. } = packing;
+    let mut bodies: Vec<Body> = pos
+        .iter()
+        .zip(&rot)
+        .map(|(r, rot)| {
+            let v = V3::new(rng.normal(), rng.normal(), rng.normal()) * (kt * inertia.inv_m).sqrt();
+            let w = if inertia.inv_i > 0.0 {
+                // Spin about the symmetry axis (row 0) is never changed by smooth collisions: leave it 0.
+                let s = (kt * inertia.inv_i).sqrt();
+                (rot.row(1).transpose() * rng.normal() + rot.row(2).transpose() * rng.normal()) * s
+            } else {
+                V3::zeros()
+            };
+            Body {
+                r: *r,
+                v,
+                rot: *rot,
+                w,
+                t: 0.0,
+            }
+        })
+        .collect();
+    let mean = bodies.iter().fold(V3::zeros(), |a, b| a + b.v) / n as f64;
+    let ke: f64 = bodies
+        .iter()
+        .map(|b| 0.5 * (b.v - mean).norm_squared())
+        .sum::<f64>()
+        / inertia.inv_m;
+    let scale = (1.5 * n as f64 * kt / ke).sqrt();
+    for b in bodies.iter_mut() {
+        b.v = (b.v - mean) * scale;
+    }
+    Ok(Config { l, bodies })
+}
+
+/// The first `n` sites of an FCC lattice of ⌈(n/4)^⅓⌉³ cells in the unit cube, x fastest.
+fn fcc_sites(n: usize) -> Vec<V3> {
     let nc = ((n as f64 / 4.0).cbrt().ceil() as usize).max(1);
     let basis = [
         [0.0, 0.0, 0.0],
@@ -155,172 +288,183 @@ pub fn initial_configuration(
             }
         }
     }
-    let mut rot: Vec<M3> = (0..n)
-        .map(|_| {
-            if geom.rotates() {
-                random_rotation(rng)
-            } else {
-                M3::identity()
-            }
-        })
-        .collect();
-    // The densest FCC lattice, in steps of 5 % from the target box, on which the randomly
-    // oriented bodies do not overlap: the less compression is left to the Monte Carlo, the better.
-    let mut l = l_target;
-    let mut pos: Vec<V3> = loop {
-        let pos: Vec<V3> = sites.iter().map(|s| s * l).collect();
-        let clear = (0..n).all(|i| {
-            ((i + 1)..n).all(|j| {
-                let r = min_image(pos[j] - pos[i], l);
-                geom.surely_apart(&rot[i], &rot[j], &r, 1.0)
-                    || geom.contact_scale(&rot[i], &rot[j], &r) > 1.0 + GAP
-            })
-        });
-        if clear {
-            break pos;
-        }
-        l *= 1.05;
-    };
-    // The lattice is melted first, at a density where the fluid is stable and moves are cheap,
-    // as in Sec. 4.1: compressed without melting, an FCC lattice stays a crystal above freezing
-    // (at φ = 0.5 hard spheres then give the crystal's Z ≈ 9.5, not the fluid's 13).
-    let l_melt = (n as f64 * vp / phi.min(PHI_MELT)).cbrt();
-    if l < l_melt {
-        let s = l_melt / l;
-        l = l_melt;
-        for p in pos.iter_mut() {
-            *p *= s;
-        }
-    }
-    let mut steps = Steps {
-        dr: 0.05 * diam,
-        dth: 0.1,
-    };
-    // Monte Carlo moves keep pairs at least 1 + m apart (in contact-scale units) unless they were
-    // closer already: the configuration then always leaves room for a compression by ~1/(1 + m).
-    let mut m = 0.05;
-    for _ in 0..MELT_SWEEPS {
-        let acc = sweep(&mut pos, &mut rot, l, geom, steps.dr, steps.dth, m, rng);
-        steps.adapt(acc, l);
-    }
-    let mut rounds = 0;
-    while l > l_target {
-        rounds += 1;
-        if rounds > 20_000 {
-            return Err(EdmdError::Compression {
-                reached: n as f64 * vp / l.powi(3),
-                target: phi,
-            });
-        }
-        // Largest uniform compression that keeps every pair apart: μ scales with the centre distance.
-        let s_floor = (l_target / l).max(0.9);
-        let mut s = s_floor;
-        for i in 0..n {
-            for j in (i + 1)..n {
-                let r = min_image(pos[j] - pos[i], l);
-                if !geom.surely_apart(&rot[i], &rot[j], &r, 1.0 / s_floor) {
-                    let mu = geom.contact_scale(&rot[i], &rot[j], &r);
-                    s = s.max((1.0 + GAP) / mu);
-                }
-            }
-        }
-        if s < 1.0 {
-            l *= s;
-            for p in pos.iter_mut() {
-                *p *= s;
-            }
-        }
-        if s > 1.0 - 0.1 * m {
-            m = (m * 0.7).max(1e-4);
-        }
-        for _ in 0..2 {
-            let acc = sweep(&mut pos, &mut rot, l, geom, steps.dr, steps.dth, m, rng);
-            steps.adapt(acc, l);
-        }
-    }
-
-    let kt = 1.0;
-    let mut bodies: Vec<Body> = pos
-        .iter()
-        .zip(&rot)
-        .map(|(r, rot)| {
-            let v = V3::new(rng.normal(), rng.normal(), rng.normal()) * (kt * inertia.inv_m).sqrt();
-            let w = if inertia.inv_i > 0.0 {
-                // Spin about the symmetry axis (row 0) is never changed by smooth collisions: leave it 0.
-                let s = (kt * inertia.inv_i).sqrt();
-                (rot.row(1).transpose() * rng.normal() + rot.row(2).transpose() * rng.normal()) * s
-            } else {
-                V3::zeros()
-            };
-            Body {
-                r: r.map(|x| x.rem_euclid(l)),
-                v,
-                rot: *rot,
-                w,
-                t: 0.0,
-            }
-        })
-        .collect();
-    let mean = bodies.iter().fold(V3::zeros(), |a, b| a + b.v) / n as f64;
-    let ke: f64 = bodies
-        .iter()
-        .map(|b| 0.5 * (b.v - mean).norm_squared())
-        .sum::<f64>()
-        / inertia.inv_m;
-    let scale = (1.5 * n as f64 * kt / ke).sqrt();
-    for b in bodies.iter_mut() {
-        b.v = (b.v - mean) * scale;
-    }
-    Ok(Config { l, bodies })
+    sites
 }
 
-/// One Monte Carlo sweep of random displacements (and rotations); returns the acceptance ratio.
-/// A move is refused if it brings a pair into contact, or closer than 1 + `margin` and closer than before.
-#[allow(clippy::too_many_arguments)]
-fn sweep(
-    pos: &mut [V3],
-    rot: &mut [M3],
+/// Bodies in a periodic box for the Monte Carlo, with what each overlaps. Positions stay wrapped
+/// into the box.
+struct Packing {
+    pos: Vec<V3>,
+    rot: Vec<M3>,
     l: f64,
-    geom: &Geom,
-    dr: f64,
-    dth: f64,
-    margin: f64,
-    rng: &mut Rng,
-) -> f64 {
-    let n = pos.len();
-    let mut accepted = 0;
-    for _ in 0..n {
-        let i = (rng.uniform() * n as f64) as usize % n;
-        let p = (pos[i] + V3::new(rng.range(-dr, dr), rng.range(-dr, dr), rng.range(-dr, dr)))
-            .map(|x| x.rem_euclid(l));
-        let q = if geom.rotates() {
+    geom: Geom,
+    near: Near,
+    /// How many bodies each body overlaps (or touches), and the pairs in all.
+    touching: Vec<u32>,
+    overlaps: usize,
+    /// Scratch: the bodies one body touches, with their contact scales, at two places.
+    partners: [Vec<(usize, f64)>; 2],
+}
+
+impl Packing {
+    fn new(pos: Vec<V3>, rot: Vec<M3>, l: f64, geom: Geom) -> Self {
+        let n = pos.len();
+        let mut p = Packing {
+            near: Near::new(&pos, l, 2.0 * geom.bounding_radius()),
+            pos,
+            rot,
+            l,
+            geom,
+            touching: vec![0; n],
+            overlaps: 0,
+            partners: [Vec::new(), Vec::new()],
+        };
+        p.count_overlaps();
+        p
+    }
+
+    fn count_overlaps(&mut self) {
+        let [mut partners, other] = std::mem::take(&mut self.partners);
+        for i in 0..self.pos.len() {
+            self.partners_of(i, &self.pos[i], &self.rot[i], &mut partners);
+            self.touching[i] = partners.len() as u32;
+        }
+        self.overlaps = self.touching.iter().map(|&c| c as usize).sum::<usize>() / 2;
+        self.partners = [partners, other];
+    }
+
+    /// Scales the box and the positions in it by `s`.
+    fn scale(&mut self, s: f64) {
+        self.l *= s;
+        for p in self.pos.iter_mut() {
+            *p = (*p * s).map(|x| x.rem_euclid(self.l));
+        }
+        self.near = Near::new(&self.pos, self.l, 2.0 * self.geom.bounding_radius());
+        self.count_overlaps();
+    }
+
+    /// The bodies that body `i`, placed at `p` with orientation `q`, touches or overlaps, with
+    /// their contact scales.
+    fn partners_of(&self, i: usize, p: &V3, q: &M3, out: &mut Vec<(usize, f64)>) {
+        out.clear();
+        self.near.all_around(p, |j| {
+            let r = min_image(self.pos[j] - p, self.l);
+            if j != i && !self.geom.surely_apart(q, &self.rot[j], &r, 1.0) {
+                let mu = self.geom.contact_scale(q, &self.rot[j], &r);
+                if mu <= 1.0 + GAP {
+                    out.push((j, mu));
+                }
+            }
+            true
+        });
+    }
+
+    /// Whether body `i` at `p` with orientation `q` touches or overlaps another body.
+    fn touches_any(&self, i: usize, p: &V3, q: &M3) -> bool {
+        !self.near.all_around(p, |j| {
+            let r = min_image(self.pos[j] - p, self.l);
+            j == i
+                || self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
+                || self.geom.contact_scale(q, &self.rot[j], &r) > 1.0 + GAP
+        })
+    }
+
+    /// One Monte Carlo sweep of random displacements (and rotations) of every body in turn; a
+    /// move is refused if it brings the body into contact with one it did not touch before, or
+    /// deepens an overlap it had. Returns the acceptance ratio.
+    fn sweep(&mut self, steps: &Steps, rng: &mut Rng) -> f64 {
+        let n = self.pos.len();
+        let mut accepted = 0;
+        let [mut now, mut was] = std::mem::take(&mut self.partners);
+        // In index order, which is the lattice's at first: neighbours then sit near in memory.
+        for i in 0..n {
+            let (p, q) = self.trial_move(i, steps, rng);
+            let ok = if self.touching[i] == 0 {
+                !self.touches_any(i, &p, &q)
+            } else {
+                self.partners_of(i, &p, &q, &mut now);
+                self.partners_of(i, &self.pos[i], &self.rot[i], &mut was);
+                let ok = now
+                    .iter()
+                    .all(|&(j, mu)| was.iter().any(|&(k, old)| k == j && mu >= old));
+                if ok {
+                    for &(j, _) in was.iter().filter(|(j, _)| !now.iter().any(|(k, _)| k == j)) {
+                        self.touching[j] -= 1;
+                    }
+                    self.overlaps -= was.len() - now.len();
+                    self.touching[i] = now.len() as u32;
+                }
+                ok
+            };
+            if ok {
+                self.near.moved(i, &p);
+                self.pos[i] = p;
+                self.rot[i] = q;
+                accepted += 1;
+            }
+        }
+        self.partners = [now, was];
+        accepted as f64 / n as f64
+    }
+
+    /// Pushes every pair in contact apart along the line of centres, both bodies by half, until its
+    /// contact scale is `target`, as Jodrey and Tory's algorithm does for spheres. The contact
+    /// scale is homogeneous of degree one in the separation (scaling both bodies by μ about their
+    /// centres is scaling the separation by 1/μ), so the push is exact for every shape. A push may
+    /// bring a body into contact with a third, which the next pass sees. Returns whether no
+    /// contact is left within [`PUSH_PASSES`] passes.
+    fn push_apart(&mut self, target: f64) -> bool {
+        let mut pushed: Vec<usize> = (0..self.pos.len())
+            .filter(|&i| self.touching[i] > 0)
+            .collect();
+        let [mut partners, other] = std::mem::take(&mut self.partners);
+        let mut clear = false;
+        for _ in 0..PUSH_PASSES {
+            let looked_at = std::mem::take(&mut pushed);
+            for &i in &looked_at {
+                self.partners_of(i, &self.pos[i], &self.rot[i], &mut partners);
+                for &(j, _) in &partners {
+                    // Earlier pushes in this loop moved i: the pair is looked at anew.
+                    let r = min_image(self.pos[j] - self.pos[i], self.l);
+                    let mu = self.geom.contact_scale(&self.rot[i], &self.rot[j], &r);
+                    if mu > 1.0 + GAP {
+                        continue;
+                    }
+                    let half = r * (0.5 * (target / mu - 1.0));
+                    for (k, d) in [(i, -half), (j, half)] {
+                        self.pos[k] = (self.pos[k] + d).map(|x| x.rem_euclid(self.l));
+                        self.near.moved(k, &self.pos[k]);
+                    }
+                    pushed.extend([i, j]);
+                }
+            }
+            if pushed.is_empty() {
+                clear = true;
+                break;
+            }
+            pushed.sort_unstable();
+            pushed.dedup();
+        }
+        self.partners = [partners, other];
+        self.count_overlaps();
+        clear
+    }
+
+    /// A random displacement (and rotation) of body `i`.
+    fn trial_move(&self, i: usize, steps: &Steps, rng: &mut Rng) -> (V3, M3) {
+        let dr = steps.dr;
+        let p = (self.pos[i] + V3::new(rng.range(-dr, dr), rng.range(-dr, dr), rng.range(-dr, dr)))
+            .map(|x| x.rem_euclid(self.l));
+        let q = if self.geom.rotates() {
             let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
             orthonormalize(&rotate(
-                &rot[i],
+                &self.rot[i],
                 &axis,
-                dth * rng.uniform() / axis.norm().max(1e-300),
+                steps.dth * rng.uniform() / axis.norm().max(1e-300),
             ))
         } else {
-            rot[i]
+            self.rot[i]
         };
-        let ok = (0..n).all(|j| {
-            if j == i {
-                return true;
-            }
-            let r = min_image(pos[j] - p, l);
-            if geom.surely_apart(&q, &rot[j], &r, 1.0 + margin) {
-                return true;
-            }
-            let mu = geom.contact_scale(&q, &rot[j], &r);
-            mu > 1.0 + GAP
-                && (mu >= 1.0 + margin
-                    || mu >= geom.contact_scale(&rot[i], &rot[j], &min_image(pos[j] - pos[i], l)))
-        });
-        if ok {
-            pos[i] = p;
-            rot[i] = q;
-            accepted += 1;
-        }
+        (p, q)
     }
-    accepted as f64 / n as f64
 }

@@ -41,8 +41,9 @@
 //! - The escape time from a bounding parallelepiped uses the ellipsoid's support function, exact
 //!   and closed-form, instead of Newton–Raphson on the planes (Eqs. 56–58); the stepping of Eq. (61)
 //!   with ε_d^nnl is kept for rotating bodies.
-//! - Initial configurations come from a dilute FCC lattice compressed by hard-body Monte Carlo with
-//!   the Perram–Wertheim overlap test, not from a Lubachevsky–Stillinger growth.
+//! - Initial configurations come from a dilute FCC lattice melted and compressed by hard-body Monte
+//!   Carlo with the Perram–Wertheim overlap test and Jodrey–Tory pushes, in O(N) per pass through
+//!   cells, then relaxed by 10 collisions per particle; not from a Lubachevsky–Stillinger growth.
 //!
 //! Units: the diameter σ of the sphere of equal volume (every body has volume π/6), the mass m,
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
