@@ -673,32 +673,18 @@ pub fn run_with_state(
             why: "the box must exceed twice the bounding-sphere diameter",
         });
     }
-    let mut rng = Rng::new(scene.seed);
-    let init = Instant::now();
     match scene.shape {
-        ShapeKind::Sphere => {
-            let inertia = Inertia {
+        ShapeKind::Sphere => simulate(
+            SphereModel { sigma: 1.0 },
+            Geom::Sphere { sigma: 1.0 },
+            Inertia {
                 inv_m: 1.0,
                 inv_i: 0.0,
-            };
-            let cfg = initial_configuration(
-                scene.n,
-                scene.phi,
-                &Geom::Sphere { sigma: 1.0 },
-                inertia,
-                &mut rng,
-            )?;
-            let eng = Engine::new(SphereModel { sigma: 1.0 }, cfg.l, cfg.bodies, 0.0, scene)?;
-            measure(eng, scene, Geom::Sphere { sigma: 1.0 }, init, progress)
-        }
+            },
+            scene,
+            progress,
+        ),
         ShapeKind::Ellipsoid => {
-            let cfg = initial_configuration(
-                scene.n,
-                scene.phi,
-                &Geom::Ellipsoid(e),
-                inertia_rot,
-                &mut rng,
-            )?;
             let params = ContactParams {
                 eps_d: scene.eps_d,
                 brent_tol: scene.brent_tol,
@@ -716,11 +702,42 @@ pub fn run_with_state(
                 inertia: inertia_rot,
                 stats: SolverStats::default(),
             };
-            let eng = Engine::new(model, cfg.l, cfg.bodies, inertia_rot.inv_i, scene)?;
-            measure(eng, scene, Geom::Ellipsoid(e), init, progress)
+            simulate(model, Geom::Ellipsoid(e), inertia_rot, scene, progress)
         }
         ShapeKind::Superquadric => Err(EdmdError::Scene(crate::SceneError::Unsupported)),
     }
+}
+
+/// The initial state (whose compression the model's own dynamics helps where Monte Carlo
+/// jams), then the measured run.
+fn simulate<M: Model>(
+    model: M,
+    geom: Geom,
+    inertia: Inertia,
+    scene: &Scene,
+    progress: &mut dyn FnMut(u64),
+) -> Result<(RunReport, FinalState), EdmdError> {
+    let mut rng = Rng::new(scene.seed);
+    let init = Instant::now();
+    let mut slot = Some(model);
+    let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
+        let Some(m) = slot.take() else {
+            unreachable!("the model is put back after every relaxation")
+        };
+        let n = bodies.len() as u64;
+        let mut eng = Engine::new(m, l, bodies, inertia.inv_i, scene)?;
+        eng.advance(per_particle * n, |_| {})?;
+        eng.sync_all();
+        let Engine { m, bodies, .. } = eng;
+        slot = Some(m);
+        Ok(bodies)
+    };
+    let cfg = initial_configuration(scene.n, scene.phi, &geom, inertia, &mut rng, &mut relax)?;
+    let Some(m) = slot else {
+        unreachable!("the model is put back after every relaxation")
+    };
+    let eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene)?;
+    measure(eng, scene, geom, init, progress)
 }
 
 /// Collisions per particle run at the end of the initial state (see [`measure`]).

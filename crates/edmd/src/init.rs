@@ -117,8 +117,8 @@ const PUSH_PASSES: usize = 50;
 /// Pushed pairs are left this far from contact at least (in contact-scale units), so that tiny
 /// steps do not build a network of pairs all but touching.
 const MIN_PUSH: f64 = 2e-3;
-/// Sweeps after a compression step was undone.
-const UNJAM_SWEEPS: usize = 10;
+/// Collisions per particle of the dynamics after a compression step was undone.
+const UNJAM_COLLISIONS: u64 = 5;
 /// Sweeps allowed for the whole compression, whatever its steps.
 const MAX_SWEEPS: usize = 100_000;
 
@@ -147,6 +147,10 @@ pub struct Config {
     pub bodies: Vec<Body>,
 }
 
+/// The dynamics that relaxes a packing where Monte Carlo jams: bodies (at temperature 1) in a box
+/// of the given side, moved through the given number of collisions per particle.
+pub type Relax<'a> = dyn FnMut(Vec<Body>, f64, u64) -> Result<Vec<Body>, EdmdError> + 'a;
+
 /// N bodies at packing fraction `phi` (volume π/6 each) without overlaps, at temperature 1.
 pub fn initial_configuration(
     n: usize,
@@ -154,6 +158,7 @@ pub fn initial_configuration(
     geom: &Geom,
     inertia: Inertia,
     rng: &mut Rng,
+    relax: &mut Relax,
 ) -> Result<Config, EdmdError> {
     let vp = std::f64::consts::PI / 6.0;
     let l_target = (n as f64 * vp / phi).cbrt();
@@ -205,16 +210,25 @@ pub fn initial_configuration(
         if packing.overlaps == 0 || packing.push_apart(1.0 + 0.5 * step.max(MIN_PUSH)) {
             step = (step * 1.5).min(MAX_STEP);
         } else {
+            // The pushes of earlier steps left pairs near contact that block this one, and Monte
+            // Carlo opens gaps slowly in a dense fluid (of long or flat bodies above all): the
+            // dynamics relaxes the last packing before the next, smaller step.
             let (pos, rot, l) = before;
-            packing = Packing::new(pos, rot, l, *geom);
+            let bodies = relax(
+                thermal_bodies(&pos, &rot, l, inertia, rng),
+                l,
+                UNJAM_COLLISIONS,
+            )?;
+            packing = Packing::new(
+                bodies
+                    .iter()
+                    .map(|b| b.r.map(|x| x.rem_euclid(l)))
+                    .collect(),
+                bodies.iter().map(|b| b.rot).collect(),
+                l,
+                *geom,
+            );
             step *= 0.5;
-            // The pushes of earlier steps left pairs near contact that block this one: the fluid
-            // relaxes at the present density before the next, smaller step.
-            for _ in 0..UNJAM_SWEEPS {
-                let acc = packing.sweep(&steps, rng);
-                steps.adapt(acc, packing.l);
-            }
-            sweeps += UNJAM_SWEEPS;
         }
         if step < MIN_STEP || sweeps > MAX_SWEEPS {
             return Err(EdmdError::Compression {
@@ -224,11 +238,20 @@ pub fn initial_configuration(
         }
     }
 
-    let kt = 1.0;
     let Packing { pos, rot, l, .. } = packing;
+    Ok(Config {
+        l,
+        bodies: thermal_bodies(&pos, &rot, l, inertia, rng),
+    })
+}
+
+/// Bodies at the given places with Maxwell–Boltzmann velocities at k_B T = 1, no net momentum.
+fn thermal_bodies(pos: &[V3], rot: &[M3], l: f64, inertia: Inertia, rng: &mut Rng) -> Vec<Body> {
+    let n = pos.len();
+    let kt = 1.0;
     let mut bodies: Vec<Body> = pos
         .iter()
-        .zip(&rot)
+        .zip(rot)
         .map(|(r, rot)| {
             let v = V3::new(rng.normal(), rng.normal(), rng.normal()) * (kt * inertia.inv_m).sqrt();
             let w = if inertia.inv_i > 0.0 {
@@ -239,7 +262,7 @@ pub fn initial_configuration(
                 V3::zeros()
             };
             Body {
-                r: *r,
+                r: r.map(|x| x.rem_euclid(l)),
                 v,
                 rot: *rot,
                 w,
@@ -257,7 +280,7 @@ pub fn initial_configuration(
     for b in bodies.iter_mut() {
         b.v = (b.v - mean) * scale;
     }
-    Ok(Config { l, bodies })
+    bodies
 }
 
 /// The first `n` sites of an FCC lattice of ⌈(n/4)^⅓⌉³ cells in the unit cube, x fastest.
