@@ -13,8 +13,8 @@ use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{V3, image_offset};
-use crate::init::{Geom, initial_configuration, min_image};
-use crate::lists::{Lists, Region, Snapshot};
+use crate::init::{Geom, initial_configuration, min_image, sort_along_z_curve};
+use crate::lists::{Lists, Region};
 use crate::nnl::Obp;
 use crate::rigid::{Body, Inertia, collide};
 use crate::rng::Rng;
@@ -27,9 +27,11 @@ trait Model {
     type Extra: Copy + Default;
     /// The region a body's neighbour list is built for.
     type Region: Region;
-    /// What the neighbour lists keep of each neighbour for the model's predictions.
-    type Snapshot: Snapshot;
     fn surface(&self) -> Ellipsoid;
+    /// The model's own copy of what it predicts from: all bodies at the start of a run, then each
+    /// body whose trajectory a collision changed.
+    fn track(&mut self, _bodies: &[Body]) {}
+    fn moved(&mut self, _i: usize, _body: &Body) {}
     /// The earliest collision of body `i` (state `a`, at the engine's present time) if it comes
     /// before `own`, the body's own event; otherwise `own`.
     fn first_collision(
@@ -48,15 +50,36 @@ trait Model {
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
 struct SphereModel {
     sigma: f64,
+    /// Every body's trajectory, one cache line each: a prediction reads these, not the bodies
+    /// (three lines each), and 10⁴ spheres' fit in the L2 cache.
+    trajectories: Vec<Trajectory>,
+    /// Scratch: a neighbour list's trajectories with their images applied, contiguous for
+    /// [`sphere::first_contact`].
+    gathered: Vec<Trajectory>,
+}
+
+impl SphereModel {
+    fn new(sigma: f64) -> Self {
+        SphereModel {
+            sigma,
+            trajectories: Vec::new(),
+            gathered: Vec::new(),
+        }
+    }
 }
 
 impl Model for SphereModel {
     type Extra = ();
     type Region = Ball;
-    type Snapshot = Trajectory;
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
+    }
+    fn track(&mut self, bodies: &[Body]) {
+        self.trajectories = bodies.iter().map(Trajectory::of).collect();
+    }
+    fn moved(&mut self, i: usize, body: &Body) {
+        self.trajectories[i] = Trajectory::of(body);
     }
     #[inline]
     fn first_collision(e: &mut Engine<Self>, i: usize, a: &Body, own: Event<()>) -> Event<()> {
@@ -89,7 +112,6 @@ struct EllipsoidModel {
 impl Model for EllipsoidModel {
     type Extra = (V3, V3);
     type Region = Obp;
-    type Snapshot = ();
     fn surface(&self) -> Ellipsoid {
         self.e
     }
@@ -132,7 +154,7 @@ impl EllipsoidModel {
     }
 }
 
-enum Neighbourhood<R: Region, P: Snapshot> {
+enum Neighbourhood<R: Region> {
     Ll {
         cells: Cells,
         cell_of: Vec<usize>,
@@ -142,7 +164,7 @@ enum Neighbourhood<R: Region, P: Snapshot> {
         img_offset: Vec<V3>,
     },
     Nnl {
-        lists: Lists<R, P>,
+        lists: Lists<R>,
         /// When each body may first touch its box (Eq. 61), for its present trajectory and box.
         escape_at: Vec<f64>,
         eps: f64,
@@ -157,7 +179,7 @@ struct Engine<M: Model> {
     cal: Calendar<M::Extra>,
     t: f64,
     inv_i: f64,
-    nb: Neighbourhood<M::Region, M::Snapshot>,
+    nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
     /// Candidate partners: (estimate, lower bound, partner, image shift).
     order: Vec<(f64, f64, u32, [i32; 3])>,
@@ -177,8 +199,15 @@ struct Accounting {
 }
 
 impl<M: Model> Engine<M> {
-    fn new(m: M, l: f64, bodies: Vec<Body>, inv_i: f64, scene: &Scene) -> Result<Self, EdmdError> {
+    fn new(
+        mut m: M,
+        l: f64,
+        bodies: Vec<Body>,
+        inv_i: f64,
+        scene: &Scene,
+    ) -> Result<Self, EdmdError> {
         let n = bodies.len();
+        m.track(&bodies);
         let lb = m.surface().s.max();
         let nb = match scene.neighbours {
             Neighbours::Ll => {
@@ -196,8 +225,7 @@ impl<M: Model> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists =
-                    Lists::<M::Region, M::Snapshot>::build(&surf, &bodies, l, scene.delta_nnl);
+                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl);
                 let escape_at = bodies
                     .iter()
                     .enumerate()
@@ -292,7 +320,7 @@ impl<M: Model> Engine<M> {
         else {
             return;
         };
-        lists.rebuild(&surf, i, &self.bodies);
+        lists.rebuild(&surf, i, &self.bodies[i]);
         escape_at[i] = self.t + lists.region(i).escape_time(&surf, &self.bodies[i], *eps);
         self.acc.rebuilds += 1;
         self.predict_for(i);
@@ -348,11 +376,8 @@ impl<M: Model> Engine<M> {
         let imp = self.m.collide(&mut self.bodies[a], &mut bb, &ev.extra);
         self.bodies[b].v = bb.v;
         self.bodies[b].w = bb.w;
-        // The sphere path predicts from the lists' snapshots of the trajectories.
-        if let Neighbourhood::Nnl { lists, .. } = &mut self.nb {
-            lists.refresh(a, &self.bodies[a]);
-            lists.refresh(b, &self.bodies[b]);
-        }
+        self.m.moved(a, &self.bodies[a]);
+        self.m.moved(b, &self.bodies[b]);
         self.count[a] = self.count[a].wrapping_add(1);
         self.count[b] = self.count[b].wrapping_add(1);
         let happened = if let Some(j) = imp {
@@ -427,53 +452,61 @@ impl<M: Model> Engine<M> {
 
 impl Engine<SphereModel> {
     /// The hot loop of the sphere path. With lists, [`sphere::first_contact`] over the
-    /// neighbours' snapshots, four at a time. With cells, partners are extrapolated to now
-    /// without being stored, and the contact time of every candidate is computed without
-    /// data-dependent branches (i itself gives +∞); which candidate is the earliest so far is a
-    /// select, not a branch: it is unpredictable, and mispredictions would serialise the square
-    /// roots and divisions.
-    fn first_sphere_collision(&self, i: usize, a: &Body, own: Event<()>) -> Event<()> {
+    /// neighbours' trajectories, gathered with their images, four at a time. With cells, partners
+    /// are extrapolated to now without being stored, and the contact time of every candidate is
+    /// computed without data-dependent branches (i itself gives +∞); which candidate is the
+    /// earliest so far is a select, not a branch: it is unpredictable, and mispredictions would
+    /// serialise the square roots and divisions.
+    fn first_sphere_collision(&mut self, i: usize, a: &Body, own: Event<()>) -> Event<()> {
         let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
         let mut horizon = own.t - self.t;
-        let found = match &self.nb {
-            Neighbourhood::Ll {
-                cells,
-                cell_of,
-                img,
-                img_offset,
-            } => {
-                let mut partner = None;
-                let around = cells.around(cell_of[i]);
-                for (k, nbc) in around.iter().enumerate() {
-                    // Where i's image sits relative to the box j lives in, minus i itself.
-                    let origin =
-                        image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
-                    for &j in cells.members(nbc.cell) {
-                        let bj = &self.bodies[j as usize];
-                        let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
-                        let tau = sphere::contact_time_or_inf(&dr, &(bj.v - a.v), sigma2);
-                        partner = if tau < horizon { Some((k, j)) } else { partner };
-                        horizon = horizon.min(tau);
+        let found =
+            match &self.nb {
+                Neighbourhood::Ll {
+                    cells,
+                    cell_of,
+                    img,
+                    img_offset,
+                } => {
+                    let mut partner = None;
+                    let around = cells.around(cell_of[i]);
+                    for (k, nbc) in around.iter().enumerate() {
+                        // Where i's image sits relative to the box j lives in, minus i itself.
+                        let origin =
+                            image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
+                        for &j in cells.members(nbc.cell) {
+                            let tj = &self.m.trajectories[j as usize];
+                            let (r, v) = (V3::from(tj.r), V3::from(tj.v));
+                            let dr = r + v * (self.t - tj.t0) - img_offset[j as usize] + origin;
+                            let tau = sphere::contact_time_or_inf(&dr, &(v - a.v), sigma2);
+                            partner = if tau < horizon { Some((k, j)) } else { partner };
+                            horizon = horizon.min(tau);
+                        }
                     }
+                    partner.map(|(k, j)| {
+                        let cell_shift = around[k].shift;
+                        (j, ll_shift(cell_shift, img[i], img[j as usize]))
+                    })
                 }
-                partner.map(|(k, j)| {
-                    let cell_shift = around[k].shift;
-                    (j, ll_shift(cell_shift, img[i], img[j as usize]))
-                })
-            }
-            Neighbourhood::Nnl { lists, .. } => {
-                let probe = Probe {
-                    r: a.r,
-                    v: a.v,
-                    now: self.t,
-                    sigma2,
-                };
-                sphere::first_contact(lists.snapshots(i), &probe, horizon).map(|(p, tau)| {
-                    horizon = tau;
-                    lists.of(i)[p]
-                })
-            }
-        };
+                Neighbourhood::Nnl { lists, .. } => {
+                    let probe = Probe {
+                        r: a.r,
+                        v: a.v,
+                        now: self.t,
+                        sigma2,
+                    };
+                    let (trajectories, gathered) = (&self.m.trajectories, &mut self.m.gathered);
+                    gathered.clear();
+                    gathered.extend(lists.of(i).iter().map(|n| {
+                        trajectories[n.j as usize].shifted(&image_offset(n.shift, self.l))
+                    }));
+                    sphere::first_contact(gathered, &probe, horizon).map(|(p, tau)| {
+                        horizon = tau;
+                        let n = lists.of(i)[p];
+                        (n.j, n.shift)
+                    })
+                }
+            };
         match found {
             Some((j, shift)) => Event {
                 t: self.t + horizon,
@@ -516,7 +549,9 @@ impl Engine<EllipsoidModel> {
                     );
                 }
             }
-            Neighbourhood::Nnl { lists, .. } => cand.extend_from_slice(lists.of(i)),
+            Neighbourhood::Nnl { lists, .. } => {
+                cand.extend(lists.of(i).iter().map(|n| (n.j, n.shift)))
+            }
         }
         let lb = self.m.surface().s.max();
         let mut order = std::mem::take(&mut self.order);
@@ -675,7 +710,7 @@ pub fn run_with_state(
     }
     match scene.shape {
         ShapeKind::Sphere => simulate(
-            SphereModel { sigma: 1.0 },
+            SphereModel::new(1.0),
             Geom::Sphere { sigma: 1.0 },
             Inertia {
                 inv_m: 1.0,
@@ -732,7 +767,8 @@ fn simulate<M: Model>(
         slot = Some(m);
         Ok(bodies)
     };
-    let cfg = initial_configuration(scene.n, scene.phi, &geom, inertia, &mut rng, &mut relax)?;
+    let mut cfg = initial_configuration(scene.n, scene.phi, &geom, inertia, &mut rng, &mut relax)?;
+    sort_along_z_curve(&mut cfg.bodies, cfg.l);
     let Some(m) = slot else {
         unreachable!("the model is put back after every relaxation")
     };

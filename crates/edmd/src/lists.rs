@@ -11,9 +11,9 @@
 //! Positions are never wrapped (scheduled events keep their image shifts), so an image shift is
 //! relative to the unwrapped positions and stays valid while both bodies keep moving.
 //!
-//! Beside each entry a list may keep a [`Snapshot`] of the neighbour (its trajectory, for the
-//! sphere path), so that a prediction reads its list and nothing else. A body's snapshots sit
-//! where its entries' mirrors do; [`Lists::refresh`] rewrites them when its trajectory changes.
+//! Lists hold indices, not copies of the neighbours: a collision then writes two bodies, not the
+//! lists of all their neighbours, and the memory per particle stays small enough for the lists
+//! of 10⁴–10⁵ particles to stay in cache (copies of the trajectories made τ_c grow with N).
 
 use crate::cells::{Cells, Member};
 use crate::geometry::{Surface, V3, image_offset, round_nearest};
@@ -21,6 +21,16 @@ use crate::rigid::Body;
 
 /// A neighbour: its index and the image shift (in box lengths) that puts it next to the body.
 pub type Neighbour = (u32, [i32; 3]);
+
+/// An entry of a list: the neighbour, and where its mirror is in the neighbour's list
+/// (`lists[i][p] = (j, s, q)` ⇔ `lists[j][q] = (i, −s, p)`), so that a rebuild drops a body from
+/// its old neighbours' lists without searching them. One allocation per body holds both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Link {
+    pub j: u32,
+    back: u32,
+    pub shift: [i32; 3],
+}
 
 /// The region a body may not leave until its list is rebuilt, fixed when it is built.
 pub trait Region: Copy {
@@ -38,25 +48,9 @@ pub trait Region: Copy {
     fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64;
 }
 
-/// What a list keeps of each neighbour besides its index and image.
-pub trait Snapshot: Copy {
-    /// The copy of `body` as seen through the image displacement `offset`.
-    fn of(body: &Body, offset: &V3) -> Self;
-}
-
-/// Nothing: rigid bodies are extrapolated from the bodies themselves.
-impl Snapshot for () {
-    fn of(_: &Body, _: &V3) {}
-}
-
-pub struct Lists<R: Region, P: Snapshot = ()> {
+pub struct Lists<R: Region> {
     regions: Vec<R>,
-    lists: Vec<Vec<Neighbour>>,
-    /// `snapshots[i][p]` is neighbour `lists[i][p]` as of its last [`Lists::refresh`].
-    snapshots: Vec<Vec<P>>,
-    /// Where each entry's mirror is: `lists[i][p] = (j, s)` ⇔ `lists[j][back[i][p]] = (i, −s)`.
-    /// A rebuild thereby drops a body from its old neighbours' lists without searching them.
-    back: Vec<Vec<u32>>,
+    lists: Vec<Vec<Link>>,
     /// Scratch for [`Lists::rebuild`].
     found: Vec<Neighbour>,
     delta: f64,
@@ -70,7 +64,7 @@ pub struct Lists<R: Region, P: Snapshot = ()> {
     single_image: bool,
 }
 
-impl<R: Region, P: Snapshot> Lists<R, P> {
+impl<R: Region> Lists<R> {
     /// Regions around every body with margin `delta` (Δ_NNL) and all lists, in a periodic box of
     /// side `l`.
     pub fn build<S: Surface>(s: &S, bodies: &[Body], l: f64, delta: f64) -> Self {
@@ -90,8 +84,6 @@ impl<R: Region, P: Snapshot> Lists<R, P> {
         });
         let mut lists = Lists {
             lists: vec![Vec::new(); regions.len()],
-            snapshots: vec![Vec::new(); regions.len()],
-            back: vec![Vec::new(); regions.len()],
             found: Vec::new(),
             regions,
             delta,
@@ -105,34 +97,25 @@ impl<R: Region, P: Snapshot> Lists<R, P> {
             found.clear();
             lists.find(i, |j| j > i, &mut found);
             for &(j, s) in &found {
-                lists.link(bodies, i, j as usize, s);
+                lists.link(i, j as usize, s);
             }
         }
         lists
     }
 
     /// Lists j in i's list with shift `s`, and i in j's with −s.
-    fn link(&mut self, bodies: &[Body], i: usize, j: usize, s: [i32; 3]) {
+    fn link(&mut self, i: usize, j: usize, s: [i32; 3]) {
         let (p, q) = (self.lists[i].len() as u32, self.lists[j].len() as u32);
-        let offset = image_offset(s, self.l);
-        self.lists[i].push((j as u32, s));
-        self.snapshots[i].push(P::of(&bodies[j], &offset));
-        self.back[i].push(q);
-        self.lists[j].push((i as u32, s.map(|x| -x)));
-        self.snapshots[j].push(P::of(&bodies[i], &-offset));
-        self.back[j].push(p);
-    }
-
-    /// Rewrites the snapshots of body `i` in its neighbours' lists, after its trajectory changed.
-    pub fn refresh(&mut self, i: usize, body: &Body) {
-        // Lists that keep nothing (rigid bodies) have nothing to rewrite: skip the walk.
-        if size_of::<P>() == 0 {
-            return;
-        }
-        for (&(j, s), &q) in self.lists[i].iter().zip(&self.back[i]) {
-            // i's image in j's list is displaced by −s.
-            self.snapshots[j as usize][q as usize] = P::of(body, &-image_offset(s, self.l));
-        }
+        self.lists[i].push(Link {
+            j: j as u32,
+            back: q,
+            shift: s,
+        });
+        self.lists[j].push(Link {
+            j: i as u32,
+            back: p,
+            shift: s.map(|x| -x),
+        });
     }
 
     /// Removes entry `q` of j's list, moving its last entry into the gap (and telling that entry's
@@ -140,22 +123,14 @@ impl<R: Region, P: Snapshot> Lists<R, P> {
     fn unlink_entry(&mut self, j: usize, q: usize) {
         let last = self.lists[j].len() - 1;
         self.lists[j].swap_remove(q);
-        self.snapshots[j].swap_remove(q);
-        self.back[j].swap_remove(q);
         if q != last {
-            let (m, _) = self.lists[j][q];
-            let mirror = self.back[j][q] as usize;
-            self.back[m as usize][mirror] = q as u32;
+            let moved = self.lists[j][q];
+            self.lists[moved.j as usize][moved.back as usize].back = q as u32;
         }
     }
 
-    pub fn of(&self, i: usize) -> &[Neighbour] {
+    pub fn of(&self, i: usize) -> &[Link] {
         &self.lists[i]
-    }
-
-    /// The snapshots of the neighbours [`Lists::of`] lists, in the same order.
-    pub fn snapshots(&self, i: usize) -> &[P] {
-        &self.snapshots[i]
     }
 
     pub fn region(&self, i: usize) -> &R {
@@ -163,18 +138,14 @@ impl<R: Region, P: Snapshot> Lists<R, P> {
     }
 
     /// A new region around body `i` (at the present time), and the lists updated to match.
-    pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, bodies: &[Body]) {
-        let body = &bodies[i];
+    pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, body: &Body) {
         // Mirrors first: removing one may move another mirror of i (two images of i in one list),
-        // which updates `back[i]` as it goes.
+        // which updates the `back` of i's entries as it goes.
         for p in 0..self.lists[i].len() {
-            let j = self.lists[i][p].0 as usize;
-            let q = self.back[i][p] as usize;
-            self.unlink_entry(j, q);
+            let Link { j, back, .. } = self.lists[i][p];
+            self.unlink_entry(j as usize, back as usize);
         }
         self.lists[i].clear();
-        self.snapshots[i].clear();
-        self.back[i].clear();
         // Rebuilds are frequent for spheres: no allocation in them.
         let mut found = std::mem::take(&mut self.found);
         found.clear();
@@ -185,7 +156,7 @@ impl<R: Region, P: Snapshot> Lists<R, P> {
         }
         self.find(i, |j| j != i, &mut found);
         for &(j, shift) in &found {
-            self.link(bodies, i, j as usize, shift);
+            self.link(i, j as usize, shift);
         }
         self.found = found;
     }
@@ -319,7 +290,6 @@ mod tests {
     use crate::geometry::M3;
     use crate::nnl::{Obp, overlap};
     use crate::rigid::rotate;
-    use crate::sphere::Trajectory;
 
     fn bodies(n: usize, l: f64, seed: u64) -> Vec<Body> {
         let mut rng = crate::rng::Rng::new(seed);
@@ -342,7 +312,7 @@ mod tests {
     /// Every overlapping pair of regions, by brute force over all images, with `overlap` as the
     /// oracle.
     fn brute<R: Region>(
-        l: &Lists<R, Trajectory>,
+        l: &Lists<R>,
         overlap: impl Fn(&R, &R, &V3) -> bool,
     ) -> Vec<(usize, usize, [i32; 3])> {
         let mut all = Vec::new();
@@ -366,17 +336,16 @@ mod tests {
         all
     }
 
-    fn listed<R: Region>(l: &Lists<R, Trajectory>) -> Vec<(usize, usize, [i32; 3])> {
+    fn listed<R: Region>(l: &Lists<R>) -> Vec<(usize, usize, [i32; 3])> {
         let mut all: Vec<_> = (0..l.regions.len())
-            .flat_map(|i| l.of(i).iter().map(move |&(j, s)| (i, j as usize, s)))
+            .flat_map(|i| l.of(i).iter().map(move |n| (i, n.j as usize, n.shift)))
             .collect();
         all.sort();
         all
     }
 
-    /// Builds lists for `b`, then moves and rebuilds 200 bodies, and gives 200 others a new
-    /// velocity, comparing with brute force each time: every pair for which `must` holds is listed,
-    /// and only pairs for which `may` holds, each with its body's present trajectory.
+    /// Builds lists for `b`, then moves and rebuilds 200 bodies, comparing with brute force each
+    /// time: every pair for which `must` holds is listed, and only pairs for which `may` holds.
     fn check<R: Region>(
         s: &Ellipsoid,
         mut b: Vec<Body>,
@@ -384,47 +353,36 @@ mod tests {
         delta: f64,
         must: impl Fn(&R, &R, &V3) -> bool,
         may: impl Fn(&R, &R, &V3) -> bool,
-    ) -> Lists<R, Trajectory> {
+    ) -> Lists<R> {
         let n = b.len();
-        let mut lists = Lists::<R, Trajectory>::build(s, &b, l, delta);
-        same(&lists, &b, &must, &may, "after the build");
+        let mut lists = Lists::<R>::build(s, &b, l, delta);
+        same(&lists, &must, &may, "after the build");
         let mut rng = crate::rng::Rng::new(11);
         for step in 0..200 {
             let i = step * 7 % n;
             b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
             b[i].rot = rotate(&b[i].rot, &V3::new(1.0, rng.uniform(), 0.0), 0.3);
-            lists.rebuild(s, i, &b);
-            let k = (step * 5 + 3) % n;
-            b[k].v = V3::new(rng.uniform(), rng.uniform(), rng.uniform());
-            b[k].t = step as f64;
-            lists.refresh(k, &b[k]);
+            lists.rebuild(s, i, &b[i]);
         }
         assert!(!listed(&lists).is_empty());
-        same(&lists, &b, &must, &may, "after the rebuilds");
+        same(&lists, &must, &may, "after the rebuilds");
         lists
     }
 
     fn same<R: Region>(
-        lists: &Lists<R, Trajectory>,
-        bodies: &[Body],
+        lists: &Lists<R>,
         must: impl Fn(&R, &R, &V3) -> bool,
         may: impl Fn(&R, &R, &V3) -> bool,
         when: &str,
     ) {
         for (i, list) in lists.lists.iter().enumerate() {
-            assert_eq!(list.len(), lists.back[i].len(), "{when}: list {i}");
-            assert_eq!(list.len(), lists.snapshots[i].len(), "{when}: list {i}");
-            for (p, (&(j, s), &q)) in list.iter().zip(&lists.back[i]).enumerate() {
-                let seen = Trajectory::of(&bodies[j as usize], &image_offset(s, lists.l));
+            for (p, n) in list.iter().enumerate() {
+                let mirror = lists.lists[n.j as usize][n.back as usize];
                 assert_eq!(
-                    lists.snapshots[i][p], seen,
-                    "{when}: trajectory of {j} in list {i}"
-                );
-                let mirror = lists.lists[j as usize][q as usize];
-                assert_eq!(
-                    mirror,
-                    (i as u32, s.map(|x| -x)),
-                    "{when}: mirror of {i} → {j}"
+                    (mirror.j, mirror.back, mirror.shift),
+                    (i as u32, p as u32, n.shift.map(|x| -x)),
+                    "{when}: mirror of {i} → {}",
+                    n.j
                 );
             }
         }

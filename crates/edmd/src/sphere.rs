@@ -1,7 +1,6 @@
 //! Hard spheres: the analytic path (no Newton–Raphson, no rotation).
 
 use crate::geometry::V3;
-use crate::lists::Snapshot;
 use crate::rigid::Body;
 
 #[cfg(target_arch = "x86_64")]
@@ -40,9 +39,8 @@ pub fn contact_time_from(b: f64, c: f64, vv: f64) -> f64 {
     }
 }
 
-/// A neighbour's trajectory r + v (t − t0), its periodic image applied, as the neighbour lists
-/// keep it for the sphere path: one cache line each, contiguous per list, so that a prediction
-/// reads no body and four neighbours at a time go into vector registers without a gather.
+/// A sphere's trajectory r + v (t − t0): one cache line, so that four neighbours' go into vector
+/// registers from a contiguous batch without a gather.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(64))]
 pub struct Trajectory {
@@ -52,14 +50,26 @@ pub struct Trajectory {
     pad: f64,
 }
 
-impl Snapshot for Trajectory {
-    fn of(body: &Body, offset: &V3) -> Self {
-        let r = body.r + offset;
+impl Trajectory {
+    pub fn of(body: &Body) -> Self {
         Trajectory {
-            r: [r.x, r.y, r.z],
+            r: [body.r.x, body.r.y, body.r.z],
             t0: body.t,
             v: [body.v.x, body.v.y, body.v.z],
             pad: 0.0,
+        }
+    }
+
+    /// The same trajectory seen through the image displacement `offset`.
+    #[inline]
+    pub fn shifted(&self, offset: &V3) -> Self {
+        Trajectory {
+            r: [
+                self.r[0] + offset.x,
+                self.r[1] + offset.y,
+                self.r[2] + offset.z,
+            ],
+            ..*self
         }
     }
 }
