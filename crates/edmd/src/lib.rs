@@ -67,7 +67,9 @@ pub mod scene;
 pub mod sphere;
 
 pub use engine::{FinalState, ParticleDump, RunReport, run, run_with_state};
-pub use scene::{Neighbours, Scene, SceneError, ShapeKind};
+pub use scene::{
+    Neighbours, Scene, SceneError, ShapeKind, default_neighbours, fill_default_neighbours,
+};
 
 use thiserror::Error;
 

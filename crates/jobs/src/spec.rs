@@ -89,7 +89,11 @@ impl JobSpec {
             // Rough costs per collision measured on this project's reference machine: the
             // analytic sphere path and the Newton–Raphson ellipsoid path.
             Self::Edmd(scene) => {
-                let per_collision = if scene.shape == edmd::ShapeKind::Sphere { 2e-6 } else { 2e-4 };
+                let per_collision = if scene.shape == edmd::ShapeKind::Sphere {
+                    2e-6
+                } else {
+                    2e-4
+                };
                 (scene.collisions + scene.equilibrate) as f64 * per_collision
             }
         }

@@ -156,7 +156,9 @@ impl<'a, 'i> Sweep<'a, 'i> {
         };
         let fail = |span: Range<usize>, message: String| Issue::new(span, Some(key), message);
         let integer = |span: &Range<usize>, n: i128| {
-            i64::try_from(n).map(toml::Value::Integer).map_err(|_| fail(span.clone(), format!("{n} is out of range")))
+            i64::try_from(n)
+                .map(toml::Value::Integer)
+                .map_err(|_| fail(span.clone(), format!("{n} is out of range")))
         };
         let mut out = Vec::new();
         for (span, item) in items(value, key)? {
@@ -165,16 +167,30 @@ impl<'a, 'i> Sweep<'a, 'i> {
                     (_, Some(n)) => integer(&span, n.map_err(|m| fail(span.clone(), m))?)?,
                     (DeValue::String(s), None) => toml::Value::String(s.to_string()),
                     (DeValue::Boolean(b), None) => toml::Value::Boolean(*b),
-                    (DeValue::Float(_), None) => toml::Value::Float(real(v).map_err(|m| fail(span.clone(), m))?),
-                    (other, None) => return Err(fail(span, format!("expected a single value, got {}", other.type_str()))),
+                    (DeValue::Float(_), None) => {
+                        toml::Value::Float(real(v).map_err(|m| fail(span.clone(), m))?)
+                    }
+                    (other, None) => {
+                        return Err(fail(
+                            span,
+                            format!("expected a single value, got {}", other.type_str()),
+                        ));
+                    }
                 }),
                 Item::Range(table) => {
-                    if table.values().all(|v| matches!(v.get_ref(), DeValue::Integer(_))) {
+                    if table
+                        .values()
+                        .all(|v| matches!(v.get_ref(), DeValue::Integer(_)))
+                    {
                         for n in integer_range(table, span.clone(), key)? {
                             out.push(integer(&span, i128::from(n))?);
                         }
                     } else {
-                        out.extend(float_range(table, span.clone(), key)?.into_iter().map(toml::Value::Float));
+                        out.extend(
+                            float_range(table, span.clone(), key)?
+                                .into_iter()
+                                .map(toml::Value::Float),
+                        );
                     }
                 }
             }

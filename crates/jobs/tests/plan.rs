@@ -220,8 +220,15 @@ fn messages_read_as_documented() {
         (error.line, error.column, error.key.as_deref()),
         (6, 14, Some("acceptance"))
     );
-    let edmd = Plan::parse("[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = [0.3, 0.95]\n", "e.toml").expect_err("φ above close packing");
-    assert!(edmd.to_string().starts_with("e.toml:4:7: key `phi`: "), "{edmd}");
+    let edmd = Plan::parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = [0.3, 0.95]\n",
+        "e.toml",
+    )
+    .expect_err("φ above close packing");
+    assert!(
+        edmd.to_string().starts_with("e.toml:4:7: key `phi`: "),
+        "{edmd}"
+    );
     let list = Plan::parse(
         "[[overlap]]\nl_star = [1, 2, -3]\nw_star = 1\nr_star = 1\n",
         "l.toml",
@@ -403,12 +410,30 @@ fn edmd_sweeps_expand_and_are_checked_by_the_engine() {
     assert_eq!(ids.len(), 12);
     assert!(plan.jobs.iter().all(|j| j.kind() == "edmd"));
     for (text, needle) in [
-        ("[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = [2, 0]\n", "e.toml:5:6: key `x0`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 1\nphi = 0.3\n", "e.toml:3:5: key `n`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\neps_d = -1e-5\n", "e.toml:5:9: key `eps_d`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncolour = 1\n", "e.toml:5:1: key `colour`"),
-        ("[[edmd]]\nshape = \"cube\"\nn = 8\nphi = 0.3\n", "e.toml:1:1"),
-        ("[[edmd]]\nshape = \"sphere\"\nphi = 0.3\n", "missing field `n`"),
+        (
+            "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = [2, 0]\n",
+            "e.toml:5:6: key `x0`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 1\nphi = 0.3\n",
+            "e.toml:3:5: key `n`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\neps_d = -1e-5\n",
+            "e.toml:5:9: key `eps_d`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncolour = 1\n",
+            "e.toml:5:1: key `colour`",
+        ),
+        (
+            "[[edmd]]\nshape = \"cube\"\nn = 8\nphi = 0.3\n",
+            "e.toml:1:1",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nphi = 0.3\n",
+            "missing field `n`",
+        ),
     ] {
         let err = Plan::parse(text, "e.toml").expect_err(text).to_string();
         assert!(err.contains(needle), "expected `{needle}` in `{err}`");
@@ -476,4 +501,35 @@ proptest! {
             }
         }
     }
+}
+
+/// Spheres default to neighbour lists; the id hashes the method the point runs with, so a sphere
+/// point without `neighbours` is the NNL point, not the LL point it named before that default.
+#[test]
+fn the_default_neighbour_method_is_part_of_the_point() {
+    let point = |extra: &str| {
+        let plan = Plan::parse(
+            &format!("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n{extra}"),
+            "d.toml",
+        )
+        .expect("a valid plan");
+        assert_eq!(plan.jobs.len(), 1);
+        plan.jobs[0].clone()
+    };
+    let default = point("");
+    assert_eq!(default.id(), point("neighbours = \"nnl\"\n").id());
+    assert_ne!(default.id(), point("neighbours = \"ll\"\n").id());
+    let JobSpec::Edmd(scene) = default else {
+        panic!("an edmd job")
+    };
+    assert_eq!(scene.neighbours, edmd::Neighbours::Nnl);
+    let ellipsoid = Plan::parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nx0 = 2\nn = 256\nphi = 0.45\n",
+        "e.toml",
+    )
+    .expect("valid");
+    let JobSpec::Edmd(scene) = &ellipsoid.jobs[0] else {
+        panic!("an edmd job")
+    };
+    assert_eq!(scene.neighbours, edmd::Neighbours::Ll);
 }
