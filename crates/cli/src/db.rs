@@ -82,7 +82,7 @@ pub struct ReportArgs {
 }
 
 /// A report row from the store's: the estimate re-made from the stored blocks (the median of
-/// every block, with its interval), or for points measured before blocks were kept the mean
+/// the sets' median blocks, with its interval), or for points measured before blocks were kept the mean
 /// over repeats the store gave, with Student's interval.
 fn report_row(r: store::OverlapRow) -> OverlapRow {
     let checks_ms = r.configurations as f64 * 1e-6;

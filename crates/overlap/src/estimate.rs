@@ -2,18 +2,22 @@
 //! intervals, and the rule that decides when a point has been measured precisely enough.
 //!
 //! A block's time is the kernel's true cost plus noise that only ever adds: an interrupt, a
-//! time slice given to another process, a cold cache after it. So the estimate of a point is
-//! the **median** of its blocks' ns/check over every set (repeat): a block slowed by a foreign
-//! process moves it by at most one rank, where it moves a mean by its whole excess. Blocks are
-//! short (see [`crate::protocol`]), so on a machine shared by time slicing most blocks run
-//! untouched and the median is theirs.
+//! time slice given to another process, a cold cache after it. So a set's estimate is the
+//! **median** of its blocks' ns/check: a block slowed by a foreign process moves it by at most
+//! one rank, where it moves a mean by its whole excess. Blocks are short (see
+//! [`crate::protocol`]), so on a machine shared by time slicing most blocks run untouched and
+//! the median is theirs. A machine also has slow *phases* that last a whole set (on a shared
+//! VM, the memory system slows down for tenths of a second to seconds at a time), so a point's
+//! estimate is the **median of its sets' medians**: one slow set of three does not move it.
 //!
 //! The interval has two parts, and the wider bound of each side is kept:
 //! - *within*: the distribution-free interval of a median from order statistics (exact binomial
-//!   ranks), which treats the blocks as exchangeable;
-//! - *between*: Student's interval over the per-set medians, which catches what the first
-//!   cannot: a slow phase of the machine that lasts a whole set, or a set whose configurations
-//!   happen to be cheaper (every set is independent).
+//!   ranks) over every block, which treats the blocks as exchangeable;
+//! - *between*: over the sets' medians, the same order-statistic interval from 6 sets on, and
+//!   Student's interval below (none for a single set). It catches what the first cannot: a slow
+//!   phase that lasts a whole set, or a set whose configurations happen to be cheaper (every
+//!   set is independent). With order statistics, a rare slow set widens it by one rank, not by
+//!   its whole excess, so a point with `ci_target` converges by adding sets.
 //!
 //! Everything here is a pure function of numbers, tested on synthetic timings.
 
@@ -127,37 +131,51 @@ fn mean_and_sd(values: &[f64]) -> (f64, f64) {
 }
 
 /// The estimate of one algorithm at one point from its blocks, grouped by set (repeat): the
-/// median of all blocks, with the interval described in the module documentation. `None` when
-/// there is no sample at all.
+/// median over the sets of each set's median block, with the interval described in the module
+/// documentation. `None` when there is no sample at all.
 pub fn estimate(blocks_by_repeat: &[Vec<f64>]) -> Option<Estimate> {
     let pooled = sorted(&blocks_by_repeat.concat());
     if pooled.is_empty() {
         return None;
     }
     let n = pooled.len();
-    let value = median_of_sorted(&pooled);
-    let (mut lo, mut hi) = match median_rank(n) {
-        Some(k) => (pooled[k - 1], pooled[n - k]),
-        None => (pooled[0], pooled[n - 1]),
-    };
-    let medians: Vec<f64> = blocks_by_repeat
-        .iter()
-        .filter(|b| !b.is_empty())
-        .map(|b| median(b))
-        .collect();
-    if medians.len() >= 2 {
+    let medians = sorted(
+        &blocks_by_repeat
+            .iter()
+            .filter(|b| !b.is_empty())
+            .map(|b| median(b))
+            .collect::<Vec<f64>>(),
+    );
+    let value = median_of_sorted(&medians);
+    let (mut lo, mut hi) = order_interval(&pooled);
+    let sets = medians.len();
+    let (between_lo, between_hi) = if sets >= 6 {
+        order_interval(&medians)
+    } else if sets >= 2 {
         let (_, sd) = mean_and_sd(&medians);
-        let half = student_t975(medians.len() - 1) * sd / (medians.len() as f64).sqrt();
-        lo = lo.min(value - half);
-        hi = hi.max(value + half);
-    }
+        let half = student_t975(sets - 1) * sd / (sets as f64).sqrt();
+        (value - half, value + half)
+    } else {
+        (value, value)
+    };
+    lo = lo.min(between_lo);
+    hi = hi.max(between_hi);
     Some(Estimate {
         value,
         lo,
         hi,
         samples: n,
-        repeats: medians.len(),
+        repeats: sets,
     })
+}
+
+/// The distribution-free 95 % interval of the median of `sorted` samples ([min, max] below 6).
+fn order_interval(sorted: &[f64]) -> (f64, f64) {
+    let n = sorted.len();
+    match median_rank(n) {
+        Some(k) => (sorted[k - 1], sorted[n - k]),
+        None => (sorted[0], sorted[n - 1]),
+    }
 }
 
 /// The estimate from one value per set and no blocks (results of the protocol before blocks

@@ -9,8 +9,8 @@
 //!   ns/check is kept.
 //! - **Interleaving.** Within a set the algorithms run one after the other (A B C), then the
 //!   next set (A B C …): a slow phase of the machine hits all of them.
-//! - **Robust estimate.** An algorithm's estimate is the median of its blocks over every set,
-//!   with a 95 % confidence interval ([`crate::estimate`]).
+//! - **Robust estimate.** An algorithm's estimate is the median over the sets of its median
+//!   block in each, with a 95 % confidence interval ([`crate::estimate`]).
 //! - **Repeat until precise.** With `ci_target`, sets are added until every algorithm's CI
 //!   half-width is within it, or until `time_cap_s` of measurement.
 //! - **Noise awareness.** Fixed references before and after ([`crate::noise`]); a measurement
@@ -169,13 +169,13 @@ pub struct PointReport {
     pub rerun_reasons: Vec<String>,
 }
 
-/// An algorithm's result at a point: the robust estimate over every block of every set.
+/// An algorithm's result at a point: the robust estimate over the blocks of every set.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AlgorithmSummary {
     pub algorithm: Algorithm,
     /// A set's run time by the estimate: `ns_per_check` × N_c.
     pub mean_ms: f64,
-    /// Median ns/check of every block of every set.
+    /// The median over the sets of each set's median block ns/check.
     pub ns_per_check: f64,
     pub acceptance: f64,
     /// The 95 % confidence interval of `ns_per_check`.

@@ -129,6 +129,28 @@ fn the_median_ignores_lost_time_slices_that_move_the_mean() {
     assert!(e.lo <= e.value && e.value <= e.hi);
 }
 
+/// One slow set of three (a phase of the machine 10 % slow) does not move the estimate: the
+/// median of the sets' medians is one of the two clean ones.
+#[test]
+fn one_slow_set_does_not_move_the_estimate() {
+    let mut rng = Rng::new(21);
+    let mut sets = synthetic_sets(&mut rng, 30.0, QUIET, 3, 64);
+    for block in &mut sets[1] {
+        *block *= 1.10;
+    }
+    let e = estimate(&sets).expect("samples");
+    let clean = [median(&sets[0]), median(&sets[2])];
+    assert!(e.value == clean[0] || e.value == clean[1], "{} vs clean {clean:?}", e.value);
+    // Ten sets, one slow: the interval is that of the clean ones, one rank wider.
+    let mut sets = synthetic_sets(&mut rng, 30.0, QUIET, 10, 64);
+    for block in &mut sets[4] {
+        *block *= 1.5;
+    }
+    let e = estimate(&sets).expect("samples");
+    assert!(e.relative_half_width() < 0.01, "±{:.2} %", e.relative_half_width() * 100.0);
+    assert!(e.lo <= 30.0 && 30.0 <= e.hi);
+}
+
 /// Coverage of the 95 % interval over many synthetic points, for clean blocks and for sets that
 /// differ as a whole (the case the between-set part of the interval is for: the blocks of one
 /// set alone would give an interval far too narrow). The interval is

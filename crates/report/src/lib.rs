@@ -21,8 +21,8 @@ pub use fig::{Fig2Options, fig2, fig2_points};
 pub use fig7::fig7;
 pub use table::{Table1Row, TableFormat, render_table, table1};
 
-/// One benchmark point's result for one algorithm: its estimate (the median of its timed
-/// blocks, or for points measured before blocks were kept the mean over its repeats) with the
+/// One benchmark point's result for one algorithm: its estimate (the median of its sets'
+/// median timed blocks, or for points measured before blocks were kept the mean over its repeats) with the
 /// 95 % confidence interval, and whether the machine was disturbed while it was measured.
 /// `sweep report fig2 --format json` prints these.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
