@@ -65,13 +65,23 @@ fn invalid(key: &'static str, reason: String) -> OverlapError {
 impl PointSpec {
     /// Every domain check, before any work.
     pub fn validate(&self) -> Result<(), OverlapError> {
-        for (key, v) in [("l_star", self.l_star), ("w_star", self.w_star), ("r_star", self.r_star)] {
+        for (key, v) in [
+            ("l_star", self.l_star),
+            ("w_star", self.w_star),
+            ("r_star", self.r_star),
+        ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(key, format!("must be a positive finite number, got {v}")));
+                return Err(invalid(
+                    key,
+                    format!("must be a positive finite number, got {v}"),
+                ));
             }
         }
         if !(self.acceptance > 0.0 && self.acceptance < 1.0) {
-            return Err(invalid("acceptance", format!("must lie strictly between 0 and 1, got {}", self.acceptance)));
+            return Err(invalid(
+                "acceptance",
+                format!("must lie strictly between 0 and 1, got {}", self.acceptance),
+            ));
         }
         if self.configurations == 0 {
             return Err(invalid("configurations", "must be at least 1".into()));
@@ -80,26 +90,42 @@ impl PointSpec {
             return Err(invalid("repeats", "must be at least 1".into()));
         }
         if self.algorithms.is_empty() {
-            return Err(invalid("algorithms", "must name at least one algorithm".into()));
+            return Err(invalid(
+                "algorithms",
+                "must name at least one algorithm".into(),
+            ));
         }
         if let Some(target) = self.ci_target
             && !(target > 0.0 && target < 1.0)
         {
-            return Err(invalid("ci_target", format!("must lie strictly between 0 and 1, got {target}")));
+            return Err(invalid(
+                "ci_target",
+                format!("must lie strictly between 0 and 1, got {target}"),
+            ));
         }
         if let Some(cap) = self.time_cap_s {
             if !(cap.is_finite() && cap > 0.0) {
-                return Err(invalid("time_cap_s", format!("must be a positive number of seconds, got {cap}")));
+                return Err(invalid(
+                    "time_cap_s",
+                    format!("must be a positive number of seconds, got {cap}"),
+                ));
             }
             if self.ci_target.is_none() {
-                return Err(invalid("time_cap_s", "caps the time `ci_target` may take: give `ci_target` too".into()));
+                return Err(invalid(
+                    "time_cap_s",
+                    "caps the time `ci_target` may take: give `ci_target` too".into(),
+                ));
             }
         }
         Ok(())
     }
 
     pub fn spherocuboid(&self) -> Spherocuboid {
-        Spherocuboid::for_acceptance([0.5, self.l_star / 2.0, self.w_star / 2.0], self.r_star, self.acceptance)
+        Spherocuboid::for_acceptance(
+            [0.5, self.l_star / 2.0, self.w_star / 2.0],
+            self.r_star,
+            self.acceptance,
+        )
     }
 }
 
@@ -119,7 +145,9 @@ pub const MAX_RERUNS: u32 = 2;
 /// 25 µs (`ocsi_batch`) to 0.6 ms (the slowest per-pair kernel): a clock read (≈ 20 ns) costs
 /// at most 0.1 %, and most blocks fall between two time slices of a shared core.
 pub fn block_configurations(n: usize) -> usize {
-    n.div_ceil(TARGET_BLOCKS).clamp(MIN_BLOCK_CONFIGURATIONS, MAX_BLOCK_CONFIGURATIONS).next_multiple_of(64)
+    n.div_ceil(TARGET_BLOCKS)
+        .clamp(MIN_BLOCK_CONFIGURATIONS, MAX_BLOCK_CONFIGURATIONS)
+        .next_multiple_of(64)
 }
 
 /// One pass: one algorithm over one configuration set.
@@ -197,11 +225,24 @@ impl PointReport {
         algorithms
             .into_iter()
             .map(|algorithm| {
-                let runs: Vec<&Timing> = self.timings.iter().filter(|t| t.algorithm == algorithm).collect();
-                let blocks: Vec<Vec<f64>> = runs.iter().map(|t| t.block_ns_per_check.clone()).collect();
-                let nan = Estimate { value: f64::NAN, lo: f64::NAN, hi: f64::NAN, samples: 0, repeats: 0 };
+                let runs: Vec<&Timing> = self
+                    .timings
+                    .iter()
+                    .filter(|t| t.algorithm == algorithm)
+                    .collect();
+                let blocks: Vec<Vec<f64>> =
+                    runs.iter().map(|t| t.block_ns_per_check.clone()).collect();
+                let nan = Estimate {
+                    value: f64::NAN,
+                    lo: f64::NAN,
+                    hi: f64::NAN,
+                    samples: 0,
+                    repeats: 0,
+                };
                 let estimate = estimate(&blocks).unwrap_or(nan);
-                let mean = |f: fn(&Timing) -> f64| runs.iter().map(|t| f(t)).sum::<f64>() / runs.len() as f64;
+                let mean = |f: fn(&Timing) -> f64| {
+                    runs.iter().map(|t| f(t)).sum::<f64>() / runs.len() as f64
+                };
                 AlgorithmSummary {
                     algorithm,
                     mean_ms: estimate.value * self.configurations as f64 * 1e-6,
@@ -225,13 +266,23 @@ pub fn run_point(
     on_repeat: &mut dyn FnMut(u32),
 ) -> Result<PointReport, OverlapError> {
     spec.validate()?;
+    rerun_while_disturbed(calibration, |baseline_ns| match spec.precision {
+        Precision::F32 => measure::<f32>(spec, baseline_ns, on_repeat),
+        Precision::F64 => measure::<f64>(spec, baseline_ns, on_repeat),
+    })
+}
+
+/// Calls `measure` (given the thread's baseline compute reference) until a measurement finds
+/// the machine steady, at most 1 + [`MAX_RERUNS`] times, and keeps the last one: flagged with
+/// its disturbance if even that was disturbed, with the reasons the others were thrown away.
+fn rerun_while_disturbed(
+    calibration: &mut Calibration,
+    mut measure: impl FnMut(Option<f64>) -> Result<PointReport, OverlapError>,
+) -> Result<PointReport, OverlapError> {
     let started = Instant::now();
     let mut rerun_reasons = Vec::new();
     loop {
-        let mut report = match spec.precision {
-            Precision::F32 => measure::<f32>(spec, calibration.baseline_ns(), on_repeat)?,
-            Precision::F64 => measure::<f64>(spec, calibration.baseline_ns(), on_repeat)?,
-        };
+        let mut report = measure(calibration.baseline_ns())?;
         calibration.remember(report.references.compute_ns_before);
         calibration.remember(report.references.compute_ns_after);
         report.disturbance = report.references.disturbance();
@@ -270,7 +321,11 @@ fn time_pass(ranges: &[Range<usize>], mut body: impl FnMut(Range<usize>) -> u64)
         block_ns.push((now - last).as_secs_f64() * 1e9 / range.len() as f64);
         last = now;
     }
-    Pass { block_ns, seconds: (last - start).as_secs_f64(), count }
+    Pass {
+        block_ns,
+        seconds: (last - start).as_secs_f64(),
+        count,
+    }
 }
 
 /// One measurement of the point: every set, every algorithm, the references around them.
@@ -282,10 +337,17 @@ fn measure<T: Real>(
     let volume = spec.spherocuboid();
     let cuboid = Cuboid::<T>::from_reduced(spec.l_star, spec.w_star);
     let radius = T::from_f64(spec.r_star);
-    let n = usize::try_from(spec.configurations)
-        .map_err(|_| invalid("configurations", format!("{} does not fit in memory", spec.configurations)))?;
+    let n = usize::try_from(spec.configurations).map_err(|_| {
+        invalid(
+            "configurations",
+            format!("{} does not fit in memory", spec.configurations),
+        )
+    })?;
     let block = block_configurations(n);
-    let ranges: Vec<Range<usize>> = (0..n).step_by(block).map(|start| start..(start + block).min(n)).collect();
+    let ranges: Vec<Range<usize>> = (0..n)
+        .step_by(block)
+        .map(|start| start..(start + block).min(n))
+        .collect();
     let goal = Goal {
         min_repeats: spec.repeats,
         ci_target: spec.ci_target,
@@ -306,7 +368,11 @@ fn measure<T: Real>(
     let mut repeat = 0;
     let stop = loop {
         let set_started = Instant::now();
-        regenerate(&mut batch, &volume, derive_seed(spec.seed, u64::from(repeat)));
+        regenerate(
+            &mut batch,
+            &volume,
+            derive_seed(spec.seed, u64::from(repeat)),
+        );
         generation_ms += set_started.elapsed().as_secs_f64() * 1e3;
         let view = batch.view();
 
@@ -407,5 +473,109 @@ pub fn count_overlaps<'a, T: Real>(
         }
     };
     let kernel = black_box(kernel);
-    (0..batch.len()).map(|i| kernel(&batch.lane(i), cuboid, radius) as u64).sum()
+    (0..batch.len())
+        .map(|i| kernel(&batch.lane(i), cuboid, radius) as u64)
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A measurement whose references are `compute` (before, after) and `stream` (before,
+    /// after), as the injected machine would have them; `baseline_ns` is what the protocol
+    /// passed in.
+    fn measured(compute: (f64, f64), stream: (f64, f64), baseline_ns: Option<f64>) -> PointReport {
+        PointReport {
+            timings: Vec::new(),
+            stream_ns_per_config: stream.0,
+            generation_ms: 0.0,
+            arrays_bytes: 0,
+            rho: 0.0,
+            configurations: 1,
+            block_configurations: 1,
+            repeats: 1,
+            stop: Stop::Repeats,
+            timed_s: 0.0,
+            wall_s: 0.0,
+            references: References {
+                compute_ns_before: compute.0,
+                compute_ns_after: compute.1,
+                compute_ns_baseline: baseline_ns,
+                stream_ns_before: stream.0,
+                stream_ns_after: stream.1,
+            },
+            disturbance: None,
+            reruns: 0,
+            rerun_reasons: Vec::new(),
+        }
+    }
+
+    const STEADY: ((f64, f64), (f64, f64)) = ((1.0, 1.01), (2.0, 2.05));
+
+    /// Runs the re-run rule over a machine that gives these references, one per measurement
+    /// (the last one repeated): the kept report and how many measurements were made.
+    fn run(
+        calibration: &mut Calibration,
+        machine: &[((f64, f64), (f64, f64))],
+    ) -> (PointReport, usize) {
+        let mut made = 0;
+        let report = rerun_while_disturbed(calibration, |baseline_ns| {
+            let (compute, stream) = machine[made.min(machine.len() - 1)];
+            made += 1;
+            Ok(measured(compute, stream, baseline_ns))
+        })
+        .expect("measures");
+        (report, made)
+    }
+
+    #[test]
+    fn a_steady_machine_is_measured_once() {
+        let (report, made) = run(&mut Calibration::default(), &[STEADY]);
+        assert_eq!((made, report.reruns, report.disturbance), (1, 0, None));
+    }
+
+    #[test]
+    fn a_disturbance_during_a_point_is_caught_and_the_point_re_run() {
+        // A neighbour takes memory bandwidth during the first measurement only.
+        let (report, made) = run(
+            &mut Calibration::default(),
+            &[((1.0, 1.0), (2.0, 3.0)), STEADY],
+        );
+        assert_eq!((made, report.reruns), (2, 1));
+        assert_eq!(report.disturbance, None, "the steady re-run is kept");
+        assert_eq!(report.references.stream_ns_after, 2.05);
+        assert!(
+            report.rerun_reasons[0].contains("50.0 % longer"),
+            "{:?}",
+            report.rerun_reasons
+        );
+    }
+
+    #[test]
+    fn a_machine_that_stays_disturbed_is_re_run_at_most_twice_and_flagged() {
+        // The core slows down by 20 % during every measurement.
+        let (report, made) = run(&mut Calibration::default(), &[((1.0, 1.2), (2.0, 2.0))]);
+        assert_eq!(made, 1 + MAX_RERUNS as usize);
+        assert_eq!(report.reruns, MAX_RERUNS);
+        assert_eq!(report.rerun_reasons.len(), MAX_RERUNS as usize);
+        let flagged = report.disturbance.expect("flagged");
+        assert!(flagged.contains("20.0 % slower after"), "{flagged}");
+    }
+
+    #[test]
+    fn a_slow_phase_longer_than_a_point_is_caught_by_the_calibration() {
+        // The thread's earlier points saw a core at 1.0 ns per step; this one runs in a phase
+        // 10 % slow from its start to its end, which a before/after comparison cannot see.
+        let mut calibration = Calibration::default();
+        run(&mut calibration, &[STEADY]);
+        let (report, made) = run(&mut calibration, &[((1.1, 1.1), (2.0, 2.0)), STEADY]);
+        assert_eq!((made, report.reruns, report.disturbance), (2, 1, None));
+        assert_eq!(report.references.compute_ns_baseline, Some(1.0));
+        assert!(
+            report.rerun_reasons[0].contains("10.0 % slower"),
+            "{:?}",
+            report.rerun_reasons
+        );
+    }
 }
