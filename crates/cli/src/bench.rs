@@ -33,9 +33,16 @@ pub struct BenchOverlapArgs {
     /// Configurations per set, N_c.
     #[arg(long, default_value_t = 2_000_000)]
     configurations: u64,
-    /// Independent configuration sets; the results are their means.
+    /// Independent configuration sets (at least; see --ci-target). Each algorithm's result is
+    /// the median of its timed blocks over every set.
     #[arg(long, default_value_t = 3)]
     repeats: u32,
+    /// Measure more sets until every 95 % CI half-width is at most this fraction of its estimate.
+    #[arg(long)]
+    ci_target: Option<f64>,
+    /// ... or until the measurement has taken this many seconds (default 60; needs --ci-target).
+    #[arg(long)]
+    time_cap_s: Option<f64>,
     #[arg(long, default_value = "f32", value_parser = parse_precision)]
     precision: Precision,
     /// Comma-separated subset of arvo, qri, qrf, sse, ocsi, ocsi_batch.
@@ -65,6 +72,18 @@ struct BenchReport {
     stream_ns_per_config: f64,
     generation_ms: f64,
     timed_ms: f64,
+    /// Wall time of the whole measurement, re-runs included: what the precision cost.
+    wall_s: f64,
+    repeats: u32,
+    stop: overlap::Stop,
+    block_configurations: u64,
+    references: overlap::References,
+    /// Why the result is not to be trusted (the machine was disturbed), or null.
+    disturbance: Option<String>,
+    reruns: u32,
+    rerun_reasons: Vec<String>,
+    /// Every pass with its blocks' ns/check, for re-estimating.
+    timings: Vec<overlap::Timing>,
     arrays_bytes: u64,
     peak_rss_bytes: Option<u64>,
     isa: &'static str,
@@ -94,6 +113,8 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
         precision: args.precision,
         algorithms: args.algorithms,
         seed: args.seed,
+        ci_target: args.ci_target,
+        time_cap_s: args.time_cap_s,
     };
     spec.validate().map_err(flag_error)?;
     system::start_thread_pool()?;
@@ -103,12 +124,24 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
     let progress = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(spec.repeats as u64) };
     progress.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} repeats, {elapsed}")?);
     progress.set_message(format!("L*={} W*={} R*={} {}", spec.l_star, spec.w_star, spec.r_star, spec.precision));
-    let report = overlap::run_point(&spec, &mut |_| progress.inc(1)).map_err(flag_error).context("benchmark failed")?;
+    let mut calibration = overlap::Calibration::default();
+    let report = overlap::run_point(&spec, &mut calibration, &mut |_| progress.inc(1))
+        .map_err(flag_error)
+        .context("benchmark failed")?;
     progress.finish_and_clear();
 
     let results = report.summary();
     let out = BenchReport {
-        timed_ms: report.timings.iter().map(|t| t.ms).sum(),
+        timed_ms: report.timed_s * 1e3,
+        wall_s: report.wall_s,
+        repeats: report.repeats,
+        stop: report.stop,
+        block_configurations: report.block_configurations,
+        references: report.references,
+        disturbance: report.disturbance.clone(),
+        reruns: report.reruns,
+        rerun_reasons: report.rerun_reasons.clone(),
+        timings: report.timings.clone(),
         point: spec,
         results,
         stream_ns_per_config: report.stream_ns_per_config,
@@ -121,7 +154,17 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
     match format {
         Format::Json => print_json(&out),
         Format::Csv => {
-            let columns = ["algorithm", "mean_ms", "ns_per_check", "acceptance", "stream_ns_per_config"].map(String::from);
+            let columns = [
+                "algorithm",
+                "mean_ms",
+                "ns_per_check",
+                "acceptance",
+                "stream_ns_per_config",
+                "ci95_lo_ns_per_check",
+                "ci95_hi_ns_per_check",
+                "plain_ns_per_check",
+            ]
+            .map(String::from);
             let rows = out.results.iter().map(|r| {
                 vec![
                     r.algorithm.to_string(),
@@ -129,6 +172,9 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                     r.ns_per_check.to_string(),
                     r.acceptance.to_string(),
                     out.stream_ns_per_config.to_string(),
+                    r.ci95_lo_ns_per_check.to_string(),
+                    r.ci95_hi_ns_per_check.to_string(),
+                    r.plain_ns_per_check.to_string(),
                 ]
             });
             write_csv(&columns, rows)
@@ -142,12 +188,20 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                         r.algorithm.to_string(),
                         format!("{:.3}", r.mean_ms),
                         format!("{:.3}", r.ns_per_check),
+                        format!(
+                            "{:.2}",
+                            (r.ci95_hi_ns_per_check - r.ci95_lo_ns_per_check) / 2.0 / r.ns_per_check * 100.0
+                        ),
+                        format!("{:.3}", r.plain_ns_per_check),
                         format!("{:.2}", r.ns_per_check / out.stream_ns_per_config),
                         format!("{:.4}", r.acceptance),
                     ]
                 })
                 .collect();
-            print_table(&["algorithm", "mean_ms", "ns/check", "x stream", "acceptance"], &rows);
+            print_table(
+                &["algorithm", "mean_ms", "ns/check", "±95% (%)", "plain ns/check", "x stream", "acceptance"],
+                &rows,
+            );
             println!(
                 "stream {:.3} ns/config · generation {:.0} ms vs timed {:.0} ms · arrays {:.1} MB, peak RSS {} · {}",
                 out.stream_ns_per_config,
@@ -156,6 +210,16 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                 out.arrays_bytes as f64 / 1e6,
                 out.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MB", b as f64 / 1e6)),
                 out.isa
+            );
+            println!(
+                "{} sets ({:?}) of {} configurations in blocks of {} · {:.2} s in all, {} re-run(s){}",
+                out.repeats,
+                out.stop,
+                out.point.configurations,
+                out.block_configurations,
+                out.wall_s,
+                out.reruns,
+                out.disturbance.as_deref().map_or(String::new(), |d| format!(" · DISTURBED: {d}"))
             );
             Ok(())
         }

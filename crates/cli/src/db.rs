@@ -53,8 +53,10 @@ pub fn status(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
     let campaign = args.campaign.as_deref();
     match (&args.db, &args.coordinator) {
         (Some(db), _) => runtime()?.block_on(async {
-            let status = open_read_only(db).await?.status(campaign).await?;
-            report_status(campaign.unwrap_or("(all)"), &status, format)
+            let store = open_read_only(db).await?;
+            let status = store.status(campaign).await?;
+            let quality = store.overlap_quality(campaign).await?;
+            report_status(campaign.unwrap_or("(all)"), &status, Some(&quality), format)
         }),
         (None, Some(url)) => {
             let client = crate::remote::ClientArgs::new(url.clone(), args.auth.clone(), args.ca.clone());
@@ -71,8 +73,48 @@ pub struct ReportArgs {
     #[arg(long)]
     db: PathBuf,
     /// Write here instead of stdout; the extension picks the format (.md .csv .tex .json .png .svg).
+    /// Figures 2–3 print their points (estimate and 95 % interval) with `--format json` and no --out.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Figures 2–3: a circle in every cell, its size the point's 95 % CI half-width.
+    #[arg(long)]
+    ci: bool,
+}
+
+/// A report row from the store's: the estimate re-made from the stored blocks (the median of
+/// the sets' median blocks, with its interval), or for points measured before blocks were kept the mean
+/// over repeats the store gave, with Student's interval.
+fn report_row(r: store::OverlapRow) -> OverlapRow {
+    let checks_ms = r.configurations as f64 * 1e-6;
+    let (estimate, ns_per_check, mean_ms) = if r.block_ns_per_check.is_empty() {
+        (overlap::estimate::mean_interval(&r.repeat_ns_per_check), r.ns_per_check, r.mean_ms)
+    } else {
+        let estimate = overlap::estimate::estimate(&r.block_ns_per_check);
+        let ns = estimate.map_or(r.ns_per_check, |e| e.value);
+        (estimate, ns, ns * checks_ms)
+    };
+    let finite = |x: f64| x.is_finite().then_some(x);
+    let lo = estimate.and_then(|e| finite(e.lo));
+    let hi = estimate.and_then(|e| finite(e.hi));
+    // ms per ns/check: the set's size, or for old rows the ratio the store averaged.
+    let to_ms = if ns_per_check > 0.0 { mean_ms / ns_per_check } else { checks_ms };
+    OverlapRow {
+        l_star: r.l_star,
+        w_star: r.w_star,
+        r_star: r.r_star,
+        precision: r.precision,
+        algorithm: r.algorithm,
+        mean_ms,
+        ns_per_check,
+        acceptance: r.acceptance,
+        repeats: r.repeats,
+        ci95_lo_ns_per_check: lo,
+        ci95_hi_ns_per_check: hi,
+        ci95_lo_ms: lo.map(|x| x * to_ms),
+        ci95_hi_ms: hi.map(|x| x * to_ms),
+        disturbed: r.disturbed,
+        reruns: r.reruns,
+    }
 }
 
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
@@ -82,21 +124,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     let rows: Vec<OverlapRow> = runtime()?.block_on(async {
         let store = open_read_only(&args.db).await?;
         let rows = store.overlap_rows().await?;
-        anyhow::Ok(
-            rows.into_iter()
-                .map(|r| OverlapRow {
-                    l_star: r.l_star,
-                    w_star: r.w_star,
-                    r_star: r.r_star,
-                    precision: r.precision,
-                    algorithm: r.algorithm,
-                    mean_ms: r.mean_ms,
-                    ns_per_check: r.ns_per_check,
-                    acceptance: r.acceptance,
-                    repeats: r.repeats,
-                })
-                .collect(),
-        )
+        anyhow::Ok(rows.into_iter().map(report_row).collect())
     })?;
     let (kind, precision) = match args.name.as_str() {
         "table1" => ("table", "f32"),
@@ -106,8 +134,23 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7)"),
     };
     if kind == "figure" {
-        let out = args.out.as_deref().with_context(|| format!("report {}: give --out FILE.png or FILE.svg", args.name))?;
-        report::fig2(&rows, precision, out)?;
+        let json_out = args.out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")));
+        if json_out.is_some() || (args.out.is_none() && format == Format::Json) {
+            let points = report::fig2_points(&rows, precision)?;
+            let text = serde_json::to_string_pretty(&points)? + "\n";
+            match json_out {
+                Some(out) => {
+                    std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
+                    eprintln!("wrote {}", out.display());
+                }
+                None => print!("{text}"),
+            }
+            return Ok(());
+        }
+        let out = args.out.as_deref().with_context(|| {
+            format!("report {}: give --out FILE.png, FILE.svg or FILE.json (or --format json)", args.name)
+        })?;
+        report::fig2(&rows, precision, out, report::Fig2Options { show_ci: args.ci })?;
         eprintln!("wrote {}", out.display());
         return Ok(());
     }

@@ -100,6 +100,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     reaper.abort();
     bar.finish_and_clear();
     let status = runtime.block_on(coordinator.status(Some(&id)))?;
+    let quality = runtime.block_on(coordinator.store().overlap_quality(Some(&id)))?;
     runtime.block_on(coordinator.store().close());
     match format {
         Format::Json => print_json(&serde_json::json!({
@@ -108,10 +109,11 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
             "requeued": submitted.requeued,
             "already_known": submitted.already_known,
             "status": status,
+            "timing": quality,
         }))?,
         _ => {
             println!("{} new points, {} already known", submitted.new_jobs, submitted.already_known);
-            report_status(&id, &status, format)?;
+            report_status(&id, &status, Some(&quality), format)?;
         }
     }
     if let Some(reason) = halted {
@@ -126,14 +128,33 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     Ok(())
 }
 
-pub fn report_status(campaign: &str, status: &Status, format: Format) -> anyhow::Result<()> {
+/// Prints a campaign's counts and, where known, how its overlap points were measured
+/// (`timing`: points with a noise check, flagged as disturbed, re-run).
+pub fn report_status(
+    campaign: &str,
+    status: &Status,
+    quality: Option<&store::OverlapQuality>,
+    format: Format,
+) -> anyhow::Result<()> {
     match format {
-        Format::Json => print_json(&serde_json::json!({ "campaign": campaign, "status": status })),
+        Format::Json => {
+            let mut out = serde_json::json!({ "campaign": campaign, "status": status });
+            if let Some(quality) = quality {
+                out["timing"] = serde_json::to_value(quality)?;
+            }
+            print_json(&out)
+        }
         _ => {
             println!(
                 "campaign {campaign}: {} points: {} done, {} failed, {} queued, {} running, {} cancelled",
                 status.total, status.done, status.failed, status.queued, status.running, status.cancelled
             );
+            if let Some(q) = quality.filter(|q| q.checked > 0) {
+                println!(
+                    "timing: {} overlap points checked for noise: {} re-run ({} re-runs), {} still disturbed (flagged); {:.0} s measuring, {:.0} s of it timed",
+                    q.checked, q.rerun, q.reruns, q.disturbed, q.wall_s, q.timed_s
+                );
+            }
             Ok(())
         }
     }

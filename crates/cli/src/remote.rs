@@ -259,7 +259,7 @@ pub fn remote_status(client: &ClientArgs, campaign: Option<&str>, format: Format
         anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
     })?;
     let status = coordinator::grpc::convert::status_from_wire(&s);
-    crate::local::report_status(campaign.unwrap_or("(all)"), &status, format)
+    crate::local::report_status(campaign.unwrap_or("(all)"), &status, None, format)
 }
 
 #[derive(Args)]

@@ -123,6 +123,8 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         (overlap("algorithms = [\"ocsi\", \"fast\"]"), "algorithms"),
         (overlap("colour = \"red\""), "colour"),
         (overlap("seed = \"abc\""), "seed"),
+        (overlap("ci_target = 2"), "ci_target"),
+        (overlap("time_cap_s = 5"), "time_cap_s"),
         ("[[overlap]]\nl_star = -1\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
         ("[[overlap]]\nl_star = 1\nw_star = 0\nr_star = 0.5\n".into(), "w_star"),
         ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = nan\n".into(), "r_star"),
@@ -145,6 +147,73 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         assert_eq!(err.trim_end().lines().count(), 1, "case {i}: not one line: {err}");
         assert!(snapshot(&db) == before, "case {i} changed the database");
     }
+}
+
+/// An overlap campaign as a user reads it back: every point with an estimate and a 95 %
+/// interval in `report fig2 --format json`, Table 1 with its dispersion, the noise check counted
+/// by `status`, the blocks kept for re-estimating, and a point with `ci_target` measured until
+/// precise or capped.
+#[test]
+fn overlap_results_carry_their_uncertainty() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("o.db");
+    let db = db.to_str().unwrap();
+    let plan = write(
+        dir.path(),
+        "o.toml",
+        "name = \"o\"\n[[overlap]]\nl_star = [1, 4]\nw_star = [1, 4]\nr_star = 5\nconfigurations = 20_000\nrepeats = 2\nalgorithms = [\"qri\", \"ocsi\"]\n\
+         [[overlap]]\nl_star = 2\nw_star = 2\nr_star = 5\nconfigurations = 20_000\nrepeats = 2\nalgorithms = [\"qri\"]\nci_target = 0.001\ntime_cap_s = 0.5\n",
+    );
+    run_plan(&plan, db);
+
+    let out = sweep(&["report", "fig2", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let points: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(points.len(), 4 * 2 + 1);
+    for p in &points {
+        let (lo, ns, hi) = (p["ci95_lo_ns_per_check"].as_f64(), p["ns_per_check"].as_f64().unwrap(), p["ci95_hi_ns_per_check"].as_f64());
+        assert!(lo.unwrap() <= ns && ns <= hi.unwrap(), "{p}");
+        assert!(p["disturbed"].is_boolean() && p["reruns"].is_u64(), "{p}");
+    }
+
+    let out = sweep(&["report", "table1", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    for row in &table {
+        for key in ["r_star", "precision", "algorithm", "mean_ms", "ns_per_check", "points"] {
+            assert!(row.get(key).is_some(), "the contract's `{key}` is missing: {row}");
+        }
+        assert!(row["ci95_ms"].as_f64().is_some_and(|h| h > 0.0), "{row}");
+    }
+    let out = sweep(&["report", "table1", "--db", db]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains(" ± "), "{}", String::from_utf8_lossy(&out.stdout));
+
+    let out = sweep(&["status", "--db", db, "--format", "json"]);
+    let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(status["timing"]["checked"], 5, "{status}");
+
+    // Every pass kept its blocks (20,000 configurations: 20 blocks of 1,024); the capped point
+    // measured at least its two sets and says why it stopped.
+    let out = sweep(&[
+        "query",
+        "SELECT json_array_length(block_ns_per_check) AS blocks FROM overlap_timings",
+        "--db",
+        db,
+        "--format",
+        "json",
+    ]);
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(rows.iter().all(|r| r["blocks"] == 20), "{rows:?}");
+    let out = sweep(&["query", "SELECT stop, repeats FROM overlap_measurements WHERE ci_target IS NOT NULL", "--db", db, "--format", "json"]);
+    let capped: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(capped.len(), 1);
+    assert!(["precise", "time_cap"].contains(&capped[0]["stop"].as_str().unwrap()), "{capped:?}");
+    assert!(capped[0]["repeats"].as_u64().unwrap() >= 2);
+
+    let svg = dir.path().join("fig2.svg");
+    let out = sweep(&["report", "fig2", "--db", db, "--ci", "--out", svg.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<circle"));
 }
 
 #[test]

@@ -14,7 +14,8 @@
 //!
 //! # Records
 //! See [`run`]: an overlap record is a timing if and only if it has an `algorithm` key; the one
-//! record without it describes the point (memory floor, generation time, array size).
+//! record without it describes the point (memory floor, generation time, array size, the noise
+//! references, whether the machine was disturbed, what the precision cost).
 //!
 //! This crate knows physics but no network and no database.
 
@@ -25,7 +26,7 @@ mod spec;
 mod sweep;
 
 pub use plan::{
-    MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS, Plan,
+    MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS, MAX_TIME_CAP_S, Plan,
     PlanError,
 };
 pub use run::{JobError, Record, run};

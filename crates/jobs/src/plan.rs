@@ -9,6 +9,8 @@
 //! l_star = { from = 1, to = 20 }   # a scalar, a list, or a range {from, to, step = 1}
 //! r_star = [0.05, 0.5, 5.0]
 //! precision = ["f32", "f64"]
+//! ci_target = 0.01         # optional: more sets until each 95 % CI half-width is <= 1 %,
+//! time_cap_s = 30          #   or until 30 s of measurement (default 60 s; only with ci_target)
 //!
 //! [[noop]]
 //! count = 1000
@@ -37,6 +39,8 @@ pub const MAX_CONFIGURATIONS: u64 = 1_000_000_000;
 pub const MAX_REPEATS: u64 = 1000;
 /// Reduced lengths above this are below f32 resolution for a unit-thickness cuboid.
 pub const MAX_REDUCED_LENGTH: f64 = 10_000.0;
+/// A day: the most one point's precision may cost.
+pub const MAX_TIME_CAP_S: f64 = 86_400.0;
 /// One hour: a no-op job is for testing the orchestrator, not for occupying a core.
 pub const MAX_NOOP_DURATION_MS: u64 = 3_600_000;
 
@@ -245,6 +249,8 @@ const OVERLAP_KEYS: &[&str] = &[
     "precision",
     "algorithms",
     "seed",
+    "ci_target",
+    "time_cap_s",
 ];
 
 fn positive_length(x: f64) -> Result<(), String> {
@@ -299,6 +305,22 @@ fn expand_overlap(
         s.parse().map_err(reason)
     })?;
     let seed = sweep.integers("seed", Some(defaults.seed), &|_| Ok(()))?;
+    let ci_target = sweep.optional_floats("ci_target", &|x| {
+        if x > 0.0 && x < 1.0 {
+            Ok(())
+        } else {
+            Err(format!("must lie strictly between 0 and 1 (a fraction of the estimate), got {x}"))
+        }
+    })?;
+    let time_cap_s = sweep.optional_floats("time_cap_s", &|x| {
+        if x <= 0.0 {
+            Err(format!("must be a positive number of seconds, got {x}"))
+        } else if x > MAX_TIME_CAP_S {
+            Err(format!("must be at most {MAX_TIME_CAP_S} s, got {x}"))
+        } else {
+            Ok(())
+        }
+    })?;
 
     let lens = [
         seed.len(),
@@ -309,6 +331,8 @@ fn expand_overlap(
         acceptance.len(),
         configurations.len(),
         repeats.len(),
+        ci_target.len(),
+        time_cap_s.len(),
     ];
     check_product(sweep, &lens)?;
     cartesian(&lens)
@@ -324,6 +348,8 @@ fn expand_overlap(
                 // Bounded by MAX_REPEATS above.
                 repeats: u32::try_from(repeats[i[7]]).unwrap_or(u32::MAX),
                 algorithms: algorithms.clone(),
+                ci_target: ci_target[i[8]],
+                time_cap_s: time_cap_s[i[9]],
             };
             // The kernel crate's own rules, so that a rule added there is enforced here too.
             point

@@ -1,14 +1,16 @@
 //! Running one job on the calling thread and flattening its result into records.
 
+use std::cell::RefCell;
 use std::thread::sleep;
 use std::time::Duration;
 
-use overlap::{OverlapError, PointSpec, run_point};
+use overlap::{Calibration, OverlapError, PointSpec, run_point};
 use serde_json::{Map, Value, json};
 
 use crate::spec::{JobSpec, NoopSpec};
 
-/// One flat result record: field name → JSON scalar.
+/// One result record: field name → JSON value (scalars, and the array of an overlap pass's block
+/// times).
 pub type Record = Map<String, Value>;
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -34,9 +36,16 @@ pub enum JobError {
 /// it, to decide their injected failure.
 ///
 /// Records of an overlap job: one per (algorithm, repeat), in run order,
-/// `{"algorithm", "repeat", "ms", "ns_per_check", "acceptance"}` (acceptance as measured), then
-/// one point record, the only one without an `algorithm` key:
-/// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho"}`.
+/// `{"algorithm", "repeat", "ms", "ns_per_check", "acceptance", "total_ms", "block_ns_per_check"}`
+/// (`ns_per_check` the median of the pass's blocks and `ms` that × N_c; `total_ms` the whole
+/// pass; `block_ns_per_check` every block, to 4 significant digits; acceptance as measured),
+/// then one point record, the only one without an `algorithm` key:
+/// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho", "block_configurations",
+/// "repeats", "stop", "timed_s", "wall_s", "reference_compute_ns_before",
+/// "reference_compute_ns_after", "reference_compute_ns_baseline", "reference_stream_ns_before",
+/// "reference_stream_ns_after", "disturbed", "disturbance", "reruns", "rerun_reasons"}` (see
+/// [`overlap::PointReport`]; `disturbed` is true when the machine was still disturbed after the
+/// re-runs, `disturbance` says how).
 /// A no-op job: one record `{"index", "duration_ms"}`.
 /// An EDMD job: one record, the fields of `edmd::RunReport`.
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
@@ -56,12 +65,29 @@ fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
     }
 }
 
+thread_local! {
+    /// What this thread measured of its core over its recent points: a worker slot is one
+    /// pinned thread, so this is the slot's core.
+    static CALIBRATION: RefCell<Calibration> = RefCell::new(Calibration::default());
+}
+
+/// `x` to 4 significant digits: block times are stored in bulk, and their noise is far above
+/// 0.05 %.
+fn four_digits(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(3 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
+}
+
 fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, JobError> {
     let seeded = PointSpec {
         seed: generator_seed,
         ..point.clone()
     };
-    let report = run_point(&seeded, &mut |_| {})?;
+    let report =
+        CALIBRATION.with_borrow_mut(|calibration| run_point(&seeded, calibration, &mut |_| {}))?;
     let mut records: Vec<Record> = report
         .timings
         .iter()
@@ -72,14 +98,54 @@ fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, Jo
                 ("ms", json!(t.ms)),
                 ("ns_per_check", json!(t.ns_per_check)),
                 ("acceptance", json!(t.acceptance)),
+                ("total_ms", json!(t.total_ms)),
+                (
+                    "block_ns_per_check",
+                    json!(
+                        t.block_ns_per_check
+                            .iter()
+                            .map(|&x| four_digits(x))
+                            .collect::<Vec<f64>>()
+                    ),
+                ),
             ])
         })
         .collect();
+    let references = report.references;
     records.push(record([
         ("stream_ns_per_config", json!(report.stream_ns_per_config)),
         ("generation_ms", json!(report.generation_ms)),
         ("arrays_bytes", json!(report.arrays_bytes)),
         ("rho", json!(report.rho)),
+        ("block_configurations", json!(report.block_configurations)),
+        ("repeats", json!(report.repeats)),
+        ("stop", json!(report.stop)),
+        ("timed_s", json!(report.timed_s)),
+        ("wall_s", json!(report.wall_s)),
+        (
+            "reference_compute_ns_before",
+            json!(references.compute_ns_before),
+        ),
+        (
+            "reference_compute_ns_after",
+            json!(references.compute_ns_after),
+        ),
+        (
+            "reference_compute_ns_baseline",
+            json!(references.compute_ns_baseline),
+        ),
+        (
+            "reference_stream_ns_before",
+            json!(references.stream_ns_before),
+        ),
+        (
+            "reference_stream_ns_after",
+            json!(references.stream_ns_after),
+        ),
+        ("disturbed", json!(report.disturbance.is_some())),
+        ("disturbance", json!(report.disturbance)),
+        ("reruns", json!(report.reruns)),
+        ("rerun_reasons", json!(report.rerun_reasons)),
     ]));
     Ok(records)
 }
@@ -151,6 +217,14 @@ mod tests {
     }
 
     #[test]
+    fn four_significant_digits() {
+        assert_eq!(four_digits(28.1349), 28.13);
+        assert_eq!(four_digits(1.63449), 1.634);
+        assert_eq!(four_digits(12345.6), 12350.0);
+        assert_eq!(four_digits(0.0), 0.0);
+    }
+
+    #[test]
     fn noop_record() {
         let records = run(&noop(7, 0.0), 0).expect("never fails at rate 0");
         assert_eq!(
@@ -171,14 +245,26 @@ mod tests {
             precision: Precision::F64,
             algorithms: vec![Algorithm::Qri, Algorithm::OcsiBatch],
             seed: 0,
+            ci_target: None,
+            time_cap_s: None,
         });
         let records = run(&job, 1).expect("a valid point runs");
         assert_eq!(records.len(), 2 * 2 + 1);
         for r in &records[..4] {
             let keys: Vec<&str> = r.keys().map(String::as_str).collect();
-            for key in ["algorithm", "repeat", "ms", "ns_per_check", "acceptance"] {
+            for key in [
+                "algorithm",
+                "repeat",
+                "ms",
+                "ns_per_check",
+                "acceptance",
+                "total_ms",
+                "block_ns_per_check",
+            ] {
                 assert!(keys.contains(&key), "{keys:?}");
             }
+            let blocks = r["block_ns_per_check"].as_array().expect("an array");
+            assert_eq!(blocks.len(), 20, "20,000 configurations in blocks of 1,024");
             let acceptance = r["acceptance"].as_f64().expect("a number");
             assert!(
                 (acceptance - 0.4).abs() < 0.03,
@@ -193,6 +279,16 @@ mod tests {
                 .is_some_and(|x| x > 0.0)
         );
         assert!(point["arrays_bytes"].as_u64().is_some_and(|b| b > 0));
+        assert_eq!(point["repeats"], 2);
+        assert_eq!(point["stop"], "repeats");
+        assert!(
+            point["disturbed"].is_boolean() && point["reruns"].as_u64().is_some_and(|n| n <= 2)
+        );
+        assert!(
+            point["reference_compute_ns_before"]
+                .as_f64()
+                .is_some_and(|x| x > 0.0)
+        );
         // Same point, same configurations: verdicts (acceptances) are reproducible.
         let again = run(&job, 2).expect("runs again");
         assert_eq!(records[0]["acceptance"], again[0]["acceptance"]);

@@ -147,6 +147,8 @@ mod tests {
             precision: Precision::F32,
             algorithms: Algorithm::ALL.to_vec(),
             seed: 0,
+            ci_target: None,
+            time_cap_s: None,
         })
     }
 
@@ -179,6 +181,26 @@ mod tests {
         assert_ne!(a.id(), point(5.0).id());
         assert_ne!(a.generator_seed(), point(5.0).generator_seed());
         assert_eq!(a.generator_seed(), point(4.0).generator_seed());
+    }
+
+    /// The precision keys came after points had ids: unset, they are not part of the canonical
+    /// form, so every existing point keeps its id; set, they make a new point.
+    #[test]
+    fn precision_keys_leave_existing_ids_alone() {
+        let plain = point(4.0);
+        assert_eq!(
+            plain.canonical_json(),
+            r#"{"acceptance":0.4,"algorithms":["arvo","qri","qrf","sse","ocsi","ocsi_batch"],"configurations":1000,"kind":"overlap","l_star":4,"precision":"f32","r_star":0.5,"repeats":3,"seed":0,"w_star":2}"#
+        );
+        let JobSpec::Overlap(p) = plain.clone() else { unreachable!() };
+        let precise = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), ..p.clone() });
+        assert!(precise.canonical_json().contains(r#""ci_target":0.01"#));
+        assert_ne!(precise.id(), plain.id());
+        let capped = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), time_cap_s: Some(30.0), ..p });
+        assert_ne!(capped.id(), precise.id());
+        // A stored spec without the keys still reads.
+        let stored: JobSpec = serde_json::from_str(&plain.canonical_json()).expect("old specs parse");
+        assert_eq!(stored, plain);
     }
 
     #[test]

@@ -28,6 +28,21 @@ const GOOD: &str = "l_star = 1\nw_star = 1\nr_star = 0.5\n";
 /// (plan, key named in the message, line of the error). `None`: the message names no key.
 const BAD: &[(&str, Option<&str>, usize)] = &[
     (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nci_target = 1.5\n",
+        Some("ci_target"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nci_target = 0.01\ntime_cap_s = 0\n",
+        Some("time_cap_s"),
+        6,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\ntime_cap_s = 30\nw_star = 1\nr_star = 0.5\n",
+        Some("time_cap_s"),
+        3,
+    ),
+    (
         "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nfoo = 3\n",
         Some("foo"),
         5,
@@ -278,6 +293,26 @@ fn deploy_plans_expand_to_the_papers_campaigns() {
     let noop = deploy_plan("noop.toml");
     assert_eq!(noop.jobs.len(), 1000);
     assert_eq!(ids(&noop).len(), 1000);
+}
+
+/// `ci_target` and `time_cap_s` expand like any key (what precision costs is a sweep), default
+/// to unset, and unset they leave a point's id as it was before they existed.
+#[test]
+fn precision_keys_expand_and_default_to_unset() {
+    let plan = parse(&format!("[[overlap]]\n{GOOD}ci_target = [0.01, 0.003]\ntime_cap_s = 30\n"));
+    let targets: Vec<(Option<f64>, Option<f64>)> = plan
+        .jobs
+        .iter()
+        .map(|j| match j {
+            JobSpec::Overlap(p) => (p.ci_target, p.time_cap_s),
+            _ => panic!("overlap only"),
+        })
+        .collect();
+    assert_eq!(targets, [(Some(0.01), Some(30.0)), (Some(0.003), Some(30.0))]);
+    let plain = parse(&format!("[[overlap]]\n{GOOD}"));
+    let JobSpec::Overlap(p) = &plain.jobs[0] else { panic!() };
+    assert_eq!((p.ci_target, p.time_cap_s), (None, None));
+    assert!(!plain.jobs[0].canonical_json().contains("ci_target"));
 }
 
 #[test]

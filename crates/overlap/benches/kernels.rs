@@ -30,6 +30,8 @@ fn point() -> PointSpec {
         precision: Precision::F32,
         algorithms: Algorithm::ALL.to_vec(),
         seed: 1,
+        ci_target: None,
+        time_cap_s: None,
     }
 }
 
@@ -41,10 +43,10 @@ fn bench_precision<T: Real>(c: &mut Criterion) {
     let mut verdicts = vec![0u64; verdict_words(N)];
     let mut group = c.benchmark_group(format!("overlap_{}", T::NAME));
     group.throughput(Throughput::Elements(N as u64));
-    group.bench_function("stream_read", |b| b.iter(|| stream_read(black_box(&batch))));
+    group.bench_function("stream_read", |b| b.iter(|| stream_read(black_box(batch.view()))));
     for algorithm in Algorithm::ALL {
         group.bench_function(algorithm.name(), |b| {
-            b.iter(|| count_overlaps(algorithm, black_box(&batch), &cuboid, radius, &mut verdicts))
+            b.iter(|| count_overlaps(algorithm, black_box(batch.view()), &cuboid, radius, &mut verdicts))
         });
     }
     group.finish();
@@ -73,7 +75,7 @@ fn bench_parry(c: &mut Criterion) {
             .count()
     };
     // The peer must be timed on the same geometry: its verdicts agree with OCSI's up to rounding.
-    let ours = count_overlaps(Algorithm::Ocsi, &batch, &Cuboid { half }, spec.r_star as f32, &mut []) as usize;
+    let ours = count_overlaps(Algorithm::Ocsi, batch.view(), &Cuboid { half }, spec.r_star as f32, &mut []) as usize;
     assert!(count().abs_diff(ours) <= N / 10_000, "parry3d counts {} overlaps, OCSI {ours}", count());
     let mut group = c.benchmark_group("overlap_f32");
     group.throughput(Throughput::Elements(N as u64));

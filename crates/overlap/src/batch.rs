@@ -56,11 +56,15 @@ impl<T: Real> Batch<T> {
         &mut self.data
     }
 
+    /// All configurations, borrowed: what the kernels read.
+    pub fn view(&self) -> BatchView<'_, T> {
+        BatchView { len: self.len, data: &self.data }
+    }
+
     /// Configuration `i` in place.
     #[inline(always)]
     pub fn lane(&self, i: usize) -> Lane<'_, T> {
-        let block: &[T; BLOCK] = self.data[(i / LANES) * BLOCK..][..BLOCK].try_into().expect("a block is BLOCK values");
-        Lane { block, lane: i % LANES }
+        self.view().lane(i)
     }
 
     /// Configuration `i` copied out.
@@ -76,6 +80,46 @@ impl<T: Real> Batch<T> {
         assert!(i < self.len, "configuration {i} out of {}", self.len);
         let block = &mut self.data[(i / LANES) * BLOCK..][..BLOCK];
         write_lane(block, i % LANES, c);
+    }
+}
+
+/// A run of consecutive configurations of a [`Batch`], borrowed: the whole set, or one of the
+/// short timed blocks of the protocol, read in place (no copy).
+#[derive(Clone, Copy, Debug)]
+pub struct BatchView<'a, T> {
+    len: usize,
+    data: &'a [T],
+}
+
+impl<'a, T: Real> BatchView<'a, T> {
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The values of every block of the run, padding lanes of the last block included.
+    pub fn values(&self) -> &'a [T] {
+        self.data
+    }
+
+    /// Configurations `configs` of this run. The start must be a multiple of 64, so that the
+    /// run's verdicts begin on a word of a verdict bitset (and its first block on a block).
+    pub fn range(&self, configs: std::ops::Range<usize>) -> BatchView<'a, T> {
+        assert!(configs.start % 64 == 0, "a run starts on a multiple of 64 configurations, not {}", configs.start);
+        assert!(configs.start <= configs.end && configs.end <= self.len, "{configs:?} out of {}", self.len);
+        let first = configs.start / LANES * BLOCK;
+        let last = (configs.end.div_ceil(LANES) * BLOCK).max(first);
+        BatchView { len: configs.len(), data: &self.data[first..last] }
+    }
+
+    /// Configuration `i` in place.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Lane<'a, T> {
+        let block: &'a [T; BLOCK] = self.data[(i / LANES) * BLOCK..][..BLOCK].try_into().expect("a block is BLOCK values");
+        Lane { block, lane: i % LANES }
     }
 }
 

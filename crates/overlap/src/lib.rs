@@ -5,7 +5,9 @@
 //! - [`kernels`]: Arvo (Alg. 1), QRI (Alg. 2), QRF (Alg. 3), SSE-intr (Alg. 4), OCSI (Alg. 5) per
 //!   configuration, and `ocsi_batch`, OCSI across configurations; [`min_distance`] is Eq. 2.
 //! - [`sampler`]: configurations at a target acceptance ratio (spherocuboid + uniform rotation).
-//! - [`protocol`]: the timed loops and their report.
+//! - [`protocol`]: the timed loops (in short blocks) and their report; [`estimate`]: robust
+//!   estimates, confidence intervals and when to stop measuring; [`noise`]: the references that
+//!   tell a disturbed machine.
 //!
 //! Every kernel is generic over [`Real`] = `f32` | `f64`.
 
@@ -13,17 +15,21 @@ pub mod algorithm;
 pub mod batch;
 pub mod config;
 pub mod error;
+pub mod estimate;
 pub mod kernels;
+pub mod noise;
 pub mod protocol;
 pub mod real;
 pub mod rng;
 pub mod sampler;
 
 pub use algorithm::{Algorithm, Precision};
-pub use batch::Batch;
+pub use batch::{Batch, BatchView};
 pub use config::{Configuration, Cuboid};
 pub use error::OverlapError;
 pub use kernels::ocsi::min_distance;
+pub use estimate::{Estimate, Stop};
+pub use noise::{Calibration, References};
 pub use protocol::{AlgorithmSummary, PointReport, PointSpec, Timing, run_point};
 pub use real::Real;
 
@@ -37,7 +43,7 @@ pub fn overlaps<T: Real>(algorithm: Algorithm, cfg: &Configuration<T>, cuboid: &
         Algorithm::Ocsi => kernels::ocsi::ocsi(cfg, cuboid, radius),
         Algorithm::OcsiBatch => {
             let mut verdict = [0u64];
-            T::ocsi_batch(&Batch::from_configurations(std::slice::from_ref(cfg)), cuboid, radius, &mut verdict);
+            T::ocsi_batch(Batch::from_configurations(std::slice::from_ref(cfg)).view(), cuboid, radius, &mut verdict);
             verdict[0] & 1 == 1
         }
     }

@@ -3,7 +3,7 @@
 use std::fmt::Debug;
 use std::ops::{Add, Mul, Neg, Sub};
 
-use crate::batch::Batch;
+use crate::batch::BatchView;
 use crate::config::{ConfigurationView, Cuboid};
 use crate::kernels::batch::Isa;
 
@@ -52,10 +52,10 @@ pub trait Real:
     fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool;
 
     /// OCSI across configurations on instruction set `isa`, see [`crate::kernels::batch`].
-    fn ocsi_batch_on(isa: Isa, batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]);
+    fn ocsi_batch_on(isa: Isa, batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]);
 
     /// OCSI across configurations on the best instruction set of this CPU.
-    fn ocsi_batch(batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+    fn ocsi_batch(batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
         Self::ocsi_batch_on(Isa::best(), batch, cuboid, radius, verdicts)
     }
 }
@@ -84,7 +84,7 @@ impl Real for f32 {
     fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
         crate::kernels::sse::sse_f32(cfg, cuboid, radius)
     }
-    fn ocsi_batch_on(isa: Isa, batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+    fn ocsi_batch_on(isa: Isa, batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
         crate::kernels::batch::ocsi_batch_f32(isa, batch, cuboid, radius, verdicts)
     }
 }
@@ -113,7 +113,7 @@ impl Real for f64 {
     fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
         crate::kernels::sse::sse_f64(cfg, cuboid, radius)
     }
-    fn ocsi_batch_on(isa: Isa, batch: &Batch<Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+    fn ocsi_batch_on(isa: Isa, batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
         crate::kernels::batch::ocsi_batch_f64(isa, batch, cuboid, radius, verdicts)
     }
 }

@@ -63,7 +63,7 @@ fn check_all<T: Real>(cfgs: &[Configuration<T>], cuboid: &Cuboid<T>, radius: T) 
     let isas = Isa::available();
     let mut bits = vec![vec![0u64; verdict_words(cfgs.len())]; isas.len()];
     for (isa, bits) in isas.iter().zip(&mut bits) {
-        T::ocsi_batch_on(*isa, &batch, cuboid, radius, bits);
+        T::ocsi_batch_on(*isa, batch.view(), cuboid, radius, bits);
     }
     for (i, cfg) in cfgs.iter().enumerate() {
         let margin = exact_margin(cfg, cuboid, radius);

@@ -17,7 +17,7 @@ fn measured_acceptance_matches_the_target() {
             let volume = Spherocuboid::for_acceptance(half, r, target);
             let batch = generate::<f64>(&volume, n, 7);
             let mut bits = vec![0u64; verdict_words(n)];
-            let overlaps = count_overlaps(Algorithm::OcsiBatch, &batch, &Cuboid { half }, r, &mut bits);
+            let overlaps = count_overlaps(Algorithm::OcsiBatch, batch.view(), &Cuboid { half }, r, &mut bits);
             let measured = 1.0 - overlaps as f64 / n as f64;
             assert!((measured - target).abs() <= 0.003, "L*={l} W*={w} R*={r}: acceptance {measured} for target {target}");
         }

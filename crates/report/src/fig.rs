@@ -1,4 +1,11 @@
 //! Figure 2 of the papers: run time over the (L*, W*) plane, one heat map per (algorithm, R*).
+//!
+//! The colour scale of a row spans the 2nd to the 98th percentile of its cells, not their
+//! extremes: one point measured on a disturbed machine (2–3× slow) would otherwise stretch the
+//! scale and flatten the surface into one colour. Cells beyond are drawn in the end colours.
+//! A point flagged as measured on a disturbed machine is crossed out in red; with
+//! [`Fig2Options::show_ci`] every cell carries a circle whose diameter grows with its 95 % CI
+//! half-width (the full cell at [`CI_FULL_CELL`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -7,7 +14,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::render::{DrawResult, Drawing, FONT, render};
-use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title};
+use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, quantile};
 
 const PANEL_WIDTH: u32 = 330;
 const PANEL_HEIGHT: u32 = 290;
@@ -15,13 +22,60 @@ const COLOUR_BAR_WIDTH: u32 = 120;
 const TITLE_HEIGHT: u32 = 50;
 /// Cells with no measurement (a point not run yet) are drawn in this grey.
 const MISSING: RGBColor = RGBColor(225, 225, 225);
+/// The percentiles of a row's cells its colour scale spans.
+const SCALE_PERCENTILES: (f64, f64) = (0.02, 0.98);
+/// Relative 95 % CI half-width drawn as a circle filling the cell.
+pub const CI_FULL_CELL: f64 = 0.05;
+
+/// What Figure 2 shows besides the estimates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Fig2Options {
+    /// A circle in every cell, its diameter proportional to the point's relative CI.
+    pub show_ci: bool,
+}
+
+/// One cell: the estimate (ms), its relative 95 % CI half-width and whether it is flagged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Cell {
+    ms: f64,
+    relative_ci: Option<f64>,
+    disturbed: bool,
+}
 
 /// Draws Figure 2 for `precision` into `path`: a PNG or an SVG by its extension. Panels are
 /// laid out with one column per R* and one row per algorithm; each cell is a measured point's
-/// mean run time (ms), on a colour scale shared by an algorithm's row (the bar on its right),
-/// so that the R*-dependence the papers discuss is seen across a row.
-pub fn fig2(rows: &[OverlapRow], precision: &str, path: &Path) -> Result<(), ReportError> {
-    render(&Figure::new(rows, precision)?, path)
+/// run time (ms), on a colour scale shared by an algorithm's row (the bar on its right), so
+/// that the R*-dependence the papers discuss is seen across a row.
+pub fn fig2(
+    rows: &[OverlapRow],
+    precision: &str,
+    path: &Path,
+    options: Fig2Options,
+) -> Result<(), ReportError> {
+    render(&Figure::new(rows, precision, options)?, path)
+}
+
+/// The points of Figure 2 for `precision`, each with its estimate and interval, ordered by
+/// algorithm (the papers' order), R*, L* and W*: what `sweep report fig2 --format json` prints.
+pub fn fig2_points(rows: &[OverlapRow], precision: &str) -> Result<Vec<OverlapRow>, ReportError> {
+    let mut points: Vec<OverlapRow> = rows
+        .iter()
+        .filter(|r| r.precision == precision)
+        .cloned()
+        .collect();
+    if points.is_empty() {
+        return Err(ReportError::NoRows {
+            precision: precision.to_owned(),
+        });
+    }
+    points.sort_by(|a, b| {
+        algorithm_rank(&a.algorithm)
+            .cmp(&algorithm_rank(&b.algorithm))
+            .then(a.r_star.total_cmp(&b.r_star))
+            .then(a.l_star.total_cmp(&b.l_star))
+            .then(a.w_star.total_cmp(&b.w_star))
+    });
+    Ok(points)
 }
 
 /// The measured grid: every distinct L*, W*, R* and algorithm of one precision.
@@ -31,8 +85,10 @@ struct Figure {
     w_values: Vec<f64>,
     r_values: Vec<f64>,
     algorithms: Vec<String>,
-    /// Mean ms by (algorithm, R*, L*, W*) indices; repeated rows of a point are averaged.
-    cells: BTreeMap<[usize; 4], f64>,
+    /// By (algorithm, R*, L*, W*) indices; several rows of one cell (other acceptance targets
+    /// or sizes) are averaged, their widest interval kept, flagged if any is.
+    cells: BTreeMap<[usize; 4], Cell>,
+    options: Fig2Options,
 }
 
 /// Sorted distinct values.
@@ -63,10 +119,19 @@ impl Drawing for Figure {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
-        let title = format!(
-            "Mean run time per point (ms) over the L*–W* plane, {}",
+        let mut title = format!(
+            "Run time per point (ms) over the L*–W* plane, {}",
             self.precision
         );
+        if self.options.show_ci {
+            title.push_str(&format!(
+                " · circle: 95 % CI (full cell = ±{} %)",
+                CI_FULL_CELL * 100.0
+            ));
+        }
+        if self.cells.values().any(|c| c.disturbed) {
+            title.push_str(" · ×: disturbed");
+        }
         let body = root.titled(&title, (FONT, 24))?;
         let (panels, bars) = body.split_horizontally(self.r_values.len() as u32 * PANEL_WIDTH);
         let panels = panels.split_evenly((self.algorithms.len(), self.r_values.len()));
@@ -83,7 +148,11 @@ impl Drawing for Figure {
 }
 
 impl Figure {
-    fn new(rows: &[OverlapRow], precision: &str) -> Result<Self, ReportError> {
+    fn new(
+        rows: &[OverlapRow],
+        precision: &str,
+        options: Fig2Options,
+    ) -> Result<Self, ReportError> {
         let rows: Vec<&OverlapRow> = rows
             .iter()
             .filter(|r| r.precision == precision && r.mean_ms.is_finite())
@@ -100,7 +169,7 @@ impl Figure {
         algorithms.sort_by(|a, b| algorithm_rank(a).cmp(&algorithm_rank(b)));
         algorithms.dedup();
 
-        let mut sums: BTreeMap<[usize; 4], (f64, u32)> = BTreeMap::new();
+        let mut sums: BTreeMap<[usize; 4], (f64, u32, Option<f64>, bool)> = BTreeMap::new();
         for r in rows {
             let key = [
                 algorithms
@@ -114,10 +183,24 @@ impl Figure {
             let entry = sums.entry(key).or_default();
             entry.0 += r.mean_ms;
             entry.1 += 1;
+            entry.2 = match (entry.2, r.relative_ci95()) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                (a, b) => a.or(b),
+            };
+            entry.3 |= r.disturbed == Some(true);
         }
         let cells = sums
             .into_iter()
-            .map(|(k, (sum, n))| (k, sum / f64::from(n)))
+            .map(|(k, (sum, n, relative_ci, disturbed))| {
+                (
+                    k,
+                    Cell {
+                        ms: sum / f64::from(n),
+                        relative_ci,
+                        disturbed,
+                    },
+                )
+            })
             .collect();
         Ok(Self {
             precision: precision.to_owned(),
@@ -126,19 +209,21 @@ impl Figure {
             r_values,
             algorithms,
             cells,
+            options,
         })
     }
 
-    /// Smallest and largest value of an algorithm's row of panels (never an empty interval).
+    /// The colour scale of an algorithm's row of panels: the 2nd to 98th percentile of its
+    /// cells (never an empty interval).
     fn scale(&self, algorithm: usize) -> (f64, f64) {
-        let values = self
+        let values: Vec<f64> = self
             .cells
             .iter()
             .filter(|(k, _)| k[0] == algorithm)
-            .map(|(_, v)| *v);
-        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
+            .map(|(_, c)| c.ms)
+            .collect();
+        let lo = quantile(&values, SCALE_PERCENTILES.0).unwrap_or(0.0);
+        let hi = quantile(&values, SCALE_PERCENTILES.1).unwrap_or(0.0);
         if hi > lo {
             (lo, hi)
         } else {
@@ -190,7 +275,7 @@ impl Figure {
                 .flat_map(|l| (0..nw).map(move |w| (l, w)))
                 .map(|(l, w)| {
                     let colour = match self.cells.get(&[algorithm, r, l, w]) {
-                        Some(&v) => viridis((v - lo) / (hi - lo)),
+                        Some(cell) => viridis((cell.ms - lo) / (hi - lo)),
                         None => MISSING,
                     };
                     Rectangle::new(
@@ -201,6 +286,32 @@ impl Figure {
                         colour.filled(),
                     )
                 }),
+        )?;
+        let (width, height) = chart.plotting_area().dim_in_pixel();
+        let cell_px = (f64::from(width) / nl as f64).min(f64::from(height) / nw as f64);
+        let here = |l: usize, w: usize| (SegmentValue::CenterOf(l), SegmentValue::CenterOf(w));
+        let cells = || {
+            self.cells
+                .iter()
+                .filter(move |(k, _)| k[0] == algorithm && k[1] == r)
+                .map(|(k, c)| (k[2], k[3], *c))
+        };
+        if self.options.show_ci {
+            chart.draw_series(cells().filter_map(|(l, w, c)| {
+                let relative = c.relative_ci?;
+                let radius = (relative / CI_FULL_CELL).clamp(0.0, 1.0) * cell_px / 2.0;
+                Some(Circle::new(
+                    here(l, w),
+                    radius.max(1.0).round() as i32,
+                    WHITE.stroke_width(1),
+                ))
+            }))?;
+        }
+        let red = RGBColor(220, 30, 30).stroke_width(2);
+        chart.draw_series(
+            cells()
+                .filter(|(_, _, c)| c.disturbed)
+                .map(|(l, w, _)| Cross::new(here(l, w), (cell_px / 3.0) as i32, red)),
         )?;
         Ok(())
     }
@@ -300,6 +411,27 @@ mod tests {
         assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
         assert_eq!(viridis(7.0), viridis(1.0));
         assert_eq!(viridis(f64::NAN), viridis(0.0));
+    }
+
+    /// One point 3× slow (a disturbed measurement) no longer sets the top of the scale.
+    #[test]
+    fn one_slow_point_does_not_stretch_the_scale() {
+        let mut rows: Vec<OverlapRow> = (1..=10)
+            .flat_map(|l| (1..=10).map(move |w| (l, w)))
+            .map(|(l, w)| OverlapRow {
+                l_star: f64::from(l),
+                w_star: f64::from(w),
+                r_star: 5.0,
+                precision: "f32".into(),
+                algorithm: "qri".into(),
+                mean_ms: 20.0 + f64::from(l) * 0.1,
+                ..OverlapRow::default()
+            })
+            .collect();
+        rows[17].mean_ms = 60.0;
+        let figure = Figure::new(&rows, "f32", Fig2Options::default()).expect("rows");
+        let (lo, hi) = figure.scale(0);
+        assert!(lo >= 20.1 && hi <= 21.0, "scale {lo}..{hi}");
     }
 
     #[test]

@@ -17,23 +17,59 @@ mod table;
 
 use serde::{Deserialize, Serialize};
 
-pub use fig::fig2;
+pub use fig::{Fig2Options, fig2, fig2_points};
 pub use fig7::fig7;
 pub use table::{Table1Row, TableFormat, render_table, table1};
 
-/// One benchmark point's result for one algorithm: the mean over its repeats.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// One benchmark point's result for one algorithm: its estimate (the median of its sets'
+/// median timed blocks, or for points measured before blocks were kept the mean over its repeats) with the
+/// 95 % confidence interval, and whether the machine was disturbed while it was measured.
+/// `sweep report fig2 --format json` prints these.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct OverlapRow {
     pub l_star: f64,
     pub w_star: f64,
     pub r_star: f64,
     pub precision: String,
     pub algorithm: String,
+    /// A set's run time by the estimate: `ns_per_check` × N_c.
     pub mean_ms: f64,
     pub ns_per_check: f64,
     /// As measured: the fraction of configurations found not overlapping.
     pub acceptance: f64,
     pub repeats: u32,
+    /// The 95 % confidence interval of `ns_per_check` and of `mean_ms`; `None` where a point
+    /// has no interval (one repeat of the protocol before blocks were kept).
+    pub ci95_lo_ns_per_check: Option<f64>,
+    pub ci95_hi_ns_per_check: Option<f64>,
+    pub ci95_lo_ms: Option<f64>,
+    pub ci95_hi_ms: Option<f64>,
+    /// The machine was still disturbed after the point's re-runs (flagged); `None` for points
+    /// measured without the noise check.
+    pub disturbed: Option<bool>,
+    /// Measurements of the point thrown away because the machine was disturbed.
+    pub reruns: Option<u32>,
+}
+
+impl OverlapRow {
+    /// Half the 95 % interval relative to the estimate, if there is one.
+    pub fn relative_ci95(&self) -> Option<f64> {
+        let (lo, hi) = (self.ci95_lo_ns_per_check?, self.ci95_hi_ns_per_check?);
+        (self.ns_per_check > 0.0).then(|| (hi - lo) / 2.0 / self.ns_per_check)
+    }
+}
+
+/// The `q` quantile (0 ≤ q ≤ 1) of `values`, linearly interpolated; `None` if empty.
+fn quantile(values: &[f64], q: f64) -> Option<f64> {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let last = sorted.len().checked_sub(1)?;
+    let at = q.clamp(0.0, 1.0) * last as f64;
+    let i = at.floor() as usize;
+    Some(match sorted.get(i + 1) {
+        Some(next) => sorted[i] + at.fract() * (next - sorted[i]),
+        None => sorted[i],
+    })
 }
 
 /// One EDMD point: what tells its curve apart, its packing fraction and its time per collision.

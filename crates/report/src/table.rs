@@ -1,11 +1,12 @@
-//! Tables 1–2 of the papers: mean run time over the (L*, W*) plane, per R* and algorithm.
+//! Tables 1–2 of the papers: mean run time over the (L*, W*) plane, per R* and algorithm, with
+//! its 95 % confidence interval and how many of its points were measured on a disturbed machine.
 
 use std::fmt::Write;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title};
+use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, quantile};
 
 /// One cell of Table 1: an algorithm's mean over every (L*, W*) point measured at one R*.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -17,7 +18,20 @@ pub struct Table1Row {
     pub ns_per_check: f64,
     /// How many points (rows) the mean is over; 400 for the papers' 20 × 20 grid.
     pub points: u64,
+    /// Half-width of the 95 % confidence interval of `mean_ms`, from the points' intervals
+    /// (independent measurements); `None` if a point has no interval.
+    pub ci95_ms: Option<f64>,
+    /// The median over the points of their 95 % CI half-width relative to their estimate: how
+    /// precisely a single point (a cell of Fig. 2) is known.
+    pub point_ci95_rel: Option<f64>,
+    /// Points measured on a disturbed machine even after their re-runs (flagged).
+    pub disturbed: u64,
+    /// Points re-run because the machine was disturbed.
+    pub rerun: u64,
 }
+
+/// The 97.5 % quantile of the normal distribution: a 95 % interval is ±1.96 standard errors.
+const Z95: f64 = 1.959_963_984_540_054;
 
 /// Averages `rows` of one `precision` over the (L*, W*) plane for each (R*, algorithm), ordered
 /// by R* then by the papers' algorithm order. Rows of other precisions are ignored. As in the
@@ -30,27 +44,33 @@ pub fn table1(rows: &[OverlapRow], precision: &str) -> Vec<Table1Row> {
             .then_with(|| algorithm_rank(&a.algorithm).cmp(&algorithm_rank(&b.algorithm)))
     });
     let mut out: Vec<Table1Row> = Vec::new();
-    for row in selected {
-        match out.last_mut() {
-            Some(last) if last.r_star == row.r_star && last.algorithm == row.algorithm => {
-                // Running sums; divided once the group is complete.
-                last.mean_ms += row.mean_ms;
-                last.ns_per_check += row.ns_per_check;
-                last.points += 1;
-            }
-            _ => out.push(Table1Row {
-                r_star: row.r_star,
-                precision: precision.to_owned(),
-                algorithm: row.algorithm.clone(),
-                mean_ms: row.mean_ms,
-                ns_per_check: row.ns_per_check,
-                points: 1,
-            }),
-        }
-    }
-    for row in &mut out {
-        row.mean_ms /= row.points as f64;
-        row.ns_per_check /= row.points as f64;
+    for group in selected.chunk_by(|a, b| a.r_star == b.r_star && a.algorithm == b.algorithm) {
+        let n = group.len() as f64;
+        // A point's standard error in ms from its interval; the mean's is √(Σ se²)/n.
+        let se_ms: Option<Vec<f64>> = group
+            .iter()
+            .map(|r| Some((r.ci95_hi_ms? - r.ci95_lo_ms?) / (2.0 * Z95)))
+            .collect();
+        let relative: Vec<f64> = group.iter().filter_map(|r| r.relative_ci95()).collect();
+        out.push(Table1Row {
+            r_star: group[0].r_star,
+            precision: precision.to_owned(),
+            algorithm: group[0].algorithm.clone(),
+            mean_ms: group.iter().map(|r| r.mean_ms).sum::<f64>() / n,
+            ns_per_check: group.iter().map(|r| r.ns_per_check).sum::<f64>() / n,
+            points: group.len() as u64,
+            ci95_ms: se_ms
+                .map(|se| Z95 * se.iter().map(|s| s * s).sum::<f64>().sqrt() / n)
+                .filter(|h| h.is_finite()),
+            point_ci95_rel: (relative.len() == group.len())
+                .then(|| quantile(&relative, 0.5))
+                .flatten(),
+            disturbed: group.iter().filter(|r| r.disturbed == Some(true)).count() as u64,
+            rerun: group
+                .iter()
+                .filter(|r| r.reruns.is_some_and(|n| n > 0))
+                .count() as u64,
+        });
     }
     out
 }
@@ -63,7 +83,8 @@ pub enum TableFormat {
     Csv,
     /// A booktabs `tabular` (needs `\usepackage{booktabs}`), same layout.
     Latex,
-    /// The rows themselves: a list of `{r_star, precision, algorithm, mean_ms, ns_per_check, points}`.
+    /// The rows themselves: a list of `{r_star, precision, algorithm, mean_ms, ns_per_check,
+    /// points, ci95_ms, point_ci95_rel, disturbed, rerun}`.
     Json,
 }
 
@@ -99,10 +120,18 @@ pub fn render_table(rows: &[Table1Row], format: TableFormat) -> Result<String, R
     })
 }
 
+/// One cell of the grid: the mean (ms) and the half-width of its 95 % interval.
+type Cell = (f64, Option<f64>);
+
 /// Table 1 in the papers' layout: one line per R*, one column per algorithm.
 struct Grid {
     algorithms: Vec<String>,
-    lines: Vec<(f64, Vec<Option<f64>>)>,
+    lines: Vec<(f64, Vec<Option<Cell>>)>,
+    /// What the footnote says: the median point's relative interval, and the points flagged and
+    /// re-run (a point counts once per R*, whatever its algorithms).
+    point_ci95_rel: Option<f64>,
+    disturbed: u64,
+    rerun: u64,
 }
 
 impl Grid {
@@ -110,10 +139,7 @@ impl Grid {
         let mut algorithms: Vec<String> = rows.iter().map(|r| r.algorithm.clone()).collect();
         algorithms.sort_by(|a, b| algorithm_rank(a).cmp(&algorithm_rank(b)));
         algorithms.dedup();
-        let mut r_values: Vec<f64> = rows.iter().map(|r| r.r_star).collect();
-        r_values.sort_by(f64::total_cmp);
-        r_values.dedup();
-        let lines = r_values
+        let lines = r_values_of(rows)
             .into_iter()
             .map(|r_star| {
                 let cells = algorithms
@@ -121,13 +147,59 @@ impl Grid {
                     .map(|a| {
                         rows.iter()
                             .find(|row| row.r_star == r_star && &row.algorithm == a)
-                            .map(|row| row.mean_ms)
+                            .map(|row| (row.mean_ms, row.ci95_ms))
                     })
                     .collect();
                 (r_star, cells)
             })
             .collect();
-        Self { algorithms, lines }
+        let relative: Vec<f64> = rows.iter().filter_map(|r| r.point_ci95_rel).collect();
+        let per_r_star = |count: fn(&Table1Row) -> u64| -> u64 {
+            r_values_of(rows)
+                .iter()
+                .map(|&r| {
+                    rows.iter()
+                        .filter(|row| row.r_star == r)
+                        .map(count)
+                        .max()
+                        .unwrap_or(0)
+                })
+                .sum()
+        };
+        Self {
+            algorithms,
+            lines,
+            point_ci95_rel: quantile(&relative, 0.5),
+            disturbed: per_r_star(|r| r.disturbed),
+            rerun: per_r_star(|r| r.rerun),
+        }
+    }
+
+    /// Lines under the table: what ± means and how the points were measured. Empty for a table
+    /// without intervals or noise checks (results of the protocol before both existed).
+    fn footnote(&self) -> Vec<String> {
+        let mut notes = Vec::new();
+        if self
+            .lines
+            .iter()
+            .flat_map(|(_, cells)| cells)
+            .any(|c| c.is_some_and(|(_, ci)| ci.is_some()))
+        {
+            notes.push("± is the 95 % confidence interval of the mean over the points.".to_owned());
+        }
+        if let Some(rel) = self.point_ci95_rel {
+            notes.push(format!(
+                "A single point is known to ±{:.2} % (median 95 % CI half-width).",
+                rel * 100.0
+            ));
+        }
+        if self.disturbed + self.rerun > 0 {
+            notes.push(format!(
+                "{} point(s) were re-run because the machine was disturbed; {} are flagged (still disturbed after their re-runs).",
+                self.rerun, self.disturbed
+            ));
+        }
+        notes
     }
 
     fn markdown(&self) -> String {
@@ -141,24 +213,50 @@ impl Grid {
         for (r_star, cells) in &self.lines {
             let _ = write!(out, "| {r_star} |");
             for cell in cells {
-                let _ = write!(out, " {} |", cell.map_or_else(|| "–".to_owned(), ms));
+                let _ = write!(
+                    out,
+                    " {} |",
+                    cell.map_or_else(|| "–".to_owned(), |c| cell_text(c, " ± "))
+                );
             }
+            out.push('\n');
+        }
+        let notes = self.footnote();
+        if !notes.is_empty() {
+            out.push('\n');
+            out.push_str(&notes.join(" "));
             out.push('\n');
         }
         out
     }
 
     fn csv(&self) -> String {
-        // Algorithm names are identifiers (letters, digits, `_`): no quoting needed.
+        // Algorithm names are identifiers (letters, digits, `_`): no quoting needed. The means
+        // first, then the half-widths of their 95 % intervals (`<algorithm>_ci95`).
         let mut out = String::from("r_star");
         for a in &self.algorithms {
             let _ = write!(out, ",{a}");
+        }
+        for a in &self.algorithms {
+            let _ = write!(out, ",{a}_ci95");
         }
         out.push('\n');
         for (r_star, cells) in &self.lines {
             let _ = write!(out, "{r_star}");
             for cell in cells {
-                let _ = write!(out, ",{}", cell.map_or_else(String::new, ms));
+                let _ = write!(
+                    out,
+                    ",{}",
+                    cell.map_or_else(String::new, |(mean, _)| ms(mean))
+                );
+            }
+            for cell in cells {
+                let _ = write!(
+                    out,
+                    ",{}",
+                    cell.and_then(|(_, ci)| ci)
+                        .map_or_else(String::new, two_digits)
+                );
             }
             out.push('\n');
         }
@@ -177,13 +275,47 @@ impl Grid {
         for (r_star, cells) in &self.lines {
             let _ = write!(out, "{r_star}");
             for cell in cells {
-                let _ = write!(out, " & {}", cell.map_or_else(|| "--".to_owned(), ms));
+                let _ = write!(
+                    out,
+                    " & {}",
+                    cell.map_or_else(|| "--".to_owned(), |c| cell_text(c, " $\\pm$ "))
+                );
             }
             out.push_str(" \\\\\n");
         }
         out.push_str("\\bottomrule\n\\end{tabular}\n");
+        for note in self.footnote() {
+            let _ = writeln!(out, "% {note}");
+        }
         out
     }
+}
+
+/// The distinct R* of `rows`, in increasing order.
+fn r_values_of(rows: &[Table1Row]) -> Vec<f64> {
+    let mut r_values: Vec<f64> = rows.iter().map(|r| r.r_star).collect();
+    r_values.sort_by(f64::total_cmp);
+    r_values.dedup();
+    r_values
+}
+
+/// A cell as text: the mean, and `± half-width` (two significant digits) when known.
+fn cell_text(cell: Cell, plus_minus: &str) -> String {
+    match cell {
+        (mean, Some(ci)) => format!("{}{plus_minus}{}", ms(mean), two_digits(ci)),
+        (mean, None) => ms(mean),
+    }
+}
+
+/// Two significant digits, never in exponent form.
+fn two_digits(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    // Rounded first, so that 0.0999… counts as 0.10, not as a value below 0.1.
+    let rounded: f64 = format!("{x:.1e}").parse().unwrap_or(x);
+    let decimals = (1 - rounded.abs().log10().floor() as i32).max(0) as usize;
+    format!("{rounded:.decimals$}")
 }
 
 /// Milliseconds as the papers print them, with one more digit: modern kernels run in a few ms.
@@ -215,6 +347,7 @@ mod tests {
             ns_per_check: mean_ms * 500.0,
             acceptance: 0.4,
             repeats: 3,
+            ..OverlapRow::default()
         }
     }
 
@@ -273,7 +406,7 @@ mod tests {
         let csv = render_table(&t, TableFormat::Csv).expect("renders");
         assert_eq!(
             csv,
-            "r_star,qri,ocsi,my_kernel\n0.05,22.30,10.00,1.00\n0.5,,12.00,\n5,27.25,10.00,1.00\n"
+            "r_star,qri,ocsi,my_kernel,qri_ci95,ocsi_ci95,my_kernel_ci95\n0.05,22.30,10.00,1.00,,,\n0.5,,12.00,,,,\n5,27.25,10.00,1.00,,,\n"
         );
 
         let tex = render_table(&t, TableFormat::Latex).expect("renders");
@@ -291,14 +424,60 @@ mod tests {
             keys,
             [
                 "algorithm",
+                "ci95_ms",
+                "disturbed",
                 "mean_ms",
                 "ns_per_check",
+                "point_ci95_rel",
                 "points",
                 "precision",
-                "r_star"
+                "r_star",
+                "rerun"
             ]
         );
         assert_eq!(json[0]["points"], 4);
+        assert!(
+            json[0]["ci95_ms"].is_null(),
+            "no interval without the points' intervals"
+        );
+    }
+
+    /// Four points known to ±0.2 ms each (independent): the mean of four is known to ±0.1 ms;
+    /// a flagged and a re-run point are counted, once per R* in the footnote.
+    #[test]
+    fn intervals_and_disturbances_reach_the_table() {
+        let mut rows = Vec::new();
+        for (k, (l, w)) in [(1.0, 1.0), (1.0, 2.0), (2.0, 1.0), (2.0, 2.0)]
+            .into_iter()
+            .enumerate()
+        {
+            for algorithm in ["qri", "ocsi"] {
+                let mut r = row(l, w, 5.0, "f32", algorithm, 20.0);
+                r.ci95_lo_ms = Some(19.8);
+                r.ci95_hi_ms = Some(20.2);
+                r.ci95_lo_ns_per_check = Some(r.ns_per_check * 0.99);
+                r.ci95_hi_ns_per_check = Some(r.ns_per_check * 1.01);
+                r.disturbed = Some(k == 0);
+                r.reruns = Some(u32::from(k < 2));
+                rows.push(r);
+            }
+        }
+        let t = table1(&rows, "f32");
+        assert!((t[0].ci95_ms.expect("an interval") - 0.1).abs() < 1e-12);
+        assert!((t[0].point_ci95_rel.expect("points have intervals") - 0.01).abs() < 1e-12);
+        assert_eq!((t[0].disturbed, t[0].rerun), (1, 2));
+        let md = render_table(&t, TableFormat::Markdown).expect("renders");
+        assert!(md.contains("| 5 | 20.00 ± 0.10 | 20.00 ± 0.10 |"), "{md}");
+        assert!(md.contains("±1.00 % (median 95 % CI half-width)"), "{md}");
+        assert!(
+            md.contains("2 point(s) were re-run because the machine was disturbed; 1 are flagged"),
+            "{md}"
+        );
+        let csv = render_table(&t, TableFormat::Csv).expect("renders");
+        assert!(csv.ends_with("5,20.00,20.00,0.10,0.10\n"), "{csv}");
+        // A point without an interval leaves the mean without one.
+        rows[0].ci95_lo_ms = None;
+        assert_eq!(table1(&rows, "f32")[0].ci95_ms, None);
     }
 
     #[test]

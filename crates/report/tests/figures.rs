@@ -1,6 +1,6 @@
 //! Figures 2 and 7 render to PNG and SVG with the bundled font only.
 
-use report::{OverlapRow, ReportError, fig2};
+use report::{Fig2Options, OverlapRow, ReportError, fig2, fig2_points};
 
 /// A synthetic campaign shaped like the papers' (20 × 20 × 3 points, six algorithms): QRI and
 /// QRF depend on the geometry, the vectorised kernels do not.
@@ -28,6 +28,7 @@ fn campaign(precision: &str) -> Vec<OverlapRow> {
                         ns_per_check: mean_ms * 500.0,
                         acceptance: 0.4,
                         repeats: 3,
+                        ..OverlapRow::default()
                     });
                 }
             }
@@ -45,7 +46,7 @@ fn png_and_svg_are_drawn() {
     rows.retain(|r| !(r.l_star == 3.0 && r.w_star == 7.0 && r.algorithm == "qri"));
 
     let png = dir.path().join("fig2.png");
-    fig2(&rows, "f32", &png).expect("the PNG renders");
+    fig2(&rows, "f32", &png, Fig2Options::default()).expect("the PNG renders");
     let image = image::open(&png).expect("the PNG decodes").to_rgb8();
     // 3 columns of 330 px + a 120 px colour bar; a 50 px title + 6 rows of 290 px.
     assert_eq!(image.dimensions(), (1110, 1790));
@@ -71,7 +72,7 @@ fn png_and_svg_are_drawn() {
     );
 
     let svg = dir.path().join("fig2.svg");
-    fig2(&rows, "f64", &svg).expect("the SVG renders");
+    fig2(&rows, "f64", &svg, Fig2Options::default()).expect("the SVG renders");
     let text = std::fs::read_to_string(&svg).expect("the SVG is text");
     assert!(text.len() > 100_000, "{} bytes", text.len());
     for label in [
@@ -94,13 +95,59 @@ fn unusable_requests_are_errors_and_write_nothing() {
     let rows = campaign("f32");
     let path = dir.path().join("fig2.pdf");
     assert!(matches!(
-        fig2(&rows, "f32", &path),
+        fig2(&rows, "f32", &path, Fig2Options::default()),
         Err(ReportError::Extension { .. })
     ));
     let path = dir.path().join("fig2.png");
-    let error = fig2(&rows, "f64", &path).expect_err("no f64 rows");
+    let error = fig2(&rows, "f64", &path, Fig2Options::default()).expect_err("no f64 rows");
     assert_eq!(error.to_string(), "no f64 overlap results to plot");
     assert!(!path.exists());
+}
+
+/// With `show_ci`, every point with an interval gets a circle; a flagged point gets a cross;
+/// the JSON points carry estimate and interval in the papers' order.
+#[test]
+fn intervals_and_flags_are_drawn_and_listed() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let mut rows = campaign("f32");
+    rows.retain(|r| r.r_star == 5.0 && r.algorithm == "qri" && r.l_star <= 4.0 && r.w_star <= 4.0);
+    for (k, r) in rows.iter_mut().enumerate() {
+        r.ci95_lo_ns_per_check = Some(r.ns_per_check * 0.99);
+        r.ci95_hi_ns_per_check = Some(r.ns_per_check * 1.01);
+        r.disturbed = Some(k == 5);
+    }
+    let svg = dir.path().join("ci.svg");
+    fig2(&rows, "f32", &svg, Fig2Options { show_ci: true }).expect("the SVG renders");
+    let text = std::fs::read_to_string(&svg).expect("the SVG is text");
+    assert_eq!(text.matches("<circle").count(), 16, "one circle per point");
+    assert!(text.contains("circle: 95 % CI") && text.contains("×: disturbed"));
+    // The cross is two red lines.
+    assert!(
+        text.matches("#DC1E1E").count() >= 2,
+        "the flagged point's cross"
+    );
+    let plain = dir.path().join("plain.svg");
+    fig2(&rows, "f32", &plain, Fig2Options::default()).expect("the SVG renders");
+    assert_eq!(
+        std::fs::read_to_string(&plain)
+            .expect("text")
+            .matches("<circle")
+            .count(),
+        0
+    );
+
+    let points = fig2_points(&rows, "f32").expect("points");
+    assert_eq!(points.len(), 16);
+    assert_eq!(
+        (points[0].l_star, points[0].w_star, points[1].w_star),
+        (1.0, 1.0, 2.0)
+    );
+    assert!(
+        points
+            .iter()
+            .all(|p| p.ci95_lo_ns_per_check.is_some_and(|lo| lo < p.ns_per_check))
+    );
+    assert!(fig2_points(&rows, "f64").is_err());
 }
 
 mod fig7 {

@@ -11,7 +11,8 @@
 //!   [`Store::complete_batch`], [`Store::fail`], [`Store::expire_leases`]; the exclusive-job rule
 //!   and exactly-once results live here.
 //! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
-//!   [`Store::export`], [`Store::overlap_rows`], [`Store::query_read_only`].
+//!   [`Store::export`], [`Store::overlap_rows`], [`Store::overlap_quality`],
+//!   [`Store::query_read_only`].
 //! - [`types`] and [`error`]: the plain data and error types of the API.
 //!
 //! Invariants: every write is one `BEGIN IMMEDIATE` transaction on the single writer connection; a
@@ -31,6 +32,6 @@ pub use connect::Store;
 pub use error::{Error, Result};
 pub use types::{
     CampaignInfo, CompleteOutcome, Completion, EdmdRun, ExportRow, FailOutcome, JobInfo, JobState,
-    Lease, LeaseRef, NewCampaign, NewJob, OverlapRow, QueryResult, Status, SubmitOutcome,
+    Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, QueryResult, Status, SubmitOutcome,
     WorkerInfo, WorkerRecord,
 };

@@ -1,6 +1,8 @@
 //! Reading: progress, listings, export, report rows and ad-hoc read-only SQL.
 //! All of it goes through the read-only connections, so it never waits for the writer.
 
+use std::collections::{BTreeMap, HashMap};
+
 use sqlx::sqlite::{SqliteRow, SqliteValueRef};
 use sqlx::{
     AssertSqlSafe, Column, Decode, Executor, Row, SqlSafeStr, Sqlite, Statement, TypeInfo, ValueRef,
@@ -9,8 +11,8 @@ use sqlx::{
 use crate::Store;
 use crate::error::{Error, Result};
 use crate::types::{
-    CampaignInfo, EdmdRun, ExportRow, JobInfo, JobState, OverlapRow, QueryResult, Status,
-    WorkerInfo, WorkerRecord,
+    CampaignInfo, EdmdRun, ExportRow, JobInfo, JobState, OverlapQuality, OverlapRow, QueryResult,
+    Status, WorkerInfo, WorkerRecord,
 };
 
 impl Store {
@@ -194,29 +196,130 @@ impl Store {
             .collect()
     }
 
-    /// Overlap timings averaged over repeats, one row per (job, algorithm), ordered by precision,
-    /// R*, L*, W*, acceptance target and algorithm. A done overlap job lacking a numeric field is
-    /// reported as [`Error::Corrupt`] rather than skipped, so a table never silently loses points.
+    /// Overlap timings, one row per (job, algorithm), ordered by precision, R*, L*, W*,
+    /// acceptance target and algorithm: the means over repeats, every repeat's `ns_per_check`
+    /// and, for points measured in blocks, every block (so a report can re-estimate), with the
+    /// point's noise check. A done overlap job lacking a numeric field, or with a malformed
+    /// record, is reported as [`Error::Corrupt`] rather than skipped, so a table never silently
+    /// loses points.
+    ///
+    /// The records are read as stored and parsed once, here: with every block kept they are
+    /// about 1 kB each, and extracting fields in SQL would parse each several times.
     pub async fn overlap_rows(&self) -> Result<Vec<OverlapRow>> {
-        // Aggregate the timings first and attach the point's parameters afterwards, so that the
-        // parameters are extracted from the job's JSON once per (job, algorithm), not per repeat.
-        let rows = sqlx::query(
-            "WITH per_algorithm AS (
-                 SELECT job_id, algorithm, avg(ms) AS mean_ms, avg(ns_per_check) AS ns_per_check,
-                        avg(acceptance) AS acceptance, count(*) AS repeats,
-                        count(ms) = count(*) AND count(ns_per_check) = count(*)
-                            AND count(acceptance) = count(*) AS complete
-                 FROM overlap_timings
-                 GROUP BY job_id, algorithm)
-             SELECT a.job_id, CAST(p.l_star AS REAL), CAST(p.w_star AS REAL), CAST(p.r_star AS REAL),
-                    CAST(p.acceptance_target AS REAL), CAST(p.configurations AS INTEGER), p.precision,
-                    a.algorithm, a.mean_ms, a.ns_per_check, a.acceptance, a.repeats, a.complete
-             FROM per_algorithm AS a JOIN overlap_points AS p ON p.job_id = a.job_id
-             ORDER BY p.precision, p.r_star, p.l_star, p.w_star, p.acceptance_target, a.algorithm",
+        let points = sqlx::query(
+            "SELECT job_id, CAST(l_star AS REAL), CAST(w_star AS REAL), CAST(r_star AS REAL),
+                    CAST(acceptance_target AS REAL), CAST(configurations AS INTEGER), precision
+             FROM overlap_points
+             WHERE job_id IN (SELECT job_id FROM results)",
         )
         .fetch_all(&self.reader)
         .await?;
-        rows.iter().map(overlap_row).collect()
+        let records = sqlx::query(
+            "SELECT r.job_id, r.fields FROM results AS r JOIN jobs AS j ON j.id = r.job_id
+             WHERE j.kind = 'overlap' ORDER BY r.job_id, r.row_index",
+        )
+        .fetch_all(&self.reader)
+        .await?;
+        let mut by_job: HashMap<String, PointRecords> = HashMap::with_capacity(points.len());
+        for row in &records {
+            let job_id: String = row.try_get(0)?;
+            let record: OverlapRecord = serde_json::from_str(row.try_get(1)?).map_err(|e| {
+                Error::Corrupt(format!("overlap job {job_id:?}: malformed record: {e}"))
+            })?;
+            by_job.entry(job_id).or_default().add(record);
+        }
+        let mut rows = Vec::new();
+        for point in &points {
+            let job_id: String = point.try_get(0)?;
+            let missing =
+                |what: &str| Error::Corrupt(format!("overlap job {job_id:?} lacks {what}"));
+            let number = |index: usize, name: &str| -> Result<f64> {
+                point
+                    .try_get::<Option<f64>, _>(index)?
+                    .ok_or_else(|| missing(name))
+            };
+            let (l_star, w_star, r_star) = (
+                number(1, "l_star")?,
+                number(2, "w_star")?,
+                number(3, "r_star")?,
+            );
+            let acceptance_target = number(4, "acceptance")?;
+            let configurations = point
+                .try_get::<Option<i64>, _>(5)?
+                .ok_or_else(|| missing("configurations"))?;
+            let precision = point
+                .try_get::<Option<String>, _>(6)?
+                .ok_or_else(|| missing("precision"))?;
+            let Some(job) = by_job.remove(&job_id) else {
+                continue;
+            };
+            for (algorithm, t) in job.algorithms {
+                if !t.complete {
+                    return Err(missing("ms, ns_per_check or acceptance in a result record"));
+                }
+                let n = t.repeat_ns_per_check.len() as f64;
+                // Blocks of some repeats only (never written so) would bias a re-estimate.
+                let blocked = t.blocks.len() == t.repeat_ns_per_check.len();
+                rows.push(OverlapRow {
+                    job_id: job_id.clone(),
+                    l_star,
+                    w_star,
+                    r_star,
+                    acceptance_target,
+                    configurations,
+                    precision: precision.clone(),
+                    algorithm,
+                    mean_ms: t.sum_ms / n,
+                    ns_per_check: t.repeat_ns_per_check.iter().sum::<f64>() / n,
+                    acceptance: t.sum_acceptance / n,
+                    repeats: t.repeat_ns_per_check.len() as u32,
+                    repeat_ns_per_check: t.repeat_ns_per_check,
+                    block_ns_per_check: if blocked { t.blocks } else { Vec::new() },
+                    disturbed: job.disturbed,
+                    reruns: job.reruns,
+                });
+            }
+        }
+        rows.sort_by(|a, b| {
+            a.precision
+                .cmp(&b.precision)
+                .then(a.r_star.total_cmp(&b.r_star))
+                .then(a.l_star.total_cmp(&b.l_star))
+                .then(a.w_star.total_cmp(&b.w_star))
+                .then(a.acceptance_target.total_cmp(&b.acceptance_target))
+                .then_with(|| a.algorithm.cmp(&b.algorithm))
+        });
+        Ok(rows)
+    }
+
+    /// How the overlap points of one campaign (or of the whole store) were measured: how many
+    /// carry a noise check, how many were still disturbed after their re-runs, how many were
+    /// re-run and what their measurement cost.
+    pub async fn overlap_quality(&self, campaign: Option<&str>) -> Result<OverlapQuality> {
+        let row = sqlx::query(
+            "SELECT count(*), total(m.disturbed), count(*) FILTER (WHERE m.reruns > 0), total(m.reruns),
+                    total(m.wall_s), total(m.timed_s)
+             FROM overlap_measurements AS m
+             WHERE ?1 IS NULL
+                OR m.job_id IN (SELECT job_id FROM campaign_jobs WHERE campaign_id = ?1)",
+        )
+        .bind(campaign)
+        .fetch_one(&self.reader)
+        .await?;
+        let count = |i: usize| -> Result<u64> {
+            let n: f64 = row
+                .try_get::<f64, _>(i)
+                .or_else(|_| row.try_get::<i64, _>(i).map(|n| n as f64))?;
+            Ok(n.max(0.0) as u64)
+        };
+        Ok(OverlapQuality {
+            checked: count(0)?,
+            disturbed: count(1)?,
+            rerun: count(2)?,
+            reruns: count(3)?,
+            wall_s: row.try_get(4)?,
+            timed_s: row.try_get(5)?,
+        })
     }
 
     /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ. A record
@@ -308,37 +411,63 @@ fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
     })
 }
 
-fn overlap_row(row: &SqliteRow) -> Result<OverlapRow> {
-    let job_id: String = row.try_get(0)?;
-    let missing = |what: &str| Error::Corrupt(format!("overlap job {job_id:?} lacks {what}"));
-    let complete: bool = row.try_get(12)?;
-    if !complete {
-        return Err(missing("ms, ns_per_check or acceptance in a result record"));
+/// The fields of an overlap record that reports read (see `jobs::run`): a timing has an
+/// `algorithm`; the point record has the noise check. serde skips every other field.
+#[derive(serde::Deserialize)]
+struct OverlapRecord {
+    algorithm: Option<String>,
+    ms: Option<f64>,
+    ns_per_check: Option<f64>,
+    acceptance: Option<f64>,
+    block_ns_per_check: Option<Vec<f64>>,
+    disturbed: Option<bool>,
+    reruns: Option<u32>,
+}
+
+/// One job's records, gathered per algorithm.
+#[derive(Default)]
+struct PointRecords {
+    algorithms: BTreeMap<String, AlgorithmRecords>,
+    disturbed: Option<bool>,
+    reruns: Option<u32>,
+}
+
+struct AlgorithmRecords {
+    sum_ms: f64,
+    sum_acceptance: f64,
+    repeat_ns_per_check: Vec<f64>,
+    blocks: Vec<Vec<f64>>,
+    /// Every record had `ms`, `ns_per_check` and `acceptance`.
+    complete: bool,
+}
+
+impl PointRecords {
+    fn add(&mut self, record: OverlapRecord) {
+        let Some(algorithm) = record.algorithm else {
+            self.disturbed = self.disturbed.or(record.disturbed);
+            self.reruns = self.reruns.or(record.reruns);
+            return;
+        };
+        let t = self
+            .algorithms
+            .entry(algorithm)
+            .or_insert_with(|| AlgorithmRecords {
+                sum_ms: 0.0,
+                sum_acceptance: 0.0,
+                repeat_ns_per_check: Vec::new(),
+                blocks: Vec::new(),
+                complete: true,
+            });
+        match (record.ms, record.ns_per_check, record.acceptance) {
+            (Some(ms), Some(ns), Some(acceptance)) => {
+                t.sum_ms += ms;
+                t.sum_acceptance += acceptance;
+                t.repeat_ns_per_check.push(ns);
+            }
+            _ => t.complete = false,
+        }
+        t.blocks.extend(record.block_ns_per_check);
     }
-    let number = |index: usize, name: &str| -> Result<f64> {
-        row.try_get::<Option<f64>, _>(index)?
-            .ok_or_else(|| missing(name))
-    };
-    Ok(OverlapRow {
-        l_star: number(1, "l_star")?,
-        w_star: number(2, "w_star")?,
-        r_star: number(3, "r_star")?,
-        acceptance_target: number(4, "acceptance")?,
-        configurations: row
-            .try_get::<Option<i64>, _>(5)?
-            .ok_or_else(|| missing("configurations"))?,
-        precision: row
-            .try_get::<Option<String>, _>(6)?
-            .ok_or_else(|| missing("precision"))?,
-        algorithm: row
-            .try_get::<Option<String>, _>(7)?
-            .ok_or_else(|| missing("algorithm"))?,
-        mean_ms: number(8, "ms")?,
-        ns_per_check: number(9, "ns_per_check")?,
-        acceptance: number(10, "acceptance (measured)")?,
-        repeats: row.try_get(11)?,
-        job_id: job_id.clone(),
-    })
 }
 
 /// Maps a SQLite value to JSON by its storage class (not by the column's declared type, which

@@ -155,7 +155,8 @@ pub struct ExportRow {
     pub fields: serde_json::Map<String, serde_json::Value>,
 }
 
-/// Mean over the repeats of one overlap job (point) and algorithm.
+/// One overlap job (point) and algorithm: the means over its repeats, and what a robust
+/// re-estimate needs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OverlapRow {
     pub job_id: String,
@@ -171,6 +172,30 @@ pub struct OverlapRow {
     /// Measured acceptance (mean over repeats).
     pub acceptance: f64,
     pub repeats: u32,
+    /// Each repeat's `ns_per_check`, in no particular order.
+    pub repeat_ns_per_check: Vec<f64>,
+    /// Each repeat's blocks' ns/check, in no particular order of repeats; empty for points
+    /// measured before blocks were kept.
+    pub block_ns_per_check: Vec<Vec<f64>>,
+    /// Whether the machine was still disturbed after the re-runs; `None` without a noise check.
+    pub disturbed: Option<bool>,
+    pub reruns: Option<u32>,
+}
+
+/// How the overlap points of a campaign were measured (`sweep status`, reports).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct OverlapQuality {
+    /// Points measured with the noise check.
+    pub checked: u64,
+    /// Points still measured on a disturbed machine after their re-runs (flagged).
+    pub disturbed: u64,
+    /// Points re-run at least once because the machine was disturbed.
+    pub rerun: u64,
+    /// Re-runs in all.
+    pub reruns: u64,
+    /// Wall time of their measurements, re-runs included, and the part in the timed loops.
+    pub wall_s: f64,
+    pub timed_s: f64,
 }
 
 /// One done EDMD point (the `edmd_runs` view): its parameters and its time per collision.

@@ -35,19 +35,32 @@ fn overlap_jobs() -> Vec<NewJob> {
     jobs
 }
 
-/// Timing of (algorithm a, repeat r): 1 + a + r/10 ms, so the mean over repeats is 1.1 + a.
+/// Blocks of a 2·10⁶-configuration pass (16,384 configurations each).
+const BLOCKS: usize = 123;
+
+/// Timing of (algorithm a, repeat r): 1 + a + r/10 ms, so the mean over repeats is 1.1 + a;
+/// each with its blocks (block k of repeat r of algorithm a: a + r + k/1000 ns/check), then
+/// the point record with the noise check, as `jobs::run` writes them.
 fn records() -> Vec<String> {
     let mut records = Vec::new();
     for (a, algorithm) in ALGORITHMS.iter().enumerate() {
         for repeat in 0..REPEATS {
             let ms = 1.0 + a as f64 + repeat as f64 / 10.0;
+            let blocks: Vec<f64> = (0..BLOCKS).map(|k| (a + repeat) as f64 + k as f64 / 1000.0).collect();
             records.push(
                 serde_json::json!({"algorithm": algorithm, "repeat": repeat, "ms": ms,
-                                   "ns_per_check": ms / 2.0, "acceptance": 0.4})
+                                   "ns_per_check": ms / 2.0, "acceptance": 0.4, "total_ms": ms,
+                                   "block_ns_per_check": blocks})
                 .to_string(),
             );
         }
     }
+    records.push(
+        serde_json::json!({"stream_ns_per_config": 5.0, "repeats": REPEATS, "stop": "repeats",
+                           "timed_s": 1.0, "wall_s": 2.0, "disturbed": false, "disturbance": null,
+                           "reruns": 1, "reference_compute_ns_before": 1.6})
+        .to_string(),
+    );
     records
 }
 
@@ -88,6 +101,9 @@ async fn overlap_rows_and_export_of_43200_results() {
         count(&store, "SELECT count(*) FROM overlap_timings").await,
         43_200
     );
+    let quality = store.overlap_quality(None).await.unwrap();
+    assert_eq!((quality.checked, quality.disturbed, quality.rerun, quality.reruns), (2_400, 0, 2_400, 2_400));
+    assert_eq!(store.overlap_quality(Some("table1-again")).await.unwrap().checked, 10);
 
     let started = Instant::now();
     let rows = store.overlap_rows().await.unwrap();
@@ -126,6 +142,11 @@ async fn overlap_rows_and_export_of_43200_results() {
     for row in &rows {
         let a = ALGORITHMS.iter().position(|a| *a == row.algorithm).unwrap() as f64;
         assert!((row.mean_ms - (1.1 + a)).abs() < 1e-9, "{row:?}");
+        assert_eq!((row.disturbed, row.reruns), (Some(false), Some(1)));
+        let mut firsts: Vec<f64> = row.block_ns_per_check.iter().map(|b| b[0]).collect();
+        firsts.sort_by(f64::total_cmp);
+        assert_eq!(firsts, [a, a + 1.0, a + 2.0], "every repeat's blocks");
+        assert!(row.block_ns_per_check.iter().all(|b| b.len() == BLOCKS));
         assert!((row.ns_per_check - (1.1 + a) / 2.0).abs() < 1e-9);
         assert!((row.acceptance - 0.4).abs() < 1e-12 && row.acceptance_target == 0.4);
     }
@@ -133,7 +154,7 @@ async fn overlap_rows_and_export_of_43200_results() {
     let started = Instant::now();
     let export = store.export().await.unwrap();
     println!("export: {} rows in {:?}", export.len(), started.elapsed());
-    assert_eq!(export.len(), 43_200);
+    assert_eq!(export.len(), 43_200 + 2_400);
     assert_eq!(export[0].campaign, "table1,table1-again");
     assert_eq!(export[0].fields["algorithm"], "arvo");
     assert_eq!(export.last().unwrap().campaign, "table1");

@@ -6,14 +6,14 @@
 //! The instruction set is chosen at run time ([`Isa::best`]): AVX-512F, else AVX2+FMA, else
 //! portable code.
 
-use crate::batch::{Batch, LANES, verdict_words};
+use crate::batch::{BatchView, LANES, verdict_words};
 use crate::config::Cuboid;
 use crate::real::Real;
 
 /// Runs `block_verdicts` (lane bit set = overlap) over every block and packs the results, 16
 /// bits per block, into `verdicts`. Bits past `batch.len()` (the padding lanes) are cleared.
 #[inline(always)]
-fn pack_verdicts<T: Real>(batch: &Batch<T>, verdicts: &mut [u64], mut block_verdicts: impl FnMut(&[T]) -> u16) {
+fn pack_verdicts<T: Real>(batch: BatchView<'_, T>, verdicts: &mut [u64], mut block_verdicts: impl FnMut(&[T]) -> u16) {
     const BLOCKS_PER_WORD: usize = 64 / LANES;
     assert!(verdicts.len() >= verdict_words(batch.len()), "verdict bitset too short");
     for (word, blocks) in verdicts.iter_mut().zip(batch.values().chunks(BLOCKS_PER_WORD * crate::batch::BLOCK)) {
@@ -48,7 +48,7 @@ fn block_verdicts_portable<T: Real>(block: &[T], cuboid: &Cuboid<T>, r2: T) -> u
     bits
 }
 
-fn ocsi_batch_portable<T: Real>(batch: &Batch<T>, cuboid: &Cuboid<T>, radius: T, verdicts: &mut [u64]) {
+fn ocsi_batch_portable<T: Real>(batch: BatchView<'_, T>, cuboid: &Cuboid<T>, radius: T, verdicts: &mut [u64]) {
     let r2 = radius * radius;
     pack_verdicts(batch, verdicts, |block| block_verdicts_portable(block, cuboid, r2));
 }
@@ -94,11 +94,14 @@ impl Isa {
 }
 
 /// Panics if `isa` is not available: running AVX code on a CPU without it is undefined behaviour.
+/// The list is detected once: the protocol calls a kernel per timed block, and the check must
+/// cost a load, not a detection and an allocation.
 fn assert_available(isa: Isa) {
-    assert!(Isa::available().contains(&isa), "{} is not available on this CPU", isa.name());
+    static AVAILABLE: std::sync::OnceLock<Vec<Isa>> = std::sync::OnceLock::new();
+    assert!(AVAILABLE.get_or_init(Isa::available).contains(&isa), "{} is not available on this CPU", isa.name());
 }
 
-pub fn ocsi_batch_f32(isa: Isa, batch: &Batch<f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+pub fn ocsi_batch_f32(isa: Isa, batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
     assert_available(isa);
     match isa {
         // SAFETY: availability of the instruction set was asserted above.
@@ -110,7 +113,7 @@ pub fn ocsi_batch_f32(isa: Isa, batch: &Batch<f32>, cuboid: &Cuboid<f32>, radius
     }
 }
 
-pub fn ocsi_batch_f64(isa: Isa, batch: &Batch<f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+pub fn ocsi_batch_f64(isa: Isa, batch: BatchView<'_, f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
     assert_available(isa);
     match isa {
         // SAFETY: availability of the instruction set was asserted above.
@@ -128,7 +131,7 @@ pub fn ocsi_batch_f64(isa: Isa, batch: &Batch<f64>, cuboid: &Cuboid<f64>, radius
 pub(crate) mod x86 {
     use std::arch::x86_64::*;
 
-    use super::{Batch, Cuboid, LANES, pack_verdicts};
+    use super::{BatchView, Cuboid, LANES, pack_verdicts};
 
     /// Loads field `f` of a block at lane offset `at`.
     macro_rules! field {
@@ -139,7 +142,7 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn ocsi_batch_f32_avx512(batch: &Batch<f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f32_avx512(batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
         let c = cuboid.half.map(|c| _mm512_set1_ps(c));
         let r2 = _mm512_set1_ps(radius * radius);
         pack_verdicts(batch, verdicts, |block| {
@@ -157,7 +160,7 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn ocsi_batch_f64_avx512(batch: &Batch<f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f64_avx512(batch: BatchView<'_, f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
         let c = cuboid.half.map(|c| _mm512_set1_pd(c));
         let r2 = _mm512_set1_pd(radius * radius);
         pack_verdicts(batch, verdicts, |block| {
@@ -178,7 +181,7 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn ocsi_batch_f32_avx2(batch: &Batch<f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f32_avx2(batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
         let c = cuboid.half.map(|c| _mm256_set1_ps(c));
         let r2 = _mm256_set1_ps(radius * radius);
         let sign = _mm256_set1_ps(-0.0);
@@ -200,7 +203,7 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn ocsi_batch_f64_avx2(batch: &Batch<f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f64_avx2(batch: BatchView<'_, f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
         let c = cuboid.half.map(|c| _mm256_set1_pd(c));
         let r2 = _mm256_set1_pd(radius * radius);
         let sign = _mm256_set1_pd(-0.0);

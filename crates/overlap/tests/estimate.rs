@@ -1,0 +1,349 @@
+//! The estimator and the stopping rule on synthetic timings: blocks drawn from a known
+//! distribution (true cost μ, Gaussian jitter), with the noise of a shared machine injected —
+//! blocks that lost a time slice (slower by a random factor) and whole sets slowed by a phase of
+//! the machine. What the protocol measures on real hardware is checked by the experiments in
+//! the README; here the truth is known.
+
+use overlap::estimate::{Goal, Stop, estimate, mean_interval, median, quantile, student_t975};
+use overlap::rng::Rng;
+use proptest::prelude::*;
+
+/// A standard normal variate (Box–Muller).
+fn normal(rng: &mut Rng) -> f64 {
+    let (u1, u2) = (1.0 - rng.uniform(), rng.uniform());
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// Noise injected into synthetic sets.
+#[derive(Clone, Copy, Debug)]
+struct Noise {
+    /// Relative standard deviation of a clean block.
+    jitter: f64,
+    /// Fraction of blocks that lost a time slice.
+    outliers: f64,
+    /// A slowed block takes 1 + U(0, 1)·(factor − 1) times as long.
+    factor: f64,
+    /// Relative standard deviation of a whole set's cost (a phase of the machine, or a set of
+    /// configurations cheaper than the next).
+    set_shift: f64,
+}
+
+const QUIET: Noise = Noise {
+    jitter: 0.01,
+    outliers: 0.0,
+    factor: 1.0,
+    set_shift: 0.0,
+};
+
+fn synthetic_sets(
+    rng: &mut Rng,
+    mu: f64,
+    noise: Noise,
+    repeats: usize,
+    blocks: usize,
+) -> Vec<Vec<f64>> {
+    (0..repeats)
+        .map(|_| {
+            let shift = 1.0 + noise.set_shift * normal(rng);
+            (0..blocks)
+                .map(|_| {
+                    let clean = mu * shift * (1.0 + noise.jitter * normal(rng));
+                    if rng.uniform() < noise.outliers {
+                        clean * (1.0 + rng.uniform() * (noise.factor - 1.0))
+                    } else {
+                        clean
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn order_statistics_and_quantiles() {
+    assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+    assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+    assert!(median(&[]).is_nan());
+    assert_eq!(quantile(&[0.0, 10.0], 0.25), 2.5);
+    assert_eq!(quantile(&[5.0, 1.0, 3.0], 1.0), 5.0);
+    // The textbook 95 % interval of a median of 100 samples is [x_(40), x_(61)].
+    let hundred: Vec<f64> = (1..=100).map(f64::from).collect();
+    let e = estimate(&[hundred]).expect("samples");
+    assert_eq!((e.value, e.lo, e.hi), (50.5, 40.0, 61.0));
+    // Ten samples: [x_(2), x_(9)]; five: no rank reaches 95 %, so the whole range.
+    let ten: Vec<f64> = (1..=10).map(f64::from).collect();
+    let e = estimate(&[ten]).expect("samples");
+    assert_eq!((e.lo, e.hi), (2.0, 9.0));
+    let five: Vec<f64> = (1..=5).map(f64::from).collect();
+    assert_eq!(estimate(&[five]).map(|e| (e.lo, e.hi)), Some((1.0, 5.0)));
+    assert_eq!(estimate(&[vec![], vec![]]), None);
+}
+
+#[test]
+fn student_quantiles() {
+    assert_eq!(student_t975(1), 12.706);
+    assert_eq!(student_t975(30), 2.042);
+    // Tabulated values beyond the table: t(40) = 2.021, t(120) = 1.980.
+    assert!((student_t975(40) - 2.021).abs() < 1e-3);
+    assert!((student_t975(120) - 1.980).abs() < 1e-3);
+    assert!((student_t975(1_000_000) - 1.960).abs() < 1e-3);
+}
+
+#[test]
+fn the_mean_of_old_results_keeps_its_value() {
+    let e = mean_interval(&[10.0, 11.0, 12.0]).expect("values");
+    assert_eq!(e.value, 11.0);
+    // sd = 1, t(2) = 4.303: half-width 4.303/√3.
+    assert!((e.hi - 11.0 - 4.303 / 3f64.sqrt()).abs() < 1e-12);
+    let one = mean_interval(&[7.0]).expect("a value");
+    assert_eq!(one.value, 7.0);
+    assert!(one.lo.is_nan() && one.relative_half_width().is_nan());
+}
+
+/// A shared core: 30 % of the blocks lose a time slice and take up to 3× as long. The mean of
+/// the blocks (what a whole-pass timing measures) is off by tens of per cent; the median is
+/// within a per cent of the truth, and its interval covers the truth as often as it claims to
+/// when the noise is what the interval assumes.
+#[test]
+fn the_median_ignores_lost_time_slices_that_move_the_mean() {
+    let mut rng = Rng::new(11);
+    let mu = 30.0;
+    let noise = Noise {
+        outliers: 0.3,
+        factor: 3.0,
+        ..QUIET
+    };
+    let sets = synthetic_sets(&mut rng, mu, noise, 3, 122);
+    let e = estimate(&sets).expect("samples");
+    let all = sets.concat();
+    let mean = all.iter().sum::<f64>() / all.len() as f64;
+    assert!(
+        (e.value / mu - 1.0).abs() < 0.01,
+        "median {} for μ = {mu}",
+        e.value
+    );
+    assert!(
+        mean / mu - 1.0 > 0.2,
+        "mean {mean}: the injected outliers were too mild to test anything"
+    );
+    assert!(e.lo <= e.value && e.value <= e.hi);
+}
+
+/// One slow set of three (a phase of the machine 10 % slow) does not move the estimate: the
+/// median of the sets' medians is one of the two clean ones.
+#[test]
+fn one_slow_set_does_not_move_the_estimate() {
+    let mut rng = Rng::new(21);
+    let mut sets = synthetic_sets(&mut rng, 30.0, QUIET, 3, 64);
+    for block in &mut sets[1] {
+        *block *= 1.10;
+    }
+    let e = estimate(&sets).expect("samples");
+    let clean = [median(&sets[0]), median(&sets[2])];
+    assert!(
+        e.value == clean[0] || e.value == clean[1],
+        "{} vs clean {clean:?}",
+        e.value
+    );
+    // Ten sets, one slow: the interval is that of the clean ones, one rank wider.
+    let mut sets = synthetic_sets(&mut rng, 30.0, QUIET, 10, 64);
+    for block in &mut sets[4] {
+        *block *= 1.5;
+    }
+    let e = estimate(&sets).expect("samples");
+    assert!(
+        e.relative_half_width() < 0.01,
+        "±{:.2} %",
+        e.relative_half_width() * 100.0
+    );
+    assert!(e.lo <= 30.0 && 30.0 <= e.hi);
+}
+
+/// Coverage of the 95 % interval over many synthetic points, for clean blocks and for sets that
+/// differ as a whole (the case the between-set part of the interval is for: the blocks of one
+/// set alone would give an interval far too narrow). The interval is
+/// conservative by construction (the wider of two), so at least 90 % of 400 must cover μ: a
+/// binomial 95 % process falls below that with probability under 10⁻⁴. The last case injects
+/// the noise of a shared machine on top: 2 % of the blocks lost a time slice and took up to 3×
+/// as long. Such outliers only ever add, so they bias the median by about p/2 of a jitter's
+/// quantile (here 0.03 σ), which the interval must absorb at 122 blocks per set (a set of
+/// 2·10⁶ configurations).
+#[test]
+fn intervals_cover_the_truth() {
+    for (noise, what, blocks) in [
+        (QUIET, "clean", 64),
+        (
+            Noise {
+                set_shift: 0.02,
+                ..QUIET
+            },
+            "slow phases",
+            64,
+        ),
+        (
+            Noise {
+                outliers: 0.02,
+                factor: 3.0,
+                set_shift: 0.01,
+                ..QUIET
+            },
+            "slow phases and lost time slices",
+            122,
+        ),
+    ] {
+        let mut rng = Rng::new(5);
+        let trials = 400;
+        let mut covered = 0;
+        for _ in 0..trials {
+            let sets = synthetic_sets(&mut rng, 30.0, noise, 5, blocks);
+            let e = estimate(&sets).expect("samples");
+            assert!(e.lo <= e.value && e.value <= e.hi);
+            covered += usize::from(e.lo <= 30.0 && 30.0 <= e.hi);
+        }
+        assert!(
+            covered * 10 >= trials * 9,
+            "{what}: {covered} of {trials} intervals cover the truth"
+        );
+    }
+}
+
+#[test]
+fn the_goal_never_cuts_the_repeats_asked_for() {
+    let goal = Goal {
+        min_repeats: 3,
+        ci_target: Some(0.01),
+        time_cap_s: 1.0,
+        max_repeats: 10,
+    };
+    assert_eq!(
+        goal.next(1, 0.0, 100.0, 100.0),
+        None,
+        "below the minimum: measure, cap or not"
+    );
+    assert_eq!(goal.next(3, 0.005, 0.1, 0.1), Some(Stop::Precise));
+    assert_eq!(
+        goal.next(3, 0.02, 0.1, 0.1),
+        None,
+        "imprecise and time left: one more set"
+    );
+    assert_eq!(
+        goal.next(3, 0.02, 0.8, 0.3),
+        Some(Stop::TimeCap),
+        "the next set would pass the cap"
+    );
+    assert_eq!(
+        goal.next(3, f64::NAN, 0.1, 0.1),
+        None,
+        "no interval yet is not precise"
+    );
+    assert_eq!(goal.next(10, 0.02, 0.1, 0.1), Some(Stop::MaxRepeats));
+    let no_target = Goal {
+        ci_target: None,
+        ..goal
+    };
+    assert_eq!(no_target.next(3, f64::NAN, 0.0, 0.0), Some(Stop::Repeats));
+    assert_eq!(no_target.next(2, f64::NAN, 0.0, 0.0), None);
+}
+
+/// Drives the stopping rule with synthetic sets as the protocol does: returns the sets used,
+/// why it stopped and the final estimate.
+fn measure_until_done(rng: &mut Rng, goal: Goal, noise: Noise, set_s: f64) -> (u32, Stop, f64) {
+    let mut sets = Vec::new();
+    let mut spent = 0.0;
+    loop {
+        sets.extend(synthetic_sets(rng, 30.0, noise, 1, 32));
+        spent += set_s;
+        let e = estimate(&sets).expect("samples");
+        if let Some(stop) = goal.next(sets.len() as u32, e.relative_half_width(), spent, set_s) {
+            return (sets.len() as u32, stop, e.value);
+        }
+    }
+}
+
+#[test]
+fn noisier_points_take_more_sets_and_the_cap_bounds_them() {
+    let goal = Goal {
+        min_repeats: 2,
+        ci_target: Some(0.01),
+        time_cap_s: 100.0,
+        max_repeats: 1000,
+    };
+    let mut rng = Rng::new(3);
+    let (quiet_sets, quiet_stop, quiet_value) = measure_until_done(&mut rng, goal, QUIET, 1.0);
+    let phases = Noise {
+        set_shift: 0.03,
+        outliers: 0.2,
+        factor: 3.0,
+        ..QUIET
+    };
+    let (noisy_sets, noisy_stop, noisy_value) = measure_until_done(&mut rng, goal, phases, 1.0);
+    // Two sets are rarely enough (Student's t with one degree of freedom is 12.7); three are.
+    assert!(
+        quiet_sets <= 3 && quiet_stop == Stop::Precise,
+        "{quiet_sets} sets, {quiet_stop:?}"
+    );
+    assert!((quiet_value / 30.0 - 1.0).abs() < 0.01);
+    assert_eq!(noisy_stop, Stop::Precise);
+    // Precise to 1 %: the estimate is within twice that of the truth despite the outliers.
+    assert!(
+        (noisy_value / 30.0 - 1.0).abs() < 0.02,
+        "{noisy_value} after {noisy_sets} sets"
+    );
+    assert!(
+        noisy_sets > quiet_sets + 2,
+        "slow phases took only {noisy_sets} sets"
+    );
+    // A target no measurement reaches stops at the cap: 10 s of 1 s sets, never more.
+    let impossible = Goal {
+        ci_target: Some(1e-9),
+        time_cap_s: 10.0,
+        ..goal
+    };
+    let (sets, stop, _) = measure_until_done(&mut rng, impossible, QUIET, 1.0);
+    assert_eq!((sets, stop), (10, Stop::TimeCap));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Whatever the true cost and jitter, with up to 30 % of blocks slowed by up to 4×, the
+    /// median stays within 2.5 jitters of the truth (one-sided contamination p moves it to the
+    /// clean 0.5/(1 − p) ≤ 0.71 quantile, 0.57 σ, plus its own sampling error), and the
+    /// interval holds the estimate.
+    #[test]
+    fn the_estimate_resists_outliers(
+        seed in any::<u64>(),
+        mu in 1.0f64..100.0,
+        jitter in 0.001f64..0.03,
+        outliers in 0.0f64..0.3,
+        factor in 1.2f64..4.0,
+        repeats in 1usize..5,
+        blocks in 32usize..200,
+    ) {
+        let mut rng = Rng::new(seed);
+        let noise = Noise { jitter, outliers, factor, set_shift: 0.0 };
+        let sets = synthetic_sets(&mut rng, mu, noise, repeats, blocks);
+        let e = estimate(&sets).expect("samples");
+        prop_assert!((e.value / mu - 1.0).abs() <= 2.5 * jitter, "estimate {} for μ = {mu}", e.value);
+        prop_assert!(e.lo <= e.value && e.value <= e.hi);
+        prop_assert_eq!(e.samples, repeats * blocks);
+        prop_assert_eq!(e.repeats, repeats);
+    }
+
+    /// The stopping rule stops, within its bounds, for any target and cap.
+    #[test]
+    fn the_goal_always_stops_within_its_bounds(
+        seed in any::<u64>(),
+        min_repeats in 1u32..5,
+        target in 1e-4f64..0.05,
+        cap in 1.0f64..30.0,
+        set_shift in 0.0f64..0.05,
+    ) {
+        let mut rng = Rng::new(seed);
+        let goal = Goal { min_repeats, ci_target: Some(target), time_cap_s: cap, max_repeats: 200 };
+        let (sets, stop, _) = measure_until_done(&mut rng, goal, Noise { set_shift, ..QUIET }, 1.0);
+        prop_assert!(sets >= min_repeats);
+        prop_assert!(sets <= min_repeats.max(cap.floor() as u32).max(1), "{sets} sets under a {cap} s cap");
+        prop_assert!(stop != Stop::Repeats);
+    }
+}
