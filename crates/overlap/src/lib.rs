@@ -17,6 +17,7 @@ pub mod kernels;
 pub mod protocol;
 pub mod real;
 pub mod rng;
+pub mod range;
 pub mod sampler;
 
 pub use algorithm::{Algorithm, Precision};
