@@ -561,7 +561,7 @@ impl Engine<EllipsoidModel> {
             let hit = self.m.predict(a, &b, best.t - self.t);
             if self.m.stats.failures > failures && self.unresolved.is_none() {
                 let arr = |v: V3| [v.x, v.y, v.z];
-                self.unresolved = Some(EdmdError::Unresolved {
+                self.unresolved = Some(EdmdError::Unresolved(Box::new(crate::UnresolvedContact {
                     quantity: self.m.stats.failed.unwrap_or("contact time"),
                     a: i,
                     b: ju,
@@ -570,7 +570,7 @@ impl Engine<EllipsoidModel> {
                     rb: arr(b.r),
                     va: arr(a.v),
                     vb: arr(b.v),
-                });
+                })));
             }
             if let Some((tau, extra)) = hit
                 && self.t + tau < best.t

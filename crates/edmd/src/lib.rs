@@ -68,6 +68,7 @@ pub mod rigid;
 pub mod rng;
 pub mod scene;
 pub mod sphere;
+pub mod superquadric;
 pub mod support_distance;
 
 pub use engine::{FinalState, ParticleDump, RunReport, run, run_with_state};
@@ -91,17 +92,22 @@ pub enum EdmdError {
     Stalled,
     /// A solver found no answer even with its fallbacks: the run stops rather than advance past
     /// a contact it could not resolve.
-    #[error(
-        "unresolved {quantity} for bodies {a} and {b} at t = {t:.17e} (centres {ra:?} and {rb:?}, velocities {va:?} and {vb:?}): Newton–Raphson, steepest descent and the support-function fallback all failed"
-    )]
-    Unresolved {
-        quantity: &'static str,
-        a: usize,
-        b: usize,
-        t: f64,
-        ra: [f64; 3],
-        rb: [f64; 3],
-        va: [f64; 3],
-        vb: [f64; 3],
-    },
+    #[error("{0}")]
+    Unresolved(Box<UnresolvedContact>),
+}
+
+/// The pair and state of a contact search no solver could resolve.
+#[derive(Debug, Error)]
+#[error(
+    "unresolved {quantity} for bodies {a} and {b} at t = {t:.17e} (centres {ra:?} and {rb:?}, velocities {va:?} and {vb:?}): Newton–Raphson, steepest descent and the support-function fallback all failed"
+)]
+pub struct UnresolvedContact {
+    pub quantity: &'static str,
+    pub a: usize,
+    pub b: usize,
+    pub t: f64,
+    pub ra: [f64; 3],
+    pub rb: [f64; 3],
+    pub va: [f64; 3],
+    pub vb: [f64; 3],
 }

@@ -16,6 +16,7 @@ use edmd::{Neighbours, Scene, ShapeKind};
 
 /// X0 = 0.1 pairs, apart (contact scale 1.02 to 1.9), on which Newton–Raphson from the guess of
 /// Sec. 3.2 and after steepest descent both failed: B's centre and axes in A's frame (A at the origin).
+#[allow(clippy::excessive_precision)] // states as the run printed them
 const X01_APART: [([f64; 3], [f64; 9]); 8] = [
     (
         [
@@ -165,6 +166,7 @@ const X01_APART: [([f64; 3], [f64; 9]); 8] = [
 
 /// X0 = 0.1 pairs touching (contact scale 1 ± 1e-6) on which every solver failed, the last
 /// 300 failures of the run before the support-function start of Newton–Raphson.
+#[allow(clippy::excessive_precision)]
 const X01_TOUCHING: [([f64; 3], [f64; 9]); 8] = [
     (
         [
