@@ -41,9 +41,10 @@ pub fn run(args: &OverlapArgs, format: Format) -> anyhow::Result<()> {
     let name = args.input.display().to_string();
     let cases = read_cases(&args.input).with_context(|| name.clone())?;
     let verdicts: Vec<Verdicts> = match args.precision {
-        Precision::F32 => cases.iter().enumerate().map(|(row, c)| evaluate::<f32>(row, c)).collect(),
-        Precision::F64 => cases.iter().enumerate().map(|(row, c)| evaluate::<f64>(row, c)).collect(),
-    };
+        Precision::F32 => cases.iter().enumerate().map(|(row, c)| evaluate::<f32>(row, c)).collect::<anyhow::Result<_>>(),
+        Precision::F64 => cases.iter().enumerate().map(|(row, c)| evaluate::<f64>(row, c)).collect::<anyhow::Result<_>>(),
+    }
+    .with_context(|| name.clone())?;
     let mut header = vec!["row"];
     header.extend(Algorithm::ALL.map(Algorithm::name));
     header.push("distance");
@@ -63,15 +64,22 @@ pub fn run(args: &OverlapArgs, format: Format) -> anyhow::Result<()> {
     }
 }
 
-fn evaluate<T: Real>(row: usize, case: &Case) -> Verdicts {
+/// The verdicts of one row in precision `T`, or an error naming the row and column when `T`
+/// cannot judge it ([`overlap::range::check_case`]): never a confident wrong verdict.
+fn evaluate<T: Real>(row: usize, case: &Case) -> anyhow::Result<Verdicts> {
+    let exact = min_distance(&Configuration { r_sc: case.r_sc, axes: case.axes }, &Cuboid { half: case.half });
+    let columns = ["rx", "ry", "rz", "radius", "half_t", "half_l", "half_w"];
+    overlap::range::check_case::<T>(&case.r_sc, case.radius, &case.half, exact, &columns).map_err(|e| match e {
+        OverlapError::Invalid { key, reason } => anyhow::anyhow!("row {row}, column `{key}`: {reason}"),
+    })?;
     let cfg = Configuration { r_sc: case.r_sc.map(T::from_f64), axes: case.axes.map(|e| e.map(T::from_f64)) };
     let cuboid = Cuboid { half: case.half.map(T::from_f64) };
     let radius = T::from_f64(case.radius);
-    Verdicts {
+    Ok(Verdicts {
         row,
         overlaps: Algorithm::ALL.into_iter().map(|a| (a.name(), overlaps(a, &cfg, &cuboid, radius) as u8)).collect(),
         distance: min_distance(&cfg, &cuboid).to_f64(),
-    }
+    })
 }
 
 /// Reads and validates every row before anything is computed; the first bad cell is reported

@@ -108,6 +108,11 @@ fn overlap_rejects_bad_rows_naming_row_and_column() {
         (format!("{HEADER}\n{good}\n{good}\n1,0,0,1,0.5,1,1,0,0,0,0\n"), "row 2, columns `qw,qx,qy,qz`"),
         (format!("{HEADER}\n1,zero,0,1,0.5,1,1,1,0,0,0\n"), "row 0, column `ry`"),
         (format!("{HEADER}\n1,0,0,1,0.5,1,1,1,0,0\n"), "row 0"),
+        // Beyond f32's range (the default precision): it used to give a verdict with distance 0.
+        (format!("{HEADER}\n{good}\n1e39,0,0,1,0.5,1,1,1,0,0,0\n"), "row 1, column `rx`"),
+        (format!("{HEADER}\n3,0,0,1e-40,0.5,1,1,1,0,0,0\n"), "row 0, column `radius`"),
+        // Exactly touching: no precision can be trusted with the verdict.
+        (format!("{HEADER}\n1.5,0,0,1,0.5,1,1,1,0,0,0\n"), "row 0, column `radius`: the sphere is within rounding"),
     ] {
         let out = overlap_csv(&body, &[]);
         let err = stderr(&out);

@@ -72,6 +72,7 @@ pub fn predict<S: Surface>(
         steps += 1;
         if steps > MAX_STEPS {
             search.stats.failures += 1;
+            search.stats.failed = Some("contact time (separating-axis stepping)");
             return None;
         }
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
@@ -177,6 +178,9 @@ pub fn predict<S: Surface>(
             (_, None) => {
                 failures += 1;
                 if failures > 50 {
+                    // A contact may lie behind the unresolved distances: never skip it silently.
+                    search.stats.failures += 1;
+                    search.stats.failed = Some("contact time (distance unresolved 50 times)");
                     return None;
                 }
             }
@@ -189,6 +193,7 @@ pub fn predict<S: Surface>(
         }
     }
     search.stats.failures += 1;
+    search.stats.failed = Some("contact time (Eq. 39 stepping)");
     None
 }
 

@@ -184,6 +184,8 @@ struct Engine<M: Model> {
     /// Candidate partners: (estimate, lower bound, partner, image shift).
     order: Vec<(f64, f64, u32, [i32; 3])>,
     acc: Accounting,
+    /// The first contact search a solver could not resolve; the event loop stops on it.
+    unresolved: Option<EdmdError>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -254,6 +256,7 @@ impl<M: Model> Engine<M> {
                 ke_trans,
                 ..Default::default()
             },
+            unresolved: None,
         };
         if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
             for (i, b) in e.bodies.iter().enumerate() {
@@ -361,6 +364,9 @@ impl<M: Model> Engine<M> {
                     }
                 }
                 Kind::CellCross { dim, up } => self.cross(ev.a as usize, dim as usize, up),
+            }
+            if let Some(e) = self.unresolved.take() {
+                return Err(e);
             }
         }
         Ok(())
@@ -586,7 +592,22 @@ impl Engine<EllipsoidModel> {
             let ju = j as usize;
             let mut b = self.bodies[ju].at(self.t);
             b.r += image_offset(shift, self.l);
-            if let Some((tau, extra)) = self.m.predict(a, &b, best.t - self.t)
+            let failures = self.m.stats.failures;
+            let hit = self.m.predict(a, &b, best.t - self.t);
+            if self.m.stats.failures > failures && self.unresolved.is_none() {
+                let arr = |v: V3| [v.x, v.y, v.z];
+                self.unresolved = Some(EdmdError::Unresolved(Box::new(crate::UnresolvedContact {
+                    quantity: self.m.stats.failed.unwrap_or("contact time"),
+                    a: i,
+                    b: ju,
+                    t: self.t,
+                    ra: arr(a.r),
+                    rb: arr(b.r),
+                    va: arr(a.v),
+                    vb: arr(b.v),
+                })));
+            }
+            if let Some((tau, extra)) = hit
                 && self.t + tau < best.t
             {
                 best = Event {
@@ -633,6 +654,9 @@ pub struct RunReport {
     pub solver_failures: u64,
     /// Contact times found by bisection after Newton–Raphson on Eqs. (30) failed (whole run).
     pub contact_nr_fallbacks: u64,
+    /// Distances decided by the support-function fallback after Newton–Raphson and steepest
+    /// descent failed (whole run; converged or a proved overlap, not failures).
+    pub distance_fallbacks: u64,
     /// Newton–Raphson iterations per distance evaluation in the measured run (0 on the sphere path).
     pub nr_iterations_mean: f64,
     /// Distance evaluations per collision in the measured run.
@@ -871,6 +895,7 @@ fn measure<M: Model>(
         overlaps: audit(&eng.bodies, eng.l, &geom, scene.audit_tol),
         solver_failures: stats.failures,
         contact_nr_fallbacks: stats.contact_fallbacks,
+        distance_fallbacks: stats.distance_fallbacks,
         nr_iterations_mean: if calls > 0.0 {
             (stats.nr_iterations - stats0.nr_iterations) as f64 / calls
         } else {

@@ -9,6 +9,9 @@
 //! - [`rigid`]: free motion (Eqs. 3–6), ḋ_max (Eq. 32), the elastic collision (Eqs. 40–41).
 //! - [`distance`]: Newton–Raphson on Eqs. (23) with the relaxed step (26–29), the guess of
 //!   Sec. 3.2 and steepest descent (Sec. 2.3.2); negative distances for slight overlaps.
+//!   [`support_distance`]: the globally convergent fallback when all of those fail (Gilbert's
+//!   algorithm on support functions, with certified bounds); a distance it cannot decide either
+//!   stops the run with [`EdmdError::Unresolved`], naming the pair.
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
 //! - [`calendar`]: one event per particle in a binary heap that knows where each particle's is.
@@ -65,6 +68,8 @@ pub mod rigid;
 pub mod rng;
 pub mod scene;
 pub mod sphere;
+pub mod superquadric;
+pub mod support_distance;
 
 pub use engine::{FinalState, ParticleDump, RunReport, run, run_with_state};
 pub use scene::{
@@ -87,4 +92,24 @@ pub enum EdmdError {
     Compression { reached: f64, target: f64 },
     #[error("the event calendar ran empty (nothing moves)")]
     Stalled,
+    /// A solver found no answer even with its fallbacks: the run stops rather than advance past
+    /// a contact it could not resolve.
+    #[error("{0}")]
+    Unresolved(Box<UnresolvedContact>),
+}
+
+/// The pair and state of a contact search no solver could resolve.
+#[derive(Debug, Error)]
+#[error(
+    "unresolved {quantity} for bodies {a} and {b} at t = {t:.17e} (centres {ra:?} and {rb:?}, velocities {va:?} and {vb:?}): Newton–Raphson, steepest descent and the support-function fallback all failed"
+)]
+pub struct UnresolvedContact {
+    pub quantity: &'static str,
+    pub a: usize,
+    pub b: usize,
+    pub t: f64,
+    pub ra: [f64; 3],
+    pub rb: [f64; 3],
+    pub va: [f64; 3],
+    pub vb: [f64; 3],
 }

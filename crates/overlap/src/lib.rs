@@ -21,6 +21,7 @@ pub mod noise;
 pub mod protocol;
 pub mod real;
 pub mod rng;
+pub mod range;
 pub mod sampler;
 
 pub use algorithm::{Algorithm, Precision};

@@ -26,6 +26,9 @@ pub trait Real:
     /// Unit roundoff u = ε/2, the bound on the relative error of one rounded operation.
     const UNIT_ROUNDOFF: f64;
     const NAME: &'static str;
+    /// The largest finite value and the smallest positive normal one, as f64.
+    const MAX_F64: f64;
+    const MIN_POSITIVE_F64: f64;
 
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
@@ -64,6 +67,8 @@ impl Real for f32 {
     const ZERO: Self = 0.0;
     const UNIT_ROUNDOFF: f64 = (f32::EPSILON as f64) / 2.0;
     const NAME: &'static str = "f32";
+    const MAX_F64: f64 = f32::MAX as f64;
+    const MIN_POSITIVE_F64: f64 = f32::MIN_POSITIVE as f64;
 
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
@@ -93,6 +98,8 @@ impl Real for f64 {
     const ZERO: Self = 0.0;
     const UNIT_ROUNDOFF: f64 = f64::EPSILON / 2.0;
     const NAME: &'static str = "f64";
+    const MAX_F64: f64 = f64::MAX;
+    const MIN_POSITIVE_F64: f64 = f64::MIN_POSITIVE;
 
     #[inline(always)]
     fn from_f64(x: f64) -> Self {
