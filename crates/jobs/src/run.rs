@@ -1,7 +1,7 @@
 //! Running one job on the calling thread and flattening its result into records.
 
 use std::thread::sleep;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use overlap::{OverlapError, PointSpec, run_point};
 use serde_json::{Map, Value, json};
@@ -38,7 +38,7 @@ pub enum JobError {
 /// one point record, the only one without an `algorithm` key:
 /// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho"}`.
 /// A no-op job: one record `{"index", "duration_ms"}`.
-/// An EDMD job: one record, the fields of `edmd::RunReport`.
+/// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s` and `cpu_s`.
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     match spec {
         JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
@@ -47,13 +47,33 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     }
 }
 
-/// An EDMD job: one record, the run report (`collisions`, `tau_c_us`, `pressure_z`, …).
+/// An EDMD job: one record, the run report (`collisions`, `tau_c_us`, `pressure_z`, …) and
+/// the job's own `wall_s` and `cpu_s` (this thread's CPU time: below the wall time when the
+/// core was shared).
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
+    let (wall, cpu) = (Instant::now(), thread_cpu_seconds());
     let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
+    let (wall_s, cpu_s) = (wall.elapsed().as_secs_f64(), thread_cpu_seconds() - cpu);
     match serde_json::to_value(report) {
-        Ok(Value::Object(record)) => Ok(vec![record]),
+        Ok(Value::Object(mut record)) => {
+            record.insert("wall_s".into(), json!(wall_s));
+            record.insert("cpu_s".into(), json!(cpu_s));
+            Ok(vec![record])
+        }
         _ => Err(JobError::Edmd("the run report is not a JSON object".into())),
     }
+}
+
+/// CPU time consumed by the calling thread, in seconds.
+fn thread_cpu_seconds() -> f64 {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `now` is a valid, writable timespec; CLOCK_THREAD_CPUTIME_ID exists on every
+    // Linux and macOS; on failure the call leaves `now` at zero.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut now) };
+    now.tv_sec as f64 + now.tv_nsec as f64 * 1e-9
 }
 
 fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, JobError> {
