@@ -3,7 +3,8 @@
 -- the seed), and of its record the accuracy checks (energy drift, overlaps, Z and its error, solver
 -- failures), the cost split (NR iterations, distance calls, contact searches, list rebuilds and cell
 -- crossings: the terms of Eq. 73), the job's wall and CPU time and the initial state's time.
--- Records written before these fields existed (wall_s, cpu_s) read as NULL.
+-- and tau_c from the thread's CPU time (the paper's definition) next to the wall-clock one.
+-- Records written before these fields existed (tau_c_cpu_us, wall_s, cpu_s) read as NULL.
 DROP VIEW edmd_runs;
 CREATE VIEW edmd_runs AS
 SELECT
@@ -26,6 +27,7 @@ SELECT
     json_extract(j.params, '$.equilibrate')           AS equilibrate,
     json_extract(r.fields, '$.collisions')            AS collisions,
     json_extract(r.fields, '$.tau_c_us')              AS tau_c_us,
+    json_extract(r.fields, '$.tau_c_cpu_us')          AS tau_c_cpu_us,
     json_extract(r.fields, '$.pressure_z')            AS pressure_z,
     json_extract(r.fields, '$.pressure_z_err')        AS pressure_z_err,
     json_extract(r.fields, '$.temperature')           AS temperature,

@@ -78,6 +78,10 @@ pub struct ReportArgs {
     /// (the engine's and the plans' unit, the diameter of the sphere of equal volume).
     #[arg(long, default_value = "semi-axis")]
     pub(crate) length_unit: String,
+    /// EDMD τ_c by the thread's CPU time (cpu, the paper's definition: other work on a shared core does not
+    /// count) or by the wall clock (wall); records without a CPU τ_c (older ones) fall back to the wall clock.
+    #[arg(long, default_value = "cpu")]
+    pub(crate) clock: String,
 }
 
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {

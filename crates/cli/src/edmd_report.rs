@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use report::{EdmdRow, LengthUnit, ReportError};
+use report::{Clock, EdmdRow, LengthUnit, ReportError};
 
 use crate::db::{ReportArgs, open_read_only, runtime};
 use crate::output::{Format, print_json};
@@ -12,8 +12,9 @@ use crate::output::{Format, print_json};
 /// The reports this module makes.
 pub const NAMES: [&str; 6] = ["fig7", "fig8", "fig9", "fig10", "fig11", "accuracy"];
 
-/// Every EDMD run of the database, as the report crate reads them.
-fn rows(db: &Path) -> anyhow::Result<Vec<EdmdRow>> {
+/// Every EDMD run of the database, as the report crate reads them, with τ_c by `clock` where
+/// the record has it.
+fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
     let runs = runtime()?.block_on(async {
         let store = open_read_only(db).await?;
         anyhow::Ok(store.edmd_runs().await?)
@@ -21,14 +22,20 @@ fn rows(db: &Path) -> anyhow::Result<Vec<EdmdRow>> {
     let count = |n: i64| u64::try_from(n).unwrap_or_default();
     Ok(runs
         .into_iter()
-        .map(|r| EdmdRow {
+        .map(|r| {
+            let (tau_c_us, clock) = match (clock, r.tau_c_cpu_us) {
+                (Clock::Cpu, Some(cpu)) => (cpu, Clock::Cpu),
+                _ => (r.tau_c_us, Clock::Wall),
+            };
+            EdmdRow {
             shape: r.shape,
             x0: r.x0,
             neighbours: r.neighbours,
             delta_nnl: r.delta_nnl,
             n: u32::try_from(r.n).unwrap_or(u32::MAX),
             phi: r.phi,
-            tau_c_us: r.tau_c_us,
+            tau_c_us,
+            clock,
             eps_d: r.eps_d,
             eps_nnl: r.eps_nnl,
             nr_tol: r.nr_tol,
@@ -50,6 +57,7 @@ fn rows(db: &Path) -> anyhow::Result<Vec<EdmdRow>> {
             init_s: r.init_s,
             wall_s: r.wall_s,
             cpu_s: r.cpu_s,
+        }
         })
         .collect())
 }
@@ -63,12 +71,20 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
             args.length_unit
         )
     })?;
+    let clock = match args.clock.as_str() {
+        "cpu" => Clock::Cpu,
+        "wall" => Clock::Wall,
+        other => bail!("--clock {other}: expected cpu or wall"),
+    };
     let json = format == Format::Json;
     let out = args.out.as_deref();
     if out.is_none() && !json && name != "accuracy" {
         bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
     }
-    let rows = rows(&args.db)?;
+    let rows = rows(&args.db, clock)?;
+    if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
+        eprintln!("note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used");
+    }
     if rows.is_empty() {
         bail!("report {name}: no EDMD results in {}", args.db.display());
     }

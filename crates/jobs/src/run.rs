@@ -51,9 +51,9 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
 /// the job's own `wall_s` and `cpu_s` (this thread's CPU time: below the wall time when the
 /// core was shared).
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
-    let (wall, cpu) = (Instant::now(), thread_cpu_seconds());
+    let (wall, cpu) = (Instant::now(), edmd::clock::thread_cpu_seconds());
     let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
-    let (wall_s, cpu_s) = (wall.elapsed().as_secs_f64(), thread_cpu_seconds() - cpu);
+    let (wall_s, cpu_s) = (wall.elapsed().as_secs_f64(), edmd::clock::thread_cpu_seconds() - cpu);
     match serde_json::to_value(report) {
         Ok(Value::Object(mut record)) => {
             record.insert("wall_s".into(), json!(wall_s));
@@ -62,18 +62,6 @@ fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
         }
         _ => Err(JobError::Edmd("the run report is not a JSON object".into())),
     }
-}
-
-/// CPU time consumed by the calling thread, in seconds.
-fn thread_cpu_seconds() -> f64 {
-    let mut now = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `now` is a valid, writable timespec; CLOCK_THREAD_CPUTIME_ID exists on every
-    // Linux and macOS; on failure the call leaves `now` at zero.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut now) };
-    now.tv_sec as f64 + now.tv_nsec as f64 * 1e-9
 }
 
 fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, JobError> {

@@ -17,7 +17,7 @@ use crate::minimum::{Minimum, locate_minimum};
 use crate::render::render;
 use crate::selection::{Baseline, EPS_D, Key, mean_by_x, timed};
 use crate::units::LengthUnit;
-use crate::{EdmdRow, ReportError};
+use crate::{EdmdRow, ReportError, tau_label};
 
 /// The paper's φ of Fig. 8 (and the X0 range of its runs).
 const FIG8_PHI: [f64; 3] = [0.30, 0.40, 0.50];
@@ -65,6 +65,8 @@ fn state(r: &EdmdRow) -> State {
 /// Fig. 8: τ_c against X0 at fixed φ, LL and NNL (a), and τ_c^LL/τ_c^NNL (b).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Fig8 {
+    /// The τ_c axis: which clock measured it.
+    pub tau_c: String,
     /// x of each point is X0.
     pub curves: Vec<X0Curve>,
     pub ratios: Vec<RatioCurve>,
@@ -169,6 +171,7 @@ impl Fig8 {
             });
         }
         Ok(Self {
+            tau_c: tau_label(ellipsoids(rows)),
             curves,
             ratios,
             missing,
@@ -207,7 +210,7 @@ impl Fig8 {
                 Panel {
                     title: "(a) τ_c with LL and NNL".into(),
                     x_desc: "X0 = a/b".into(),
-                    y_desc: "τ_c (µs)".into(),
+                    y_desc: self.tau_c.clone(),
                     x_log: true,
                     y_log: true,
                     series: a,
@@ -276,6 +279,7 @@ impl Fig8 {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Fig9 {
     pub length_unit: LengthUnit,
+    pub tau_c: String,
     pub curves: Vec<EpsCurve>,
     pub missing: Vec<String>,
 }
@@ -337,6 +341,7 @@ impl Fig9 {
         }
         Ok(Self {
             length_unit: unit,
+            tau_c: tau_label(ellipsoids(rows)),
             curves,
             missing,
         })
@@ -374,7 +379,7 @@ impl Fig9 {
                 Panel {
                     title: format!("X0 = {x0}, NNL"),
                     x_desc: format!("ε_d (unit: {})", self.length_unit.symbol()),
-                    y_desc: "τ_c (µs)".into(),
+                    y_desc: self.tau_c.clone(),
                     x_log: true,
                     y_log: true,
                     series,
@@ -399,6 +404,7 @@ impl Fig9 {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Fig10 {
     pub length_unit: LengthUnit,
+    pub tau_c: String,
     pub curves: Vec<DeltaCurve>,
     pub missing: Vec<String>,
 }
@@ -439,6 +445,7 @@ impl Fig10 {
         }
         Ok(Self {
             length_unit: unit,
+            tau_c: tau_label(ellipsoids(rows)),
             curves,
             missing,
         })
@@ -476,7 +483,7 @@ impl Fig10 {
                 Panel {
                     title: format!("φ = {phi}, NNL"),
                     x_desc: format!("Δ_NNL (unit: {})", self.length_unit.symbol()),
-                    y_desc: "τ_c (µs)".into(),
+                    y_desc: self.tau_c.clone(),
                     x_log: true,
                     y_log: false,
                     series,

@@ -8,7 +8,7 @@ use std::path::Path;
 use crate::lines::{LinePlot, Panel, Series, Style};
 use crate::render::render;
 use crate::selection::{Baseline, mean_by_x, timed};
-use crate::{EdmdRow, ReportError};
+use crate::{EdmdRow, ReportError, tau_label};
 
 /// Draws Figure 7 into `path` (PNG or SVG by its extension). Points of a curve that differ in
 /// anything but φ (N, Δ_NNL) are separate curves, so a curve never mixes two kinds of run; runs
@@ -41,7 +41,7 @@ pub fn fig7(rows: &[EdmdRow], path: &Path) -> Result<(), ReportError> {
     let panel = Panel {
         title: "Time per collision τ_c against φ (Eq. 69)".into(),
         x_desc: "φ".into(),
-        y_desc: "τ_c (µs)".into(),
+        y_desc: tau_label(rows.iter()),
         x_log: false,
         y_log: true,
         series,

@@ -59,7 +59,9 @@ pub struct EdmdRow {
     pub delta_nnl: f64,
     pub n: u32,
     pub phi: f64,
+    /// Time per collision (Eq. 69), by the clock `clock` says.
     pub tau_c_us: f64,
+    pub clock: Clock,
     /// In σ, as `delta_nnl`.
     pub eps_d: f64,
     pub eps_nnl: f64,
@@ -83,6 +85,29 @@ pub struct EdmdRow {
     pub init_s: Option<f64>,
     pub wall_s: Option<f64>,
     pub cpu_s: Option<f64>,
+}
+
+/// Which clock measured a τ_c: the thread's CPU time (the paper's "CPU time", unaffected by other
+/// work on a shared core) or the wall clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Clock {
+    Cpu,
+    #[default]
+    Wall,
+}
+
+/// The τ_c axis label of a figure over `rows`: it says which clock, or that they are mixed.
+pub(crate) fn tau_label<'a>(rows: impl Iterator<Item = &'a EdmdRow>) -> String {
+    let mut clocks = rows.map(|r| r.clock);
+    let clock = match clocks.next() {
+        Some(first) if clocks.all(|c| c == first) => match first {
+            Clock::Cpu => "CPU time",
+            Clock::Wall => "wall time",
+        },
+        _ => "CPU and wall time mixed",
+    };
+    format!("τ_c (µs, {clock})")
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -149,7 +149,7 @@ mod fig7 {
             "sphere, LL, N = 256",
             "ellipsoid X0 = 2, NNL (Δ = 0.08), N = 256",
             "ellipsoid X0 = 2, LL, N = 256",
-            "τ_c (µs)",
+            "τ_c (µs, wall time)",
         ] {
             assert!(text.contains(label), "the SVG lacks {label:?}");
         }

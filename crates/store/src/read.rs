@@ -221,7 +221,7 @@ impl Store {
 
     /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ. A record
     /// lacking a field the engine always writes is reported as [`Error::Corrupt`] rather than
-    /// skipped; fields added later (`wall_s`, `cpu_s`) may be absent.
+    /// skipped; fields added later (`tau_c_cpu_us`, `wall_s`, `cpu_s`) may be absent.
     pub async fn edmd_runs(&self) -> Result<Vec<EdmdRun>> {
         let reals = EDMD_REALS
             .iter()
@@ -288,7 +288,7 @@ fn add_state_count(status: &mut Status, state: &str, count: i64, estimate_s: f64
 }
 
 /// Real-valued columns of `edmd_runs` that [`Store::edmd_runs`] reads.
-const EDMD_REALS: [&str; 19] = [
+const EDMD_REALS: [&str; 20] = [
     "phi",
     "x0",
     "delta_nnl",
@@ -308,6 +308,7 @@ const EDMD_REALS: [&str; 19] = [
     "init_s",
     "wall_s",
     "cpu_s",
+    "tau_c_cpu_us",
 ];
 /// Integer columns of `edmd_runs` that [`Store::edmd_runs`] reads.
 const EDMD_INTEGERS: [&str; 10] = [
@@ -344,6 +345,7 @@ fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
         neighbours: text("neighbours")?,
         delta_nnl: number("delta_nnl")?,
         tau_c_us: number("tau_c_us")?,
+        tau_c_cpu_us: optional("tau_c_cpu_us")?,
         pressure_z: number("pressure_z")?,
         // NaN (one block) is written as JSON null.
         pressure_z_err: optional("pressure_z_err")?,

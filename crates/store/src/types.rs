@@ -185,6 +185,8 @@ pub struct EdmdRun {
     pub neighbours: String,
     pub delta_nnl: f64,
     pub tau_c_us: f64,
+    /// τ_c from the thread's CPU time; `None` for records written before it was kept.
+    pub tau_c_cpu_us: Option<f64>,
     pub pressure_z: f64,
     /// Standard error of Z; `None` when the run had too few blocks to tell.
     pub pressure_z_err: Option<f64>,
