@@ -28,36 +28,36 @@ fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
                 _ => (r.tau_c_us, Clock::Wall),
             };
             EdmdRow {
-            shape: r.shape,
-            x0: r.x0,
-            neighbours: r.neighbours,
-            delta_nnl: r.delta_nnl,
-            n: u32::try_from(r.n).unwrap_or(u32::MAX),
-            phi: r.phi,
-            tau_c_us,
-            clock,
-            eps_d: r.eps_d,
-            eps_nnl: r.eps_nnl,
-            nr_tol: r.nr_tol,
-            nr_max_iter: u32::try_from(r.nr_max_iter).unwrap_or(u32::MAX),
-            nr_relax: r.nr_relax,
-            sd_max_iter: u32::try_from(r.sd_max_iter).unwrap_or(u32::MAX),
-            sd_tol: r.sd_tol,
-            brent_tol: r.brent_tol,
-            seed: count(r.seed),
-            collisions: count(r.collisions),
-            pressure_z: r.pressure_z,
-            pressure_z_err: r.pressure_z_err,
-            energy_drift_rel: r.energy_drift_rel,
-            overlaps: count(r.overlaps),
-            solver_failures: count(r.solver_failures),
-            contact_nr_fallbacks: count(r.contact_nr_fallbacks),
-            nr_iterations_mean: r.nr_iterations_mean,
-            nnl_rebuilds: count(r.nnl_rebuilds),
-            init_s: r.init_s,
-            wall_s: r.wall_s,
-            cpu_s: r.cpu_s,
-        }
+                shape: r.shape,
+                x0: r.x0,
+                neighbours: r.neighbours,
+                delta_nnl: r.delta_nnl,
+                n: u32::try_from(r.n).unwrap_or(u32::MAX),
+                phi: r.phi,
+                tau_c_us,
+                clock,
+                eps_d: r.eps_d,
+                eps_nnl: r.eps_nnl,
+                nr_tol: r.nr_tol,
+                nr_max_iter: u32::try_from(r.nr_max_iter).unwrap_or(u32::MAX),
+                nr_relax: r.nr_relax,
+                sd_max_iter: u32::try_from(r.sd_max_iter).unwrap_or(u32::MAX),
+                sd_tol: r.sd_tol,
+                brent_tol: r.brent_tol,
+                seed: count(r.seed),
+                collisions: count(r.collisions),
+                pressure_z: r.pressure_z,
+                pressure_z_err: r.pressure_z_err,
+                energy_drift_rel: r.energy_drift_rel,
+                overlaps: count(r.overlaps),
+                solver_failures: count(r.solver_failures),
+                contact_nr_fallbacks: count(r.contact_nr_fallbacks),
+                nr_iterations_mean: r.nr_iterations_mean,
+                nnl_rebuilds: count(r.nnl_rebuilds),
+                init_s: r.init_s,
+                wall_s: r.wall_s,
+                cpu_s: r.cpu_s,
+            }
         })
         .collect())
 }
@@ -83,7 +83,9 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     }
     let rows = rows(&args.db, clock)?;
     if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
-        eprintln!("note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used");
+        eprintln!(
+            "note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used"
+        );
     }
     if rows.is_empty() {
         bail!("report {name}: no EDMD results in {}", args.db.display());

@@ -29,6 +29,9 @@ mod tests {
         assert!(worked > 0.0, "no CPU time measured");
         let before_sleep = thread_cpu_seconds();
         std::thread::sleep(std::time::Duration::from_millis(100));
-        assert!(thread_cpu_seconds() - before_sleep < 0.05, "sleeping counted as CPU time");
+        assert!(
+            thread_cpu_seconds() - before_sleep < 0.05,
+            "sleeping counted as CPU time"
+        );
     }
 }

@@ -381,7 +381,11 @@ fn expand_noop(
 
 /// EDMD points: every key of a scene (the `edmd` crate defines them, their defaults and their
 /// checks); each may be a list or a range, and the sweep is their cartesian product.
-fn expand_edmd(header: Range<usize>, table: &DeTable<'_>, defaults: &Defaults) -> Result<Vec<JobSpec>, Issue> {
+fn expand_edmd(
+    header: Range<usize>,
+    table: &DeTable<'_>,
+    defaults: &Defaults,
+) -> Result<Vec<JobSpec>, Issue> {
     let keys = edmd_keys();
     let known: Vec<&str> = keys.iter().map(String::as_str).collect();
     let sweep = &Sweep::new("[[edmd]]", header.clone(), table, &known)?;
@@ -389,14 +393,19 @@ fn expand_edmd(header: Range<usize>, table: &DeTable<'_>, defaults: &Defaults) -
     for key in &known {
         if let Some(values) = sweep.values(key)? {
             for value in &values {
-                check_scene_value(key, value).map_err(|reason| Issue::new(sweep.span_of(key), Some(key), reason))?;
+                check_scene_value(key, value)
+                    .map_err(|reason| Issue::new(sweep.span_of(key), Some(key), reason))?;
             }
             columns.push((key, values));
         }
     }
     for key in EDMD_REQUIRED {
         if !columns.iter().any(|(k, _)| *k == key) {
-            return Err(Issue::new(header, Some(key), "missing (this key has no default)"));
+            return Err(Issue::new(
+                header,
+                Some(key),
+                "missing (this key has no default)",
+            ));
         }
     }
     if !columns.iter().any(|(k, _)| *k == "seed") {
@@ -406,13 +415,21 @@ fn expand_edmd(header: Range<usize>, table: &DeTable<'_>, defaults: &Defaults) -
     check_product(sweep, &lens)?;
     cartesian(&lens)
         .map(|i| {
-            let table: toml::Table =
-                columns.iter().zip(&i).map(|((key, values), &k)| (key.to_string(), values[k].clone())).collect();
-            let scene: edmd::Scene = toml::Value::Table(table)
-                .try_into()
-                .map_err(|e: toml::de::Error| Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message())))?;
+            let table: toml::Table = columns
+                .iter()
+                .zip(&i)
+                .map(|((key, values), &k)| (key.to_string(), values[k].clone()))
+                .collect();
+            let scene: edmd::Scene =
+                toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e: toml::de::Error| {
+                        Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message()))
+                    })?;
             scene.validate().map_err(|e| match e {
-                edmd::SceneError::Invalid { key, reason, .. } => Issue::new(sweep.span_of(key), Some(key), reason),
+                edmd::SceneError::Invalid { key, reason, .. } => {
+                    Issue::new(sweep.span_of(key), Some(key), reason)
+                }
                 other => Issue::new(header.clone(), None, other.to_string()),
             })?;
             Ok(JobSpec::Edmd(scene))

@@ -53,7 +53,10 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
     let (wall, cpu) = (Instant::now(), edmd::clock::thread_cpu_seconds());
     let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
-    let (wall_s, cpu_s) = (wall.elapsed().as_secs_f64(), edmd::clock::thread_cpu_seconds() - cpu);
+    let (wall_s, cpu_s) = (
+        wall.elapsed().as_secs_f64(),
+        edmd::clock::thread_cpu_seconds() - cpu,
+    );
     match serde_json::to_value(report) {
         Ok(Value::Object(mut record)) => {
             record.insert("wall_s".into(), json!(wall_s));

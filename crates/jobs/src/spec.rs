@@ -91,9 +91,13 @@ impl JobSpec {
             // X0 0.25–4: 10–240 µs, 60 on average), and the initial state of an ellipsoid run
             // (0.9 s on average at N = 256; deploy/plans/edmd-figures-quick.toml).
             Self::Edmd(scene) => {
-                let (per_collision, init_per_particle) =
-                    if scene.shape == edmd::ShapeKind::Sphere { (2e-6, 1e-5) } else { (6e-5, 3.5e-3) };
-                (scene.collisions + scene.equilibrate) as f64 * per_collision + scene.n as f64 * init_per_particle
+                let (per_collision, init_per_particle) = if scene.shape == edmd::ShapeKind::Sphere {
+                    (2e-6, 1e-5)
+                } else {
+                    (6e-5, 3.5e-3)
+                };
+                (scene.collisions + scene.equilibrate) as f64 * per_collision
+                    + scene.n as f64 * init_per_particle
             }
         }
     }

@@ -220,8 +220,15 @@ fn messages_read_as_documented() {
         (error.line, error.column, error.key.as_deref()),
         (6, 14, Some("acceptance"))
     );
-    let edmd = Plan::parse("[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = [0.3, 0.95]\n", "e.toml").expect_err("φ above close packing");
-    assert!(edmd.to_string().starts_with("e.toml:4:7: key `phi`: "), "{edmd}");
+    let edmd = Plan::parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = [0.3, 0.95]\n",
+        "e.toml",
+    )
+    .expect_err("φ above close packing");
+    assert!(
+        edmd.to_string().starts_with("e.toml:4:7: key `phi`: "),
+        "{edmd}"
+    );
     let list = Plan::parse(
         "[[overlap]]\nl_star = [1, 2, -3]\nw_star = 1\nr_star = 1\n",
         "l.toml",
@@ -403,14 +410,38 @@ fn edmd_sweeps_expand_and_are_checked_by_the_engine() {
     assert_eq!(ids.len(), 12);
     assert!(plan.jobs.iter().all(|j| j.kind() == "edmd"));
     for (text, needle) in [
-        ("[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = [2, 0]\n", "e.toml:5:6: key `x0`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 1\nphi = 0.3\n", "e.toml:3:5: key `n`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\neps_d = -1e-5\n", "e.toml:5:9: key `eps_d`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncolour = 1\n", "e.toml:5:1: key `colour`"),
-        ("[[edmd]]\nshape = \"cube\"\nn = 8\nphi = 0.3\n", "e.toml:2:9: key `shape`: unknown variant `cube`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\nneighbours = [\"ll\", \"cells\"]\n", "e.toml:5:14: key `neighbours`: unknown variant `cells`"),
-        ("[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncollisions = \"many\"\n", "e.toml:5:14: key `collisions`"),
-        ("[[edmd]]\nshape = \"sphere\"\nphi = 0.3\n", "e.toml:1:1: key `n`: missing"),
+        (
+            "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = [2, 0]\n",
+            "e.toml:5:6: key `x0`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 1\nphi = 0.3\n",
+            "e.toml:3:5: key `n`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\neps_d = -1e-5\n",
+            "e.toml:5:9: key `eps_d`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncolour = 1\n",
+            "e.toml:5:1: key `colour`",
+        ),
+        (
+            "[[edmd]]\nshape = \"cube\"\nn = 8\nphi = 0.3\n",
+            "e.toml:2:9: key `shape`: unknown variant `cube`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\nneighbours = [\"ll\", \"cells\"]\n",
+            "e.toml:5:14: key `neighbours`: unknown variant `cells`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncollisions = \"many\"\n",
+            "e.toml:5:14: key `collisions`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nphi = 0.3\n",
+            "e.toml:1:1: key `n`: missing",
+        ),
     ] {
         let err = Plan::parse(text, "e.toml").expect_err(text).to_string();
         assert!(err.contains(needle), "expected `{needle}` in `{err}`");

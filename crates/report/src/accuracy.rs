@@ -140,7 +140,10 @@ type PointKey = (String, Key, Key, u32, String, Key, u64, u64);
 fn study(rows: &[EdmdRow], baseline: &Baseline, k: usize) -> Option<KnobStudy> {
     let (name, tighter) = KNOBS[k];
     let mut points: BTreeMap<PointKey, BTreeMap<Key, Vec<&EdmdRow>>> = BTreeMap::new();
-    for r in rows.iter().filter(|r| timed(r) && baseline.knobs_match(r, Some(k))) {
+    for r in rows
+        .iter()
+        .filter(|r| timed(r) && baseline.knobs_match(r, Some(k)))
+    {
         let key = (
             r.shape.clone(),
             Key(r.x0),
@@ -332,11 +335,7 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
         "A setting is *safe* when its runs found no overlap and no solver failure, drifted in energy by at most {MAX_ENERGY_DRIFT:e} (relative), and kept Z within {MAX_Z_SIGMAS} combined standard errors of the tightest setting's run at the same state point. Cost is τ_c over τ_c at the tightest setting (geometric mean over state points).\n"
     );
     for study in &report.knobs {
-        let _ = writeln!(
-            out,
-            "## {} ({} is tighter)\n",
-            study.knob, study.tighter
-        );
+        let _ = writeln!(out, "## {} ({} is tighter)\n", study.knob, study.tighter);
         let _ = writeln!(
             out,
             "| {} | state points | cost (τ_c / τ_c,ref) | max \\|ΔZ\\|/Z | max \\|ΔZ\\|/σ | max energy drift | overlaps | solver failures | NR fallbacks | safe | Pareto |",
@@ -401,12 +400,18 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
                     out,
                     "| {point} | {:e}{} | {:.2} | {:.3} | {:.4} ± {} | {} | {:.1e} | {} | {} | {:.2} |",
                     r.value,
-                    if Key(r.value) == Key(p.reference) { " (ref)" } else { "" },
+                    if Key(r.value) == Key(p.reference) {
+                        " (ref)"
+                    } else {
+                        ""
+                    },
                     r.tau_c_us,
                     r.cost_ratio,
                     r.pressure_z,
-                    r.pressure_z_err.map_or("–".to_owned(), |e| format!("{e:.4}")),
-                    r.z_deviation_sigmas.map_or("–".to_owned(), |v| format!("{v:.2}")),
+                    r.pressure_z_err
+                        .map_or("–".to_owned(), |e| format!("{e:.4}")),
+                    r.z_deviation_sigmas
+                        .map_or("–".to_owned(), |v| format!("{v:.2}")),
                     r.energy_drift_rel,
                     r.overlaps,
                     r.solver_failures,
@@ -431,8 +436,12 @@ pub fn accuracy_plot(report: &AccuracyReport, path: &Path) -> Result<(), ReportE
         .iter()
         .map(|study| {
             let point = |s: &SettingSummary| (s.cost_ratio, s.max_z_deviation_rel * 100.0);
-            let mut front: Vec<(f64, f64)> =
-                study.settings.iter().filter(|s| s.pareto).map(point).collect();
+            let mut front: Vec<(f64, f64)> = study
+                .settings
+                .iter()
+                .filter(|s| s.pareto)
+                .map(point)
+                .collect();
             front.sort_by(|a, b| a.0.total_cmp(&b.0));
             let others: Vec<(f64, f64)> = study
                 .settings
@@ -440,8 +449,12 @@ pub fn accuracy_plot(report: &AccuracyReport, path: &Path) -> Result<(), ReportE
                 .filter(|s| s.safe && !s.pareto)
                 .map(point)
                 .collect();
-            let lost: Vec<(f64, f64)> =
-                study.settings.iter().filter(|s| !s.safe).map(point).collect();
+            let lost: Vec<(f64, f64)> = study
+                .settings
+                .iter()
+                .filter(|s| !s.safe)
+                .map(point)
+                .collect();
             let notes = study
                 .settings
                 .iter()
@@ -457,7 +470,11 @@ pub fn accuracy_plot(report: &AccuracyReport, path: &Path) -> Result<(), ReportE
             let series = [
                 ("Pareto front (safe)", front, Style::Measured),
                 ("safe, dominated", others, Style::Located),
-                ("lost accuracy (overlaps, failures, drift or Z)", lost, Style::Flagged),
+                (
+                    "lost accuracy (overlaps, failures, drift or Z)",
+                    lost,
+                    Style::Flagged,
+                ),
             ]
             .into_iter()
             .filter(|(_, points, _)| !points.is_empty())
@@ -549,7 +566,13 @@ mod tests {
 
     #[test]
     fn no_swept_knob_is_missing_points() {
-        let rows = vec![run(1e-5, 45.0, 10.0, 0), EdmdRow { phi: 0.4, ..run(1e-5, 40.0, 7.0, 0) }];
+        let rows = vec![
+            run(1e-5, 45.0, 10.0, 0),
+            EdmdRow {
+                phi: 0.4,
+                ..run(1e-5, 40.0, 7.0, 0)
+            },
+        ];
         match accuracy(&rows) {
             Err(ReportError::MissingPoints { figure, missing }) => {
                 assert_eq!(figure, "accuracy");

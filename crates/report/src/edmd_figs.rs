@@ -300,7 +300,9 @@ impl Fig9 {
         let baseline = Baseline::of(rows);
         let mut raw: BTreeMap<State, (Vec<(f64, f64)>, Vec<f64>)> = BTreeMap::new();
         for r in ellipsoids(rows).filter(|r| {
-            r.neighbours == "nnl" && baseline.delta_matches(r) && baseline.knobs_match(r, Some(EPS_D))
+            r.neighbours == "nnl"
+                && baseline.delta_matches(r)
+                && baseline.knobs_match(r, Some(EPS_D))
         }) {
             let entry = raw.entry(state(r)).or_default();
             let eps = unit.convert(r.eps_d, r.x0);
@@ -475,7 +477,11 @@ impl Fig10 {
                                 format!("minimum not bracketed, X0 = {}", c.x0)
                             },
                             points: vec![(m.x, m.y)],
-                            style: if located { Style::Located } else { Style::Flagged },
+                            style: if located {
+                                Style::Located
+                            } else {
+                                Style::Flagged
+                            },
                             colour,
                         });
                     }
@@ -649,7 +655,8 @@ impl Fig11 {
         );
         render(
             &LinePlot {
-                title: "Fig. 11: the optimal Δ*_NNL (crosses: minimum not bracketed, a bound)".into(),
+                title: "Fig. 11: the optimal Δ*_NNL (crosses: minimum not bracketed, a bound)"
+                    .into(),
                 panels: vec![left, right],
                 columns: 2,
             },

@@ -68,14 +68,21 @@ impl LinePlot {
     }
 
     fn title_height(&self) -> u32 {
-        if self.title.is_empty() { 0 } else { TITLE_HEIGHT }
+        if self.title.is_empty() {
+            0
+        } else {
+            TITLE_HEIGHT
+        }
     }
 }
 
 impl Drawing for LinePlot {
     fn size(&self) -> (u32, u32) {
         let (columns, rows) = self.grid();
-        (columns * PANEL_WIDTH, self.title_height() + rows * PANEL_HEIGHT)
+        (
+            columns * PANEL_WIDTH,
+            self.title_height() + rows * PANEL_HEIGHT,
+        )
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
@@ -123,7 +130,11 @@ fn padded(values: impl Iterator<Item = f64>, log: bool, legend_room: f64) -> (f6
         let span = (hi / lo).max(1.5);
         (lo / span.powf(0.05), hi * span.powf(0.05 + legend_room))
     } else {
-        let span = if hi > lo { hi - lo } else { lo.abs().max(1.0) * 0.1 };
+        let span = if hi > lo {
+            hi - lo
+        } else {
+            lo.abs().max(1.0) * 0.1
+        };
         (lo - 0.05 * span, hi + (0.05 + legend_room) * span)
     }
 }
@@ -184,7 +195,8 @@ impl Panel {
             let points = series.points.iter().copied();
             let drawn = match series.style {
                 Style::Measured => {
-                    chart.draw_series(points.clone().map(|p| Circle::new(p, 4, colour.filled())))?;
+                    chart
+                        .draw_series(points.clone().map(|p| Circle::new(p, 4, colour.filled())))?;
                     chart.draw_series(LineSeries::new(points, colour.stroke_width(2)))?
                 }
                 Style::Guide => chart.draw_series(DashedLineSeries::new(
@@ -193,22 +205,27 @@ impl Panel {
                     6,
                     colour.stroke_width(2),
                 ))?,
-                Style::Flagged => chart.draw_series(
-                    points.map(|p| Cross::new(p, 7, RED.stroke_width(3))),
-                )?,
-                Style::Located => chart.draw_series(
-                    points.map(|p| TriangleMarker::new(p, 9, colour.filled())),
-                )?,
+                Style::Flagged => {
+                    chart.draw_series(points.map(|p| Cross::new(p, 7, RED.stroke_width(3))))?
+                }
+                Style::Located => {
+                    chart.draw_series(points.map(|p| TriangleMarker::new(p, 9, colour.filled())))?
+                }
             };
             if series.label.is_empty() {
                 continue;
             }
             let style = series.style;
-            drawn.label(&series.label).legend(move |(x, y)| match style {
-                Style::Flagged => Cross::new((x + 10, y), 5, RED.stroke_width(2)).into_dyn(),
-                Style::Located => TriangleMarker::new((x + 10, y), 6, colour.filled()).into_dyn(),
-                _ => PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)).into_dyn(),
-            });
+            drawn
+                .label(&series.label)
+                .legend(move |(x, y)| match style {
+                    Style::Flagged => Cross::new((x + 10, y), 5, RED.stroke_width(2)).into_dyn(),
+                    Style::Located => {
+                        TriangleMarker::new((x + 10, y), 6, colour.filled()).into_dyn()
+                    }
+                    _ => PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                        .into_dyn(),
+                });
         }
         chart.draw_series(self.notes.iter().map(|(at, text)| {
             Text::new(text.clone(), *at, (FONT, 13).into_font().color(&BLACK))
@@ -240,7 +257,10 @@ mod tests {
     #[test]
     fn ranges_leave_room_and_respect_log_axes() {
         let (lo, hi) = padded([1.0, 100.0, -3.0].into_iter(), true, 0.0);
-        assert!(lo < 1.0 && lo > 0.5 && hi > 100.0 && hi < 200.0, "{lo} {hi}");
+        assert!(
+            lo < 1.0 && lo > 0.5 && hi > 100.0 && hi < 200.0,
+            "{lo} {hi}"
+        );
         let (lo, hi) = padded([2.0, 2.0].into_iter(), false, 0.0);
         assert!(lo < 2.0 && hi > 2.0);
     }

@@ -165,8 +165,17 @@ mod tests {
         // Smallest at 0.1; the outer neighbours make the five-point fit concave.
         let points = vec![(0.02, 1.0), (0.05, 9.0), (0.1, 5.0), (0.2, 9.5), (0.4, 1.2)];
         // 0.02 and 0.4 are smaller than 0.1: the minimum is the grid edge 0.02.
-        assert_eq!(locate_minimum(&points).unwrap().method, MinimumMethod::GridEdge);
-        let points = vec![(0.02, 20.0), (0.05, 9.0), (0.1, 5.0), (0.2, 9.5), (0.4, 6.0)];
+        assert_eq!(
+            locate_minimum(&points).unwrap().method,
+            MinimumMethod::GridEdge
+        );
+        let points = vec![
+            (0.02, 20.0),
+            (0.05, 9.0),
+            (0.1, 5.0),
+            (0.2, 9.5),
+            (0.4, 6.0),
+        ];
         let m = locate_minimum(&points).unwrap();
         assert!(m.bracketed() && m.x > 0.05 && m.x < 0.2, "{m:?}");
     }

@@ -61,7 +61,10 @@ mod tests {
         assert!((LengthUnit::SemiAxis.convert(0.15, 1.0) - 0.3).abs() < 1e-12);
         for x0 in [0.25, 0.5, 2.0, 4.0] {
             let b = 0.5 / f64::cbrt(x0);
-            assert!((x0 * b * b * b - 0.125).abs() < 1e-12, "volume at X0 = {x0}");
+            assert!(
+                (x0 * b * b * b - 0.125).abs() < 1e-12,
+                "volume at X0 = {x0}"
+            );
         }
         // X0 = 2: b = 0.5/2^(1/3) = 0.3969 σ; X0 = 0.5: a = 0.5·0.5^(2/3) = 0.3150 σ.
         assert!((LengthUnit::SemiAxis.convert(0.3969, 2.0) - 1.0).abs() < 1e-3);

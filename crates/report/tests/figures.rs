@@ -167,7 +167,9 @@ mod fig7 {
 /// Figures 8–11 and the accuracy report over a synthetic campaign shaped like
 /// `deploy/plans/edmd-figures.toml`, with laws whose answers are known.
 mod edmd_figures {
-    use report::{EdmdRow, LengthUnit, ReportError, accuracy, accuracy_plot, fig8, fig9, fig10, fig11};
+    use report::{
+        EdmdRow, LengthUnit, ReportError, accuracy, accuracy_plot, fig8, fig9, fig10, fig11,
+    };
 
     const DELTAS: [f64; 8] = [0.01, 0.02, 0.035, 0.06, 0.1, 0.16, 0.25, 0.4];
 
@@ -255,9 +257,22 @@ mod edmd_figures {
         let dir = tempfile::tempdir().expect("a temporary directory");
         let rows = campaign();
         for (name, labels) in [
-            ("fig8", vec!["τ_c^LL / τ_c^NNL", "X0 = a/b", "φ = 0.3, LL", "guide ∝ X0²"]),
-            ("fig9", vec!["ε_d (unit: smallest semi-axis", "overlaps found", "X0 = 0.5, NNL"]),
-            ("fig10", vec!["Δ_NNL (unit: smallest semi-axis", "Δ* = ", "φ = 0.45, NNL"]),
+            (
+                "fig8",
+                vec!["τ_c^LL / τ_c^NNL", "X0 = a/b", "φ = 0.3, LL", "guide ∝ X0²"],
+            ),
+            (
+                "fig9",
+                vec![
+                    "ε_d (unit: smallest semi-axis",
+                    "overlaps found",
+                    "X0 = 0.5, NNL",
+                ],
+            ),
+            (
+                "fig10",
+                vec!["Δ_NNL (unit: smallest semi-axis", "Δ* = ", "φ = 0.45, NNL"],
+            ),
             ("fig11", vec!["Δ*_NNL against φ", "Δ*_NNL against X0"]),
         ] {
             for extension in ["png", "svg"] {
@@ -309,18 +324,40 @@ mod edmd_figures {
         for m in &f11.minima {
             assert!(m.bracketed, "{m:?}");
             assert!((m.delta_star_sigma - 0.05 / m.phi).abs() < 1e-9, "{m:?}");
-            let semi_axis = if m.x0 > 1.0 { 0.5 / m.x0.cbrt() } else { 0.5 * m.x0.powf(2.0 / 3.0) };
-            assert!((m.delta_star * semi_axis - m.delta_star_sigma).abs() < 1e-9, "{m:?}");
+            let semi_axis = if m.x0 > 1.0 {
+                0.5 / m.x0.cbrt()
+            } else {
+                0.5 * m.x0.powf(2.0 / 3.0)
+            };
+            assert!(
+                (m.delta_star * semi_axis - m.delta_star_sigma).abs() < 1e-9,
+                "{m:?}"
+            );
         }
         // Fig. 11's right panel needs φ = 0.40 and 0.55 at two X0: the fixture has neither.
-        assert!(f11.missing.iter().any(|m| m.contains("φ = 0.4")), "{:?}", f11.missing);
+        assert!(
+            f11.missing.iter().any(|m| m.contains("φ = 0.4")),
+            "{:?}",
+            f11.missing
+        );
         let f10 = fig10(&rows, LengthUnit::Sigma, None).expect("fig10");
         assert!(f10.missing.is_empty(), "{:?}", f10.missing);
 
         let study = accuracy(&rows).expect("accuracy");
-        let eps = study.knobs.iter().find(|k| k.knob == "eps_d").expect("an ε_d study");
-        assert_eq!(eps.recommended, Some(1e-7), "τ_c grows with ε_d here: the tightest is cheapest");
-        assert!(!eps.settings.last().unwrap().safe, "ε_d = 1e-2 found overlaps");
+        let eps = study
+            .knobs
+            .iter()
+            .find(|k| k.knob == "eps_d")
+            .expect("an ε_d study");
+        assert_eq!(
+            eps.recommended,
+            Some(1e-7),
+            "τ_c grows with ε_d here: the tightest is cheapest"
+        );
+        assert!(
+            !eps.settings.last().unwrap().safe,
+            "ε_d = 1e-2 found overlaps"
+        );
     }
 
     #[test]
@@ -328,7 +365,12 @@ mod edmd_figures {
         // Only Fig. 7's corners: two X0, LL and NNL, no sweep over X0, ε_d or Δ_NNL.
         let rows: Vec<EdmdRow> = [0.5, 2.0]
             .into_iter()
-            .flat_map(|x0| ["ll", "nnl"].map(|nb| EdmdRow { tau_c_us: 40.0, ..run(x0, 0.4, nb) }))
+            .flat_map(|x0| {
+                ["ll", "nnl"].map(|nb| EdmdRow {
+                    tau_c_us: 40.0,
+                    ..run(x0, 0.4, nb)
+                })
+            })
             .collect();
         let dir = tempfile::tempdir().expect("a temporary directory");
         let path = dir.path().join("empty.png");
@@ -340,7 +382,13 @@ mod edmd_figures {
             fig11(&rows, unit, Some(&path)).err(),
             accuracy(&rows).err(),
         ];
-        for (error, needle) in errors.into_iter().zip(["φ = 0.3 over three or more X0", "over two or more ε_d", "X0 = 0.5, φ = 0.45", "located Δ*_NNL at X0 = 0.5", "eps_d"]) {
+        for (error, needle) in errors.into_iter().zip([
+            "φ = 0.3 over three or more X0",
+            "over two or more ε_d",
+            "X0 = 0.5, φ = 0.45",
+            "located Δ*_NNL at X0 = 0.5",
+            "eps_d",
+        ]) {
             match error {
                 Some(e @ ReportError::MissingPoints { .. }) => {
                     let text = e.to_string();

@@ -226,7 +226,11 @@ impl Store {
         let reals = EDMD_REALS
             .iter()
             .map(|c| format!("CAST({c} AS REAL) AS {c}"))
-            .chain(EDMD_INTEGERS.iter().map(|c| format!("CAST({c} AS INTEGER) AS {c}")))
+            .chain(
+                EDMD_INTEGERS
+                    .iter()
+                    .map(|c| format!("CAST({c} AS INTEGER) AS {c}")),
+            )
             .collect::<Vec<_>>()
             .join(", ");
         let sql = format!(
