@@ -298,7 +298,9 @@ pub struct EpsCurve {
 impl Fig9 {
     pub fn new(rows: &[EdmdRow], unit: LengthUnit) -> Result<Self, ReportError> {
         let baseline = Baseline::of(rows);
-        let mut raw: BTreeMap<State, (Vec<(f64, f64)>, Vec<f64>)> = BTreeMap::new();
+        // Per state point: (ε_d, τ_c) of every run, and the ε_d of runs that found overlaps.
+        type Runs = (Vec<(f64, f64)>, Vec<f64>);
+        let mut raw: BTreeMap<State, Runs> = BTreeMap::new();
         for r in ellipsoids(rows).filter(|r| {
             r.neighbours == "nnl"
                 && baseline.delta_matches(r)
@@ -718,46 +720,42 @@ impl Fig11 {
     }
 }
 
-/// Draws Fig. 8 into `path`; the data it drew.
+/// `figure`, drawn into `path` when one is given.
+fn drawn<F>(
+    figure: F,
+    path: Option<&Path>,
+    draw: fn(&F, &Path) -> Result<(), ReportError>,
+) -> Result<F, ReportError> {
+    if let Some(path) = path {
+        draw(&figure, path)?;
+    }
+    Ok(figure)
+}
+
+/// Fig. 8's data, drawn into `path` when one is given.
 pub fn fig8(rows: &[EdmdRow], path: Option<&Path>) -> Result<Fig8, ReportError> {
-    let figure = Fig8::new(rows)?;
-    if let Some(path) = path {
-        figure.draw(path)?;
-    }
-    Ok(figure)
+    drawn(Fig8::new(rows)?, path, Fig8::draw)
 }
 
-/// Draws Fig. 9 into `path`; the data it drew.
+/// Fig. 9's data, drawn into `path` when one is given.
 pub fn fig9(rows: &[EdmdRow], unit: LengthUnit, path: Option<&Path>) -> Result<Fig9, ReportError> {
-    let figure = Fig9::new(rows, unit)?;
-    if let Some(path) = path {
-        figure.draw(path)?;
-    }
-    Ok(figure)
+    drawn(Fig9::new(rows, unit)?, path, Fig9::draw)
 }
 
-/// Draws Fig. 10 into `path`; the data it drew.
+/// Fig. 10's data, drawn into `path` when one is given.
 pub fn fig10(
     rows: &[EdmdRow],
     unit: LengthUnit,
     path: Option<&Path>,
 ) -> Result<Fig10, ReportError> {
-    let figure = Fig10::new(rows, unit)?;
-    if let Some(path) = path {
-        figure.draw(path)?;
-    }
-    Ok(figure)
+    drawn(Fig10::new(rows, unit)?, path, Fig10::draw)
 }
 
-/// Draws Fig. 11 into `path`; the data it drew.
+/// Fig. 11's data, drawn into `path` when one is given.
 pub fn fig11(
     rows: &[EdmdRow],
     unit: LengthUnit,
     path: Option<&Path>,
 ) -> Result<Fig11, ReportError> {
-    let figure = Fig11::new(rows, unit)?;
-    if let Some(path) = path {
-        figure.draw(path)?;
-    }
-    Ok(figure)
+    drawn(Fig11::new(rows, unit)?, path, Fig11::draw)
 }

@@ -36,7 +36,11 @@ impl Minimum {
 /// The minimum of `points` (x > 0, sorted by x, distinct x), fitted in log x. `None` for fewer
 /// than three points or a non-positive x.
 pub fn locate_minimum(points: &[(f64, f64)]) -> Option<Minimum> {
-    if points.len() < 3 || points.iter().any(|&(x, y)| !(x > 0.0) || !y.is_finite()) {
+    if points.len() < 3
+        || points
+            .iter()
+            .any(|&(x, y)| x.is_nan() || x <= 0.0 || !y.is_finite())
+    {
         return None;
     }
     let logs: Vec<(f64, f64)> = points.iter().map(|&(x, y)| (x.ln(), y)).collect();
@@ -83,14 +87,14 @@ fn least_squares_vertex(points: &[(f64, f64)]) -> Option<(f64, f64)> {
         }
     }
     let [a, b, c] = solve3(m)?;
-    if !(a > 0.0) {
+    if a.is_nan() || a <= 0.0 {
         return None;
     }
     let vertex = -b / (2.0 * a);
     let (lo, hi) = (points[0].0 - mean, points[points.len() - 1].0 - mean);
     (lo..=hi)
         .contains(&vertex)
-        .then(|| (vertex + mean, a * vertex * vertex + b * vertex + c))
+        .then_some((vertex + mean, a * vertex * vertex + b * vertex + c))
 }
 
 /// Gaussian elimination with partial pivoting of an augmented 3×3 system.
@@ -101,10 +105,11 @@ fn solve3(mut m: [[f64; 4]; 3]) -> Option<[f64; 3]> {
         if m[col][col].abs() < 1e-300 {
             return None;
         }
-        for row in col + 1..3 {
-            let f = m[row][col] / m[col][col];
-            for k in col..4 {
-                m[row][k] -= f * m[col][k];
+        let pivot_row = m[col];
+        for row in m.iter_mut().skip(col + 1) {
+            let f = row[col] / pivot_row[col];
+            for (cell, p) in row.iter_mut().zip(pivot_row).skip(col) {
+                *cell -= f * p;
             }
         }
     }
