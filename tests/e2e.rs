@@ -410,3 +410,32 @@ fn a_core_count_takes_the_first_cores_of_the_affinity_mask() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.starts_with(&format!("error: --core-count {too_many}: only {} cores", mask.len())), "{stderr}");
 }
+
+/// An EDMD sweep goes through a coordinator and a worker like any plan, and the figures and the
+/// accuracy report read its results from the coordinator's database.
+#[test]
+fn an_edmd_sweep_through_a_coordinator_feeds_the_edmd_reports() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator_with("127.0.0.1:0", &["--lease-secs", "30"]);
+    let _worker = cluster.worker(&url, "0", Some(cluster.token()));
+    let plan = "name = \"edmd-e2e\"\n[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = 2.0\nneighbours = \"nnl\"\n\
+                delta_nnl = [0.02, 0.06, 0.2]\ncollisions = 400\nequilibrate = 40\n\n\
+                [[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = 2.0\nneighbours = \"nnl\"\ndelta_nnl = 0.06\n\
+                eps_d = [1e-6, 1e-4]\ncollisions = 400\nequilibrate = 40\n";
+    let submitted = cluster.submit(&url, &cluster.plan("edmd.toml", plan));
+    assert_eq!(submitted["new_jobs"], 5);
+    cluster.wait_done(&url, 5, Duration::from_secs(120));
+    let db = cluster.db.to_str().unwrap();
+    let out = cluster.sweep(&["report", "fig10", "--db", db, "--length-unit", "sigma", "--format", "json"]);
+    assert!(out.status.success(), "fig10: {}", String::from_utf8_lossy(&out.stderr));
+    let fig10: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let xs: Vec<f64> = fig10["curves"][0]["points"].as_array().unwrap().iter().map(|p| p["x"].as_f64().unwrap()).collect();
+    assert_eq!(xs, vec![0.02, 0.06, 0.2], "{fig10}");
+    assert!(fig10["curves"][0]["minimum"]["x"].as_f64().is_some(), "{fig10}");
+    let out = cluster.sweep(&["report", "accuracy", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "accuracy: {}", String::from_utf8_lossy(&out.stderr));
+    let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(study["knobs"][0]["knob"], "eps_d", "{study}");
+    let values: Vec<f64> = study["knobs"][0]["settings"].as_array().unwrap().iter().map(|s| s["value"].as_f64().unwrap()).collect();
+    assert_eq!(values, vec![1e-6, 1e-5, 1e-4], "tightest first: {study}");
+}

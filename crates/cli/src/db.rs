@@ -6,17 +6,17 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::Args;
 use coordinator::Store;
-use report::{EdmdRow, OverlapRow, TableFormat};
+use report::{OverlapRow, TableFormat};
 
 use crate::local::report_status;
 use crate::output::{Format, print_json, print_table, write_csv};
 
-fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     Ok(tokio::runtime::Builder::new_current_thread().enable_all().build()?)
 }
 
 /// Opens `db` read-only: reading never creates, migrates or changes the file.
-async fn open_read_only(db: &Path) -> anyhow::Result<Store> {
+pub(crate) async fn open_read_only(db: &Path) -> anyhow::Result<Store> {
     if !db.exists() {
         bail!("{}: no such database", db.display());
     }
@@ -68,17 +68,26 @@ pub fn status(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
 
 #[derive(Args)]
 pub struct ReportArgs {
-    /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64), fig7 (EDMD: τ_c against φ).
-    name: String,
+    /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64); EDMD: fig7 (τ_c against φ), fig8 (against X0, LL/NNL),
+    /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), accuracy (cost of each accuracy knob).
+    pub(crate) name: String,
     #[arg(long)]
-    db: PathBuf,
+    pub(crate) db: PathBuf,
     /// Write here instead of stdout; the extension picks the format (.md .csv .tex .json .png .svg).
     /// Figures 2–3 print their points (estimate and 95 % interval) with `--format json` and no --out.
     #[arg(long)]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
+    /// Lengths on EDMD axes (Δ_NNL, ε_d): semi-axis (the paper's unit, the smallest semi-axis) or sigma
+    /// (the engine's and the plans' unit, the diameter of the sphere of equal volume).
+    #[arg(long, default_value = "semi-axis")]
+    pub(crate) length_unit: String,
+    /// EDMD τ_c by the thread's CPU time (cpu, the paper's definition: other work on a shared core does not
+    /// count) or by the wall clock (wall); records without a CPU τ_c (older ones) fall back to the wall clock.
+    #[arg(long, default_value = "cpu")]
+    pub(crate) clock: String,
     /// Figures 2–3: a circle in every cell, its size the point's 95 % CI half-width.
     #[arg(long)]
-    ci: bool,
+    pub(crate) ci: bool,
 }
 
 /// A report row from the store's: the estimate re-made from the stored blocks (the median of
@@ -118,8 +127,8 @@ fn report_row(r: store::OverlapRow) -> OverlapRow {
 }
 
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
-    if args.name == "fig7" {
-        return report_fig7(args);
+    if crate::edmd_report::NAMES.contains(&args.name.as_str()) {
+        return crate::edmd_report::report(args, format);
     }
     let rows: Vec<OverlapRow> = runtime()?.block_on(async {
         let store = open_read_only(&args.db).await?;
@@ -131,7 +140,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "table2" => ("table", "f64"),
         "fig2" => ("figure", "f32"),
         "fig3" => ("figure", "f64"),
-        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7)"),
+        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, accuracy)"),
     };
     if kind == "figure" {
         let json_out = args.out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")));
@@ -173,34 +182,6 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
             print!("{}", report::render_table(&table, format)?);
         }
     }
-    Ok(())
-}
-
-/// Figure 7: τ_c against φ for every EDMD curve in the database.
-fn report_fig7(args: &ReportArgs) -> anyhow::Result<()> {
-    let out = args.out.as_deref().context("report fig7: give --out FILE.png or FILE.svg")?;
-    let rows: Vec<EdmdRow> = runtime()?.block_on(async {
-        let store = open_read_only(&args.db).await?;
-        let runs = store.edmd_runs().await?;
-        anyhow::Ok(
-            runs.into_iter()
-                .map(|r| EdmdRow {
-                    shape: r.shape,
-                    x0: r.x0,
-                    neighbours: r.neighbours,
-                    delta_nnl: r.delta_nnl,
-                    n: u32::try_from(r.n).unwrap_or(u32::MAX),
-                    phi: r.phi,
-                    tau_c_us: r.tau_c_us,
-                })
-                .collect(),
-        )
-    })?;
-    if rows.is_empty() {
-        bail!("report fig7: no EDMD results in {}", args.db.display());
-    }
-    report::fig7(&rows, out)?;
-    eprintln!("wrote {}", out.display());
     Ok(())
 }
 

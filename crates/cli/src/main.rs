@@ -4,6 +4,7 @@ mod bench;
 mod campaign;
 mod db;
 mod edmd_cmd;
+mod edmd_report;
 mod local;
 mod output;
 mod overlap_cmd;

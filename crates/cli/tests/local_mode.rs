@@ -251,3 +251,53 @@ fn an_edmd_sweep_lands_in_edmd_runs_and_draws_figure_7() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no EDMD results"), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(!nothing.exists());
 }
+
+/// The EDMD figures and the accuracy report from a campaign run in local mode: a report whose
+/// points are not there yet names them and fails, writing nothing; once the plan is extended, it
+/// draws. Every record carries the job's wall and CPU time.
+#[test]
+fn edmd_reports_name_missing_points_then_draw_once_the_plan_is_extended() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("figures.db");
+    let db = db.to_str().unwrap();
+    let nnl = "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = [0.5, 2.0]\nneighbours = \"nnl\"\ndelta_nnl = 0.06\n\
+               eps_d = [1e-6, 1e-5]\ncollisions = 400\nequilibrate = 40\n";
+    run_plan(&write(dir.path(), "a.toml", &format!("name = \"figures\"\n{nnl}")), db);
+
+    let png = dir.path().join("fig8.png");
+    let out = sweep(&["report", "fig8", "--db", db, "--out", png.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "fig8 drew without a sweep over X0");
+    assert!(err.contains("ellipsoid LL runs at φ = 0.3 over three or more X0"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
+    assert!(!png.exists(), "an empty figure was written");
+
+    let ll = "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = [0.5, 1.0, 2.0]\nneighbours = [\"ll\", \"nnl\"]\n\
+              delta_nnl = 0.06\neps_d = 1e-5\ncollisions = 400\nequilibrate = 40\n";
+    let extended = run_plan(&write(dir.path(), "b.toml", &format!("name = \"figures\"\n{nnl}\n{ll}")), db);
+    assert_eq!(extended["new_jobs"], 4, "{extended}");
+    let out = sweep(&["report", "fig8", "--db", db, "--out", png.to_str().unwrap(), "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+    let fig8: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ratios = fig8["ratios"][0]["points"].as_array().unwrap();
+    assert_eq!(ratios.len(), 3, "{fig8}");
+    assert!(ratios.iter().all(|p| p["ratio"].as_f64().unwrap() > 0.0));
+
+    let svg = dir.path().join("fig9.svg");
+    let out = sweep(&["report", "fig9", "--db", db, "--out", svg.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("smallest semi-axis"));
+    let md = dir.path().join("accuracy.md");
+    let out = sweep(&["report", "accuracy", "--db", db, "--out", md.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&md).unwrap().contains("**Recommended: eps_d = "));
+
+    let out = sweep(&["query", "SELECT count(*) AS runs, min(wall_s > 0 AND cpu_s > 0 AND cpu_s <= wall_s * 1.05) AS timed FROM edmd_runs", "--db", db, "--format", "json"]);
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows[0]["runs"], 8, "{rows:?}");
+    assert_eq!(rows[0]["timed"], 1, "{rows:?}");
+    let out = sweep(&["report", "fig10", "--db", db, "--format", "json"]);
+    assert!(!out.status.success(), "fig10 without a sweep over Δ_NNL");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("over three or more Δ_NNL"));
+}

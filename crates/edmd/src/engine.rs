@@ -638,6 +638,9 @@ pub struct RunReport {
     pub collisions: u64,
     /// τ_c = T_tot / N_coll (Eq. 69): wall time of the measured run per collision, in µs.
     pub tau_c_us: f64,
+    /// τ_c from this thread's CPU time instead of the wall clock, in µs: the paper's "CPU time"
+    /// of Eq. (69); below `tau_c_us` when the core was shared with other work.
+    pub tau_c_cpu_us: f64,
     /// Z = P/(ρ kT) = 1 + Σ r_ij·Δp_i / (3 N kT T), with the measured kT.
     pub pressure_z: f64,
     /// Standard error of Z from 10 block averages.
@@ -854,7 +857,7 @@ fn measure<M: Model>(
     let (e0, p0, t0, stats0) = (eng.energy(), eng.momentum(), eng.t, eng.m.stats());
     let blocks = scene.collisions.min(10);
     let mut marks: Vec<(f64, f64)> = Vec::with_capacity(blocks as usize);
-    let wall = Instant::now();
+    let (wall, cpu) = (Instant::now(), crate::clock::thread_cpu_seconds());
     eng.advance(scene.collisions, |e| {
         let k = e.acc.collisions - base_collisions;
         tick(e.acc.collisions);
@@ -863,6 +866,7 @@ fn measure<M: Model>(
         }
     })?;
     let elapsed = wall.elapsed().as_secs_f64();
+    let cpu_elapsed = crate::clock::thread_cpu_seconds() - cpu;
     eng.sync_all();
     progress(eng.acc.collisions);
 
@@ -887,6 +891,7 @@ fn measure<M: Model>(
     let report = RunReport {
         collisions: scene.collisions,
         tau_c_us: elapsed * 1e6 / scene.collisions as f64,
+        tau_c_cpu_us: cpu_elapsed * 1e6 / scene.collisions as f64,
         pressure_z: z,
         pressure_z_err: z_err,
         temperature: 2.0 * eng.acc.ke_int / (3.0 * n as f64 * sim_time),

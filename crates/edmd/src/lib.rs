@@ -55,6 +55,7 @@
 pub mod ball;
 pub mod calendar;
 pub mod cells;
+pub mod clock;
 pub mod contact;
 pub mod distance;
 pub mod ellipsoid;

@@ -21,6 +21,7 @@ fn report_and_dump_have_the_documented_fields() {
     for key in [
         "collisions",
         "tau_c_us",
+        "tau_c_cpu_us",
         "pressure_z",
         "temperature",
         "energy_drift_rel",

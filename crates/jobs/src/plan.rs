@@ -418,7 +418,20 @@ fn expand_edmd(
     let mut columns: Vec<(&str, Vec<toml::Value>)> = Vec::new();
     for key in &known {
         if let Some(values) = sweep.values(key)? {
+            for value in &values {
+                check_scene_value(key, value)
+                    .map_err(|reason| Issue::new(sweep.span_of(key), Some(key), reason))?;
+            }
             columns.push((key, values));
+        }
+    }
+    for key in EDMD_REQUIRED {
+        if !columns.iter().any(|(k, _)| *k == key) {
+            return Err(Issue::new(
+                header,
+                Some(key),
+                "missing (this key has no default)",
+            ));
         }
     }
     if !columns.iter().any(|(k, _)| *k == "seed") {
@@ -449,6 +462,24 @@ fn expand_edmd(
             Ok(JobSpec::Edmd(scene))
         })
         .collect()
+}
+
+/// The keys of a scene that have no default.
+const EDMD_REQUIRED: [&str; 3] = ["shape", "n", "phi"];
+
+/// Whether `value` has the type (and, for names, the variant) of the scene key `key`, tried alone
+/// in an otherwise valid scene, so that the plan error names the key rather than the table.
+fn check_scene_value(key: &str, value: &toml::Value) -> Result<(), String> {
+    let mut probe = toml::Table::new();
+    probe.insert("shape".into(), toml::Value::String("ellipsoid".into()));
+    probe.insert("n".into(), toml::Value::Integer(2));
+    probe.insert("phi".into(), toml::Value::Float(0.1));
+    probe.insert(key.to_owned(), value.clone());
+    edmd::fill_default_neighbours(&mut probe);
+    toml::Value::Table(probe)
+        .try_into::<edmd::Scene>()
+        .map(|_| ())
+        .map_err(|e| e.message().to_owned())
 }
 
 /// The keys of a scene, read off a serialised default one, so this list cannot drift from the

@@ -2,7 +2,7 @@
 
 use std::cell::RefCell;
 use std::thread::sleep;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use overlap::{Calibration, OverlapError, PointSpec, run_point};
 use serde_json::{Map, Value, json};
@@ -47,7 +47,7 @@ pub enum JobError {
 /// [`overlap::PointReport`]; `disturbed` is true when the machine was still disturbed after the
 /// re-runs, `disturbance` says how).
 /// A no-op job: one record `{"index", "duration_ms"}`.
-/// An EDMD job: one record, the fields of `edmd::RunReport`.
+/// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s` and `cpu_s`.
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     match spec {
         JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
@@ -56,11 +56,22 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     }
 }
 
-/// An EDMD job: one record, the run report (`collisions`, `tau_c_us`, `pressure_z`, …).
+/// An EDMD job: one record, the run report (`collisions`, `tau_c_us`, `pressure_z`, …) and
+/// the job's own `wall_s` and `cpu_s` (this thread's CPU time: below the wall time when the
+/// core was shared).
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
+    let (wall, cpu) = (Instant::now(), edmd::clock::thread_cpu_seconds());
     let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
+    let (wall_s, cpu_s) = (
+        wall.elapsed().as_secs_f64(),
+        edmd::clock::thread_cpu_seconds() - cpu,
+    );
     match serde_json::to_value(report) {
-        Ok(Value::Object(record)) => Ok(vec![record]),
+        Ok(Value::Object(mut record)) => {
+            record.insert("wall_s".into(), json!(wall_s));
+            record.insert("cpu_s".into(), json!(cpu_s));
+            Ok(vec![record])
+        }
         _ => Err(JobError::Edmd("the run report is not a JSON object".into())),
     }
 }

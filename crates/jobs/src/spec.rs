@@ -86,15 +86,18 @@ impl JobSpec {
                 per_config_ns * p.configurations as f64 * f64::from(p.repeats) * 1e-9
             }
             Self::Noop(n) => n.duration_ms as f64 * 1e-3,
-            // Rough costs per collision measured on this project's reference machine: the
-            // analytic sphere path and the Newton–Raphson ellipsoid path.
+            // Rough costs measured on this project's reference machine: per collision on the
+            // analytic sphere path and on the Newton–Raphson ellipsoid path (N = 256, φ 0.25–0.57,
+            // X0 0.25–4: 10–240 µs, 60 on average), and the initial state of an ellipsoid run
+            // (0.9 s on average at N = 256; deploy/plans/edmd-figures-quick.toml).
             Self::Edmd(scene) => {
-                let per_collision = if scene.shape == edmd::ShapeKind::Sphere {
-                    2e-6
+                let (per_collision, init_per_particle) = if scene.shape == edmd::ShapeKind::Sphere {
+                    (2e-6, 1e-5)
                 } else {
-                    2e-4
+                    (6e-5, 3.5e-3)
                 };
                 (scene.collisions + scene.equilibrate) as f64 * per_collision
+                    + scene.n as f64 * init_per_particle
             }
         }
     }

@@ -195,7 +195,7 @@ const BAD: &[(&str, Option<&str>, usize)] = &[
     ("overlap = 3\n", Some("overlap"), 1),
     (
         "[[noop]]\ncount = 1\n\n[[edmd]]\nshape = \"sphere\"\n",
-        None,
+        Some("n"),
         4,
     ),
     ("[[noop]]\ncount = 1\nduration_ms = [1,\n", None, 3),
@@ -463,11 +463,19 @@ fn edmd_sweeps_expand_and_are_checked_by_the_engine() {
         ),
         (
             "[[edmd]]\nshape = \"cube\"\nn = 8\nphi = 0.3\n",
-            "e.toml:1:1",
+            "e.toml:2:9: key `shape`: unknown variant `cube`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\nneighbours = [\"ll\", \"cells\"]\n",
+            "e.toml:5:14: key `neighbours`: unknown variant `cells`",
+        ),
+        (
+            "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncollisions = \"many\"\n",
+            "e.toml:5:14: key `collisions`",
         ),
         (
             "[[edmd]]\nshape = \"sphere\"\nphi = 0.3\n",
-            "missing field `n`",
+            "e.toml:1:1: key `n`: missing",
         ),
     ] {
         let err = Plan::parse(text, "e.toml").expect_err(text).to_string();

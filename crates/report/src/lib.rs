@@ -5,20 +5,32 @@
 //! [`render_table`] as Markdown, CSV, LaTeX or JSON) and Figure 2 ([`fig2`], PNG or SVG). Ours
 //! compare a second precision, f64, where the papers compare a second language: Table 1 is
 //! `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`. Figure 7 of the EDMD paper, τ_c
-//! against φ, is [`fig7`] over [`EdmdRow`]s.
+//! against φ, is [`fig7`] over [`EdmdRow`]s; Figures 8–11 ([`fig8`] … [`fig11`]) and the cost of
+//! accuracy ([`accuracy`]) are data first (serialisable, for `--format json`), drawn second; a
+//! figure that would be empty is [`ReportError::MissingPoints`], naming what is missing.
 //!
 //! Figures use the DejaVu Sans file shipped in `assets/fonts/` (compiled in), never system
 //! fonts, so they render the same on a bare machine.
 
+mod accuracy;
+mod edmd_figs;
 mod fig;
 mod fig7;
+mod lines;
+mod minimum;
 mod render;
+mod selection;
 mod table;
+mod units;
 
 use serde::{Deserialize, Serialize};
 
 pub use fig::{Fig2Options, fig2, fig2_points};
+pub use accuracy::{AccuracyReport, accuracy, accuracy_markdown, accuracy_plot};
+pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
 pub use fig7::fig7;
+pub use minimum::{Minimum, MinimumMethod, locate_minimum};
+pub use units::LengthUnit;
 pub use table::{Table1Row, TableFormat, render_table, table1};
 
 /// One benchmark point's result for one algorithm: its estimate (the median of its sets'
@@ -72,22 +84,78 @@ fn quantile(values: &[f64], q: f64) -> Option<f64> {
     })
 }
 
-/// One EDMD point: what tells its curve apart, its packing fraction and its time per collision.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// One EDMD run: the point's parameters (what tells its curve apart, its accuracy knobs) and
+/// what it measured (its time per collision and the checks that say whether it was right).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct EdmdRow {
     pub shape: String,
     pub x0: f64,
     pub neighbours: String,
+    /// In the engine's unit, σ (the diameter of the sphere of equal volume).
     pub delta_nnl: f64,
     pub n: u32,
     pub phi: f64,
+    /// Time per collision (Eq. 69), by the clock `clock` says.
     pub tau_c_us: f64,
+    pub clock: Clock,
+    /// In σ, as `delta_nnl`.
+    pub eps_d: f64,
+    pub eps_nnl: f64,
+    pub nr_tol: f64,
+    pub nr_max_iter: u32,
+    pub nr_relax: f64,
+    pub sd_max_iter: u32,
+    pub sd_tol: f64,
+    pub brent_tol: f64,
+    pub seed: u64,
+    /// Collisions of the measured run.
+    pub collisions: u64,
+    pub pressure_z: f64,
+    pub pressure_z_err: Option<f64>,
+    pub energy_drift_rel: f64,
+    pub overlaps: u64,
+    pub solver_failures: u64,
+    pub contact_nr_fallbacks: u64,
+    pub nr_iterations_mean: f64,
+    pub nnl_rebuilds: u64,
+    pub init_s: Option<f64>,
+    pub wall_s: Option<f64>,
+    pub cpu_s: Option<f64>,
+}
+
+/// Which clock measured a τ_c: the thread's CPU time (the paper's "CPU time", unaffected by other
+/// work on a shared core) or the wall clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Clock {
+    Cpu,
+    #[default]
+    Wall,
+}
+
+/// The τ_c axis label of a figure over `rows`: it says which clock, or that they are mixed.
+pub(crate) fn tau_label<'a>(rows: impl Iterator<Item = &'a EdmdRow>) -> String {
+    let mut clocks = rows.map(|r| r.clock);
+    let clock = match clocks.next() {
+        Some(first) if clocks.all(|c| c == first) => match first {
+            Clock::Cpu => "CPU time",
+            Clock::Wall => "wall time",
+        },
+        _ => "CPU and wall time mixed",
+    };
+    format!("τ_c (µs, {clock})")
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
     #[error("no EDMD results to plot")]
     NoEdmdRows,
+    /// The database lacks the points a figure needs; each entry names one (or one group).
+    #[error("{figure}: nothing to draw, the database lacks the points this report needs: {}; `sweep run deploy/plans/edmd-figures.toml` runs them", missing.join("; "))]
+    MissingPoints {
+        figure: &'static str,
+        missing: Vec<String>,
+    },
     #[error("no {precision} overlap results to plot")]
     NoRows { precision: String },
     #[error("cannot tell the format of `{path}` from its extension (expected {expected})")]

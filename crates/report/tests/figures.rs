@@ -162,6 +162,7 @@ mod fig7 {
             n: 256,
             phi,
             tau_c_us,
+            ..Default::default()
         }
     }
 
@@ -195,7 +196,7 @@ mod fig7 {
             "sphere, LL, N = 256",
             "ellipsoid X0 = 2, NNL (Δ = 0.08), N = 256",
             "ellipsoid X0 = 2, LL, N = 256",
-            "τ_c (µs)",
+            "τ_c (µs, wall time)",
         ] {
             assert!(text.contains(label), "the SVG lacks {label:?}");
         }
@@ -207,5 +208,243 @@ mod fig7 {
         let png = dir.path().join("fig7.png");
         assert!(matches!(fig7(&[], &png), Err(ReportError::NoEdmdRows)));
         assert!(!png.exists());
+    }
+}
+
+/// Figures 8–11 and the accuracy report over a synthetic campaign shaped like
+/// `deploy/plans/edmd-figures.toml`, with laws whose answers are known.
+mod edmd_figures {
+    use report::{
+        EdmdRow, LengthUnit, ReportError, accuracy, accuracy_plot, fig8, fig9, fig10, fig11,
+    };
+
+    const DELTAS: [f64; 8] = [0.01, 0.02, 0.035, 0.06, 0.1, 0.16, 0.25, 0.4];
+
+    fn run(x0: f64, phi: f64, neighbours: &str) -> EdmdRow {
+        EdmdRow {
+            shape: "ellipsoid".into(),
+            x0,
+            neighbours: neighbours.into(),
+            delta_nnl: 0.06,
+            n: 256,
+            phi,
+            eps_d: 1e-5,
+            eps_nnl: 5e-3,
+            nr_tol: 1e-12,
+            nr_max_iter: 50,
+            nr_relax: 0.5,
+            sd_max_iter: 200,
+            sd_tol: 1e-3,
+            brent_tol: 1e-12,
+            seed: 1,
+            collisions: 20_000,
+            pressure_z: 10.0,
+            pressure_z_err: Some(0.1),
+            ..Default::default()
+        }
+    }
+
+    /// LL grows as X0² (prolate) and 1/X0 (oblate); NNL is X0-independent and has its minimum
+    /// over Δ_NNL at Δ* = 0.05/φ σ (an exact parabola in log Δ); τ_c rises 10 % per decade of ε_d
+    /// and ε_d = 1e-2 finds overlaps.
+    fn campaign() -> Vec<EdmdRow> {
+        let mut rows = Vec::new();
+        for phi in [0.3, 0.4, 0.5] {
+            for x0 in [0.25, 0.5, 1.0, 2.0, 4.0] {
+                let elongation = if x0 > 1.0 { x0 * x0 } else { 1.0 / x0 };
+                rows.push(EdmdRow {
+                    tau_c_us: 20.0 * phi * elongation,
+                    ..run(x0, phi, "ll")
+                });
+                rows.push(EdmdRow {
+                    tau_c_us: 30.0,
+                    ..run(x0, phi, "nnl")
+                });
+            }
+        }
+        for x0 in [0.5, 2.0] {
+            for phi in [0.3, 0.45, 0.57] {
+                // Δ = 0.06 with ε_d = 1e-5 is the baseline point, run once (a plan keeps one
+                // job per distinct point): both laws pass through its τ_c = 30.
+                let star = 0.05 / phi;
+                let law = |delta: f64| 4.0 * (delta / star).ln().powi(2);
+                if phi != 0.3 {
+                    rows.push(EdmdRow {
+                        tau_c_us: 30.0,
+                        ..run(x0, phi, "nnl")
+                    });
+                }
+                for delta in DELTAS.into_iter().filter(|&d| d != 0.06) {
+                    rows.push(EdmdRow {
+                        delta_nnl: delta,
+                        tau_c_us: 30.0 + law(delta) - law(0.06),
+                        ..run(x0, phi, "nnl")
+                    });
+                }
+                for eps_d in [1e-7_f64, 1e-6, 1e-4, 1e-3, 1e-2] {
+                    let decades = eps_d.log10() + 5.0;
+                    rows.push(EdmdRow {
+                        eps_d,
+                        tau_c_us: 30.0 * (1.0 + 0.1 * decades),
+                        overlaps: u64::from(eps_d > 5e-3),
+                        ..run(x0, phi, "nnl")
+                    });
+                }
+            }
+        }
+        rows
+    }
+
+    fn svg_text(path: &std::path::Path) -> String {
+        std::fs::read_to_string(path).expect("the SVG is text")
+    }
+
+    #[test]
+    fn every_figure_renders_from_a_fixture_campaign() {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let rows = campaign();
+        for (name, labels) in [
+            (
+                "fig8",
+                vec!["τ_c^LL / τ_c^NNL", "X0 = a/b", "φ = 0.3, LL", "guide ∝ X0²"],
+            ),
+            (
+                "fig9",
+                vec![
+                    "ε_d (unit: smallest semi-axis",
+                    "overlaps found",
+                    "X0 = 0.5, NNL",
+                ],
+            ),
+            (
+                "fig10",
+                vec!["Δ_NNL (unit: smallest semi-axis", "Δ* = ", "φ = 0.45, NNL"],
+            ),
+            ("fig11", vec!["Δ*_NNL against φ", "Δ*_NNL against X0"]),
+        ] {
+            for extension in ["png", "svg"] {
+                let path = dir.path().join(format!("{name}.{extension}"));
+                let unit = LengthUnit::SemiAxis;
+                let drawn = match name {
+                    "fig8" => fig8(&rows, Some(&path)).map(|_| ()),
+                    "fig9" => fig9(&rows, unit, Some(&path)).map(|_| ()),
+                    "fig10" => fig10(&rows, unit, Some(&path)).map(|_| ()),
+                    _ => fig11(&rows, unit, Some(&path)).map(|_| ()),
+                };
+                drawn.unwrap_or_else(|e| panic!("{name}.{extension}: {e}"));
+                let bytes = std::fs::metadata(&path).expect("written").len();
+                assert!(bytes > 10_000, "{name}.{extension}: {bytes} bytes");
+                if extension == "png" {
+                    image::open(&path).expect("the PNG decodes");
+                } else {
+                    let text = svg_text(&path);
+                    for label in &labels {
+                        assert!(text.contains(label), "{name}.svg lacks {label:?}");
+                    }
+                }
+            }
+        }
+        let study = accuracy(&rows).expect("an ε_d study");
+        let svg = dir.path().join("accuracy.svg");
+        accuracy_plot(&study, &svg).expect("the accuracy plot renders");
+        assert!(svg_text(&svg).contains("Pareto front"));
+    }
+
+    #[test]
+    fn the_figures_data_follow_the_laws_they_were_given() {
+        let rows = campaign();
+        let f8 = fig8(&rows, None).expect("fig8");
+        assert_eq!(f8.curves.len(), 6, "LL and NNL at three φ");
+        assert!(f8.missing.is_empty(), "{:?}", f8.missing);
+        let ratio = &f8.ratios[0];
+        let at = |x0: f64| ratio.points.iter().find(|p| p.x0 == x0).unwrap().ratio;
+        assert!((at(4.0) / at(2.0) - 4.0).abs() < 1e-12, "X0² when prolate");
+        assert!((at(0.25) / at(0.5) - 2.0).abs() < 1e-12, "1/X0 when oblate");
+
+        let f9 = fig9(&rows, LengthUnit::Sigma, None).expect("fig9");
+        assert_eq!(f9.curves.len(), 6);
+        assert!(f9.curves.iter().all(|c| c.overlapping == vec![1e-2]));
+
+        // Δ* = 0.05/φ σ, exactly, where the grid brackets it; in the paper's unit it is that over
+        // the smallest semi-axis.
+        let f11 = fig11(&rows, LengthUnit::SemiAxis, None).expect("fig11");
+        for m in &f11.minima {
+            assert!(m.bracketed, "{m:?}");
+            assert!((m.delta_star_sigma - 0.05 / m.phi).abs() < 1e-9, "{m:?}");
+            let semi_axis = if m.x0 > 1.0 {
+                0.5 / m.x0.cbrt()
+            } else {
+                0.5 * m.x0.powf(2.0 / 3.0)
+            };
+            assert!(
+                (m.delta_star * semi_axis - m.delta_star_sigma).abs() < 1e-9,
+                "{m:?}"
+            );
+        }
+        // Fig. 11's right panel needs φ = 0.40 and 0.55 at two X0: the fixture has neither.
+        assert!(
+            f11.missing.iter().any(|m| m.contains("φ = 0.4")),
+            "{:?}",
+            f11.missing
+        );
+        let f10 = fig10(&rows, LengthUnit::Sigma, None).expect("fig10");
+        assert!(f10.missing.is_empty(), "{:?}", f10.missing);
+
+        let study = accuracy(&rows).expect("accuracy");
+        let eps = study
+            .knobs
+            .iter()
+            .find(|k| k.knob == "eps_d")
+            .expect("an ε_d study");
+        assert_eq!(
+            eps.recommended,
+            Some(1e-7),
+            "τ_c grows with ε_d here: the tightest is cheapest"
+        );
+        assert!(
+            !eps.settings.last().unwrap().safe,
+            "ε_d = 1e-2 found overlaps"
+        );
+    }
+
+    #[test]
+    fn a_database_without_the_points_says_which_are_missing() {
+        // Only Fig. 7's corners: two X0, LL and NNL, no sweep over X0, ε_d or Δ_NNL.
+        let rows: Vec<EdmdRow> = [0.5, 2.0]
+            .into_iter()
+            .flat_map(|x0| {
+                ["ll", "nnl"].map(|nb| EdmdRow {
+                    tau_c_us: 40.0,
+                    ..run(x0, 0.4, nb)
+                })
+            })
+            .collect();
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let path = dir.path().join("empty.png");
+        let unit = LengthUnit::SemiAxis;
+        let errors = [
+            fig8(&rows, Some(&path)).err(),
+            fig9(&rows, unit, Some(&path)).err(),
+            fig10(&rows, unit, Some(&path)).err(),
+            fig11(&rows, unit, Some(&path)).err(),
+            accuracy(&rows).err(),
+        ];
+        for (error, needle) in errors.into_iter().zip([
+            "φ = 0.3 over three or more X0",
+            "over two or more ε_d",
+            "X0 = 0.5, φ = 0.45",
+            "located Δ*_NNL at X0 = 0.5",
+            "eps_d",
+        ]) {
+            match error {
+                Some(e @ ReportError::MissingPoints { .. }) => {
+                    let text = e.to_string();
+                    assert!(text.contains(needle), "{needle:?} not in {text}");
+                    assert!(text.contains("edmd-figures.toml"), "{text}");
+                }
+                other => panic!("expected missing points, got {other:?}"),
+            }
+        }
+        assert!(!path.exists(), "no empty figure was written");
     }
 }

@@ -323,17 +323,26 @@ impl Store {
     }
 
     /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ. A record
-    /// lacking a field is reported as [`Error::Corrupt`] rather than skipped.
+    /// lacking a field the engine always writes is reported as [`Error::Corrupt`] rather than
+    /// skipped; fields added later (`tau_c_cpu_us`, `wall_s`, `cpu_s`) may be absent.
     pub async fn edmd_runs(&self) -> Result<Vec<EdmdRun>> {
-        let rows = sqlx::query(
-            "SELECT job_id, shape, CAST(n AS INTEGER), CAST(phi AS REAL), CAST(x0 AS REAL),
-                    neighbours, CAST(delta_nnl AS REAL), CAST(tau_c_us AS REAL),
-                    CAST(pressure_z AS REAL)
-             FROM edmd_runs
-             ORDER BY shape, x0, neighbours, n, delta_nnl, phi",
-        )
-        .fetch_all(&self.reader)
-        .await?;
+        let reals = EDMD_REALS
+            .iter()
+            .map(|c| format!("CAST({c} AS REAL) AS {c}"))
+            .chain(
+                EDMD_INTEGERS
+                    .iter()
+                    .map(|c| format!("CAST({c} AS INTEGER) AS {c}")),
+            )
+            .collect::<Vec<_>>()
+            .join(", ");
+        let sql = format!(
+            "SELECT job_id, shape, neighbours, {reals} FROM edmd_runs
+             ORDER BY shape, x0, neighbours, n, delta_nnl, phi, eps_d, nr_tol, seed"
+        );
+        let rows = sqlx::query(AssertSqlSafe(sql).into_sql_str())
+            .fetch_all(&self.reader)
+            .await?;
         rows.iter().map(edmd_run).collect()
     }
 
@@ -385,28 +394,90 @@ fn add_state_count(status: &mut Status, state: &str, count: i64, estimate_s: f64
     Ok(())
 }
 
+/// Real-valued columns of `edmd_runs` that [`Store::edmd_runs`] reads.
+const EDMD_REALS: [&str; 20] = [
+    "phi",
+    "x0",
+    "delta_nnl",
+    "tau_c_us",
+    "pressure_z",
+    "pressure_z_err",
+    "eps_d",
+    "eps_nnl",
+    "nr_tol",
+    "nr_relax",
+    "sd_tol",
+    "brent_tol",
+    "energy_drift_rel",
+    "nr_iterations_mean",
+    "distance_calls_per_collision",
+    "searches_per_collision",
+    "init_s",
+    "wall_s",
+    "cpu_s",
+    "tau_c_cpu_us",
+];
+/// Integer columns of `edmd_runs` that [`Store::edmd_runs`] reads.
+const EDMD_INTEGERS: [&str; 10] = [
+    "n",
+    "nr_max_iter",
+    "sd_max_iter",
+    "seed",
+    "collisions",
+    "overlaps",
+    "solver_failures",
+    "contact_nr_fallbacks",
+    "nnl_rebuilds",
+    "cell_crossings",
+];
+
 fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
-    let job_id: String = row.try_get(0)?;
+    let job_id: String = row.try_get("job_id")?;
     let missing = |what: &str| Error::Corrupt(format!("edmd job {job_id:?} lacks {what}"));
-    let number = |index: usize, name: &str| -> Result<f64> {
-        row.try_get::<Option<f64>, _>(index)?
+    let optional = |name: &str| -> Result<Option<f64>> { Ok(row.try_get::<Option<f64>, _>(name)?) };
+    let number = |name: &str| -> Result<f64> { optional(name)?.ok_or_else(|| missing(name)) };
+    let integer = |name: &str| -> Result<i64> {
+        row.try_get::<Option<i64>, _>(name)?
             .ok_or_else(|| missing(name))
     };
-    let text = |index: usize, name: &str| -> Result<String> {
-        row.try_get::<Option<String>, _>(index)?
+    let text = |name: &str| -> Result<String> {
+        row.try_get::<Option<String>, _>(name)?
             .ok_or_else(|| missing(name))
     };
     Ok(EdmdRun {
-        shape: text(1, "shape")?,
-        n: row
-            .try_get::<Option<i64>, _>(2)?
-            .ok_or_else(|| missing("n"))?,
-        phi: number(3, "phi")?,
-        x0: number(4, "x0")?,
-        neighbours: text(5, "neighbours")?,
-        delta_nnl: number(6, "delta_nnl")?,
-        tau_c_us: number(7, "tau_c_us")?,
-        pressure_z: number(8, "pressure_z")?,
+        shape: text("shape")?,
+        n: integer("n")?,
+        phi: number("phi")?,
+        x0: number("x0")?,
+        neighbours: text("neighbours")?,
+        delta_nnl: number("delta_nnl")?,
+        tau_c_us: number("tau_c_us")?,
+        tau_c_cpu_us: optional("tau_c_cpu_us")?,
+        pressure_z: number("pressure_z")?,
+        // NaN (one block) is written as JSON null.
+        pressure_z_err: optional("pressure_z_err")?,
+        eps_d: number("eps_d")?,
+        eps_nnl: number("eps_nnl")?,
+        nr_tol: number("nr_tol")?,
+        nr_max_iter: integer("nr_max_iter")?,
+        nr_relax: number("nr_relax")?,
+        sd_max_iter: integer("sd_max_iter")?,
+        sd_tol: number("sd_tol")?,
+        brent_tol: number("brent_tol")?,
+        seed: integer("seed")?,
+        collisions: integer("collisions")?,
+        energy_drift_rel: number("energy_drift_rel")?,
+        overlaps: integer("overlaps")?,
+        solver_failures: integer("solver_failures")?,
+        contact_nr_fallbacks: integer("contact_nr_fallbacks")?,
+        nr_iterations_mean: number("nr_iterations_mean")?,
+        distance_calls_per_collision: number("distance_calls_per_collision")?,
+        searches_per_collision: number("searches_per_collision")?,
+        nnl_rebuilds: integer("nnl_rebuilds")?,
+        cell_crossings: integer("cell_crossings")?,
+        init_s: optional("init_s")?,
+        wall_s: optional("wall_s")?,
+        cpu_s: optional("cpu_s")?,
         job_id,
     })
 }

@@ -198,7 +198,8 @@ pub struct OverlapQuality {
     pub timed_s: f64,
 }
 
-/// One done EDMD point (the `edmd_runs` view): its parameters and its time per collision.
+/// One done EDMD point (the `edmd_runs` view): its parameters, its time per collision and the
+/// checks that say whether the run was right.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EdmdRun {
     pub job_id: String,
@@ -209,7 +210,36 @@ pub struct EdmdRun {
     pub neighbours: String,
     pub delta_nnl: f64,
     pub tau_c_us: f64,
+    /// τ_c from the thread's CPU time; `None` for records written before it was kept.
+    pub tau_c_cpu_us: Option<f64>,
     pub pressure_z: f64,
+    /// Standard error of Z; `None` when the run had too few blocks to tell.
+    pub pressure_z_err: Option<f64>,
+    pub eps_d: f64,
+    pub eps_nnl: f64,
+    pub nr_tol: f64,
+    pub nr_max_iter: i64,
+    pub nr_relax: f64,
+    pub sd_max_iter: i64,
+    pub sd_tol: f64,
+    pub brent_tol: f64,
+    pub seed: i64,
+    /// Collisions of the measured run.
+    pub collisions: i64,
+    pub energy_drift_rel: f64,
+    pub overlaps: i64,
+    pub solver_failures: i64,
+    /// Contact times found by bisection after Newton–Raphson failed.
+    pub contact_nr_fallbacks: i64,
+    pub nr_iterations_mean: f64,
+    pub distance_calls_per_collision: f64,
+    pub searches_per_collision: f64,
+    pub nnl_rebuilds: i64,
+    pub cell_crossings: i64,
+    pub init_s: Option<f64>,
+    /// Wall and CPU time of the whole job; `None` for records written before they were kept.
+    pub wall_s: Option<f64>,
+    pub cpu_s: Option<f64>,
 }
 
 /// Result of an ad-hoc read-only query: column names and rows of JSON values

@@ -1,0 +1,149 @@
+//! `sweep report` for the EDMD paper's figures (7–11) and the cost of accuracy: rows from the
+//! store's `edmd_runs` view, drawn or printed by the `report` crate.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use report::{Clock, EdmdRow, LengthUnit, ReportError};
+
+use crate::db::{ReportArgs, open_read_only, runtime};
+use crate::output::{Format, print_json};
+
+/// The reports this module makes.
+pub const NAMES: [&str; 6] = ["fig7", "fig8", "fig9", "fig10", "fig11", "accuracy"];
+
+/// Every EDMD run of the database, as the report crate reads them, with τ_c by `clock` where
+/// the record has it.
+fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
+    let runs = runtime()?.block_on(async {
+        let store = open_read_only(db).await?;
+        anyhow::Ok(store.edmd_runs().await?)
+    })?;
+    let count = |n: i64| u64::try_from(n).unwrap_or_default();
+    Ok(runs
+        .into_iter()
+        .map(|r| {
+            let (tau_c_us, clock) = match (clock, r.tau_c_cpu_us) {
+                (Clock::Cpu, Some(cpu)) => (cpu, Clock::Cpu),
+                _ => (r.tau_c_us, Clock::Wall),
+            };
+            EdmdRow {
+                shape: r.shape,
+                x0: r.x0,
+                neighbours: r.neighbours,
+                delta_nnl: r.delta_nnl,
+                n: u32::try_from(r.n).unwrap_or(u32::MAX),
+                phi: r.phi,
+                tau_c_us,
+                clock,
+                eps_d: r.eps_d,
+                eps_nnl: r.eps_nnl,
+                nr_tol: r.nr_tol,
+                nr_max_iter: u32::try_from(r.nr_max_iter).unwrap_or(u32::MAX),
+                nr_relax: r.nr_relax,
+                sd_max_iter: u32::try_from(r.sd_max_iter).unwrap_or(u32::MAX),
+                sd_tol: r.sd_tol,
+                brent_tol: r.brent_tol,
+                seed: count(r.seed),
+                collisions: count(r.collisions),
+                pressure_z: r.pressure_z,
+                pressure_z_err: r.pressure_z_err,
+                energy_drift_rel: r.energy_drift_rel,
+                overlaps: count(r.overlaps),
+                solver_failures: count(r.solver_failures),
+                contact_nr_fallbacks: count(r.contact_nr_fallbacks),
+                nr_iterations_mean: r.nr_iterations_mean,
+                nnl_rebuilds: count(r.nnl_rebuilds),
+                init_s: r.init_s,
+                wall_s: r.wall_s,
+                cpu_s: r.cpu_s,
+            }
+        })
+        .collect())
+}
+
+/// `sweep report NAME` for NAME in [`NAMES`].
+pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    let name = args.name.as_str();
+    let unit = LengthUnit::parse(&args.length_unit).with_context(|| {
+        format!(
+            "--length-unit {}: expected semi-axis or sigma",
+            args.length_unit
+        )
+    })?;
+    let clock = match args.clock.as_str() {
+        "cpu" => Clock::Cpu,
+        "wall" => Clock::Wall,
+        other => bail!("--clock {other}: expected cpu or wall"),
+    };
+    let json = format == Format::Json;
+    let out = args.out.as_deref();
+    if out.is_none() && !json && name != "accuracy" {
+        bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
+    }
+    let rows = rows(&args.db, clock)?;
+    if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
+        eprintln!(
+            "note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used"
+        );
+    }
+    if rows.is_empty() {
+        bail!("report {name}: no EDMD results in {}", args.db.display());
+    }
+    let wrote = |path: &Path| eprintln!("wrote {}", path.display());
+    match name {
+        "fig7" => {
+            let out = out.context("report fig7: give --out FILE.png or FILE.svg")?;
+            report::fig7(&rows, out)?;
+            wrote(out);
+        }
+        "fig8" => finish(report::fig8(&rows, out), json, out, |f| &f.missing)?,
+        "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
+        "accuracy" => accuracy(&rows, json, out)?,
+        other => bail!("report `{other}` is not an EDMD report"),
+    }
+    Ok(())
+}
+
+/// Prints the figure's data as JSON when asked, says where it was drawn, and lists the paper's
+/// points the database lacks.
+fn finish<F: serde::Serialize>(
+    figure: Result<F, ReportError>,
+    json: bool,
+    out: Option<&Path>,
+    missing: impl Fn(&F) -> &Vec<String>,
+) -> anyhow::Result<()> {
+    let figure = figure?;
+    for point in missing(&figure) {
+        eprintln!("missing: {point}");
+    }
+    if json {
+        print_json(&figure)?;
+    }
+    if let Some(out) = out {
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+fn accuracy(rows: &[EdmdRow], json: bool, out: Option<&Path>) -> anyhow::Result<()> {
+    let study = report::accuracy(rows)?;
+    if json {
+        print_json(&study)?;
+    }
+    let Some(out) = out else {
+        if !json {
+            print!("{}", report::accuracy_markdown(&study));
+        }
+        return Ok(());
+    };
+    match out.extension().and_then(|e| e.to_str()) {
+        Some("md") => std::fs::write(out, report::accuracy_markdown(&study))
+            .with_context(|| format!("cannot write {}", out.display()))?,
+        _ => report::accuracy_plot(&study, out)?,
+    }
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
