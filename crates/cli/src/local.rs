@@ -7,9 +7,9 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
-use coordinator::{Config, Coordinator, Status, Store, SystemClock};
+use coordinator::{Config, Coordinator, Embedded, Status, Store, SystemClock};
 use indicatif::{ProgressBar, ProgressStyle};
-use worker::{Embedded, Slots, WorkerOptions};
+use worker::{Slots, WorkerOptions};
 
 use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_json};

@@ -193,7 +193,7 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         loop {
             match remote.register(&info).await {
                 Ok(lease_for) => return anyhow::Ok(lease_for),
-                Err(error @ worker::WorkerError::Refused(_)) => bail!("{error}"),
+                Err(error @ worker::QueueError::Refused(_)) => bail!("{error}"),
                 Err(error) => {
                     tracing::warn!(%error, "coordinator not reachable; retrying");
                     tokio::time::sleep(wait).await;

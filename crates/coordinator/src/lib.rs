@@ -8,12 +8,14 @@
 //!   one [`store`] transaction that supplies the time and the retry policy.
 //! - [`clock`]: [`SystemClock`] for production, [`ManualClock`] for tests that advance time.
 //! - [`grpc`]: the `sweep.v1` Worker and Admin services over this coordinator, with auth and TLS.
+//! - [`embedded`]: the [`queue::JobQueue`] of local mode, this coordinator called in-process.
 //!
 //! Where the guarantees live: exactly-once results, fencing tokens and the exclusive-job rule are
 //! enforced inside the store's transactions, so they hold across processes sharing one database, not
 //! only inside one coordinator.
 
 pub mod clock;
+pub mod embedded;
 pub mod grpc;
 
 use std::sync::Arc;
@@ -23,6 +25,7 @@ use serde::{Deserialize, Serialize};
 use tokio::task::JoinHandle;
 
 pub use clock::{Clock, ManualClock, SystemClock};
+pub use embedded::Embedded;
 pub use store::{
     CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, NewCampaign, NewJob, Status, Store,
     SubmitOutcome, WorkerInfo,

@@ -16,12 +16,12 @@ use std::time::Duration;
 
 use std::future::Future;
 
-use coordinator::{CompleteOutcome, Completion, Lease, LeaseRef};
+use queue::{CompleteOutcome, Completion, JobQueue, Lease, LeaseRef, QueueError};
 use jobs::JobSpec;
 use tokio::runtime::Handle;
 use tokio::sync::watch;
 
-use crate::{JobQueue, WorkerError};
+use crate::WorkerError;
 
 #[derive(Clone, Debug)]
 pub struct WorkerOptions {
@@ -94,7 +94,7 @@ impl Slots {
                 std::thread::Builder::new()
                     .name(format!("slot-core{}", core.id))
                     .spawn(move || slot.run())
-                    .map_err(|e| WorkerError::Transport(format!("cannot start a slot thread: {e}")))
+                    .map_err(WorkerError::Thread)
             })
             .collect::<Result<Vec<_>, _>>()?;
         let heartbeat = runtime.spawn(heartbeat_loop(queue, held, options.heartbeat_every, control.clone()));
@@ -142,7 +142,7 @@ async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration,
                     tracing::warn!(job = %lost.job_id, "lease lost: the result will be recorded as late");
                 }
             }
-            Err(error @ WorkerError::Refused(_)) => control.halt(error.to_string()),
+            Err(error @ QueueError::Refused(_)) => control.halt(error.to_string()),
             Err(error) => tracing::warn!(%error, "heartbeat failed; retrying at the next beat"),
         }
     }
@@ -272,7 +272,7 @@ impl<Q: JobQueue> Slot<Q> {
                     self.forget(&completion.job_id);
                 }
             }
-            Err(error @ WorkerError::Refused(_)) => {
+            Err(error @ QueueError::Refused(_)) => {
                 // The leases expire and the jobs run again elsewhere.
                 self.control.halt(error.to_string());
                 completions.iter().for_each(|c| self.forget(&c.job_id));
@@ -291,7 +291,7 @@ impl<Q: JobQueue> Slot<Q> {
     fn report_failure(&self, lease: &LeaseRef, error: String) {
         match self.deliver(|| self.queue.fail(lease, error.clone())) {
             Ok(_) => {}
-            Err(refused @ WorkerError::Refused(_)) => self.control.halt(refused.to_string()),
+            Err(refused @ QueueError::Refused(_)) => self.control.halt(refused.to_string()),
             Err(rejected) => {
                 tracing::error!(job = %lease.job_id, error = %rejected, "failure report rejected; the lease will expire")
             }
@@ -302,7 +302,7 @@ impl<Q: JobQueue> Slot<Q> {
     /// Makes a call, retrying while the coordinator is unreachable or busy: a report is only lost
     /// if the worker itself dies, and then the lease expires and the job runs again. An error that
     /// would recur is returned at once.
-    fn deliver<T, F: Future<Output = Result<T, WorkerError>>>(&self, call: impl Fn() -> F) -> Result<T, WorkerError> {
+    fn deliver<T, F: Future<Output = Result<T, QueueError>>>(&self, call: impl Fn() -> F) -> Result<T, QueueError> {
         let mut attempt = 0;
         loop {
             match self.runtime.block_on(call()) {
