@@ -1,5 +1,6 @@
 //! The gRPC face of the [`Coordinator`]: the `sweep.v1` Worker and Admin services. Each call is
-//! one coordinator operation, hence one committed SQLite transaction, before it is answered.
+//! one coordinator operation, hence one write of a committed SQLite transaction (shared with the
+//! calls that arrived with it: group commit, in the store), before it is answered.
 //! What a plan means is not known here: the application injects an [`ExpandPlan`] function.
 
 use std::net::SocketAddr;

@@ -46,7 +46,10 @@ impl Error {
     /// Whether the same request may succeed later: the database was busy or unavailable. Every
     /// other error (an unknown job, a malformed record, a read-only store) will recur.
     pub fn is_transient(&self) -> bool {
-        matches!(self, Error::Store(store::Error::Database(_)))
+        matches!(
+            self,
+            Error::Store(store::Error::Database(_) | store::Error::NotCommitted(_))
+        )
     }
 }
 

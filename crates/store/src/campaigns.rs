@@ -28,8 +28,15 @@ impl Store {
         for job in jobs {
             validate_job(job)?;
         }
-        let mut tx = self.begin_write().await?;
-        sqlx::query(
+        // The jobs travel as one JSON document and each step is one set-based statement, so a plan of
+        // tens of thousands of points holds the write lock for a fraction of a second.
+        let document = serde_json::to_string(jobs)
+            .map_err(|e| Error::Corrupt(format!("cannot encode jobs: {e}")))?;
+        let campaign = campaign.clone();
+        let submitted = jobs.len() as u64;
+        self.write(move |conn| {
+            Box::pin(async move {
+                sqlx::query(
             "INSERT INTO campaigns (id, name, plan_text, created_at) VALUES (?1, ?2, ?3, ?4)
              ON CONFLICT (id) DO UPDATE SET cancelled_at = NULL",
         )
@@ -37,103 +44,104 @@ impl Store {
         .bind(&campaign.name)
         .bind(&campaign.plan_text)
         .bind(now)
-        .execute(&mut *tx)
+        .execute(&mut *conn)
         .await?;
-
-        // The jobs travel as one JSON document and each step is one set-based statement, so a plan of
-        // tens of thousands of points holds the write lock for a fraction of a second.
-        let document = serde_json::to_string(jobs)
-            .map_err(|e| Error::Corrupt(format!("cannot encode jobs: {e}")))?;
-        let new_jobs = sqlx::query(
-            "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at)
+                let new_jobs = sqlx::query(
+                    "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at)
              SELECT value ->> 'id', value ->> 'kind', value ->> 'params_json',
                     value ->> 'estimate_s', value ->> 'exclusive', ?2
              FROM json_each(?1) WHERE true
              ON CONFLICT (id) DO NOTHING",
-        )
-        .bind(&document)
-        .bind(now)
-        .execute(&mut *tx)
-        .await?
-        .rows_affected();
-        let conflict = sqlx::query(
-            "SELECT d.value ->> 'id', j.kind <> d.value ->> 'kind'
+                )
+                .bind(&document)
+                .bind(now)
+                .execute(&mut *conn)
+                .await?
+                .rows_affected();
+                let conflict = sqlx::query(
+                    "SELECT d.value ->> 'id', j.kind <> d.value ->> 'kind'
              FROM json_each(?1) AS d CROSS JOIN jobs AS j ON j.id = d.value ->> 'id'
              WHERE j.kind <> d.value ->> 'kind' OR j.params <> d.value ->> 'params_json'
              LIMIT 1",
-        )
-        .bind(&document)
-        .fetch_optional(&mut *tx)
-        .await?;
-        if let Some(row) = conflict {
-            let kind_differs: bool = row.try_get(1)?;
-            return Err(Error::JobConflict {
-                job_id: row.try_get(0)?,
-                field: if kind_differs { "kind" } else { "params" },
-            });
-        }
-        let requeued = sqlx::query(
-            "UPDATE jobs SET state = 'queued', attempts = 0, last_error = NULL,
+                )
+                .bind(&document)
+                .fetch_optional(&mut *conn)
+                .await?;
+                if let Some(row) = conflict {
+                    let kind_differs: bool = row.try_get(1)?;
+                    return Err(Error::JobConflict {
+                        job_id: row.try_get(0)?,
+                        field: if kind_differs { "kind" } else { "params" },
+                    });
+                }
+                let requeued = sqlx::query(
+                    "UPDATE jobs SET state = 'queued', attempts = 0, last_error = NULL,
                     lease_owner = NULL, lease_token = NULL, lease_expires_at = NULL,
                     started_at = NULL, finished_at = NULL
              WHERE id IN (SELECT value ->> 'id' FROM json_each(?1))
                AND +state IN ('failed', 'cancelled')",
-        )
-        .bind(&document)
-        .execute(&mut *tx)
-        .await?
-        .rows_affected();
-        sqlx::query(
-            "INSERT INTO campaign_jobs (campaign_id, job_id)
+                )
+                .bind(&document)
+                .execute(&mut *conn)
+                .await?
+                .rows_affected();
+                sqlx::query(
+                    "INSERT INTO campaign_jobs (campaign_id, job_id)
              SELECT ?2, value ->> 'id' FROM json_each(?1) WHERE true
              ON CONFLICT DO NOTHING",
-        )
-        .bind(&document)
-        .bind(&campaign.id)
-        .execute(&mut *tx)
-        .await?;
-        let outcome = SubmitOutcome {
-            campaign_id: campaign.id.clone(),
-            new_jobs,
-            requeued,
-            // A job listed twice in one submission counts as known the second time.
-            already_known: (jobs.len() as u64).saturating_sub(new_jobs + requeued),
-        };
-        tx.commit().await?;
-        Ok(outcome)
+                )
+                .bind(&document)
+                .bind(&campaign.id)
+                .execute(&mut *conn)
+                .await?;
+                let outcome = SubmitOutcome {
+                    campaign_id: campaign.id.clone(),
+                    new_jobs,
+                    requeued,
+                    // A job listed twice in one submission counts as known the second time.
+                    already_known: submitted.saturating_sub(new_jobs + requeued),
+                };
+                Ok(outcome)
+            })
+        })
+        .await
     }
 
     /// Cancels a campaign: its queued jobs become `cancelled`, except jobs that also belong to another
     /// campaign that is not cancelled. Running jobs are left to finish (their results are valid and a
     /// worker cannot be interrupted mid-measurement anyway). Returns the number of jobs cancelled.
     pub async fn cancel(&self, campaign_id: &str, now: f64) -> Result<u64> {
-        let mut tx = self.begin_write().await?;
-        let found = sqlx::query(
-            "UPDATE campaigns SET cancelled_at = coalesce(cancelled_at, ?2) WHERE id = ?1",
-        )
-        .bind(campaign_id)
-        .bind(now)
-        .execute(&mut *tx)
-        .await?
-        .rows_affected();
-        if found == 0 {
-            return Err(Error::UnknownCampaign(campaign_id.to_owned()));
-        }
-        let cancelled = sqlx::query(
-            "UPDATE jobs SET state = 'cancelled', finished_at = ?2
+        let campaign_id = campaign_id.to_owned();
+        self.write(move |conn| {
+            Box::pin(async move {
+                let found = sqlx::query(
+                    "UPDATE campaigns SET cancelled_at = coalesce(cancelled_at, ?2) WHERE id = ?1",
+                )
+                .bind(&campaign_id)
+                .bind(now)
+                .execute(&mut *conn)
+                .await?
+                .rows_affected();
+                if found == 0 {
+                    return Err(Error::UnknownCampaign(campaign_id));
+                }
+                let cancelled = sqlx::query(
+                    "UPDATE jobs SET state = 'cancelled', finished_at = ?2
              WHERE state = 'queued'
                AND id IN (SELECT job_id FROM campaign_jobs WHERE campaign_id = ?1)
                AND NOT EXISTS (
                    SELECT 1 FROM campaign_jobs AS cj JOIN campaigns AS c ON c.id = cj.campaign_id
                    WHERE cj.job_id = jobs.id AND c.cancelled_at IS NULL)",
-        )
-        .bind(campaign_id)
-        .bind(now)
-        .execute(&mut *tx)
-        .await?
-        .rows_affected();
-        tx.commit().await?;
-        Ok(cancelled)
+                )
+                .bind(&campaign_id)
+                .bind(now)
+                .execute(&mut *conn)
+                .await?
+                .rows_affected();
+                Ok(cancelled)
+            })
+        })
+        .await
     }
 }
 

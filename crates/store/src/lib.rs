@@ -12,9 +12,11 @@
 //!   and exactly-once results live here.
 //! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
 //!   [`Store::export`], [`Store::overlap_rows`], [`Store::query_read_only`].
+//! - `writer`: group commit — the task that applies concurrent writes in one transaction.
 //! - [`types`] and [`error`]: the plain data and error types of the API.
 //!
-//! Invariants: every write is one `BEGIN IMMEDIATE` transaction on the single writer connection; a
+//! Invariants: every write runs inside a `BEGIN IMMEDIATE` transaction on the single writer
+//! connection, grouped with the writes that arrived meanwhile, and is answered after the commit; a
 //! job's results are written exactly once, in the transaction that marks it done, and only by the
 //! lease (fencing token) that currently owns it; times are caller-supplied Unix seconds, so the
 //! scheduler's clock can be simulated.
@@ -26,6 +28,7 @@ mod leases;
 mod read;
 pub mod types;
 mod workers;
+mod writer;
 
 pub use connect::Store;
 pub use error::{Error, Result};
@@ -34,3 +37,4 @@ pub use types::{
     Lease, LeaseRef, NewCampaign, NewJob, OverlapRow, QueryResult, Status, SubmitOutcome,
     WorkerInfo, WorkerRecord,
 };
+pub use writer::WriteGroups;
