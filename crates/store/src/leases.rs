@@ -148,8 +148,10 @@ impl Store {
             .write(move |conn| {
                 Box::pin(async move {
                     touch(conn, &worker_id, now).await?;
-                    // Set-based statements for all leases (`+state` keeps SQLite on the primary key): extend
-                    // the running ones, then read back every lease still the worker's, running or done.
+                    // Set-based statements for all leases (`+state` and CROSS JOIN keep SQLite on the
+                    // primary key: through the state index it scans every running or done job for each
+                    // lease, seconds inside the write lock once hundreds of leases are held): extend the
+                    // running ones, then read back every lease still the worker's, running or done.
                     sqlx::query(
                         "UPDATE jobs SET lease_expires_at = max(lease_expires_at, ?2)
              FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
@@ -166,8 +168,8 @@ impl Store {
                         "SELECT jobs.id, jobs.lease_token
              FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
                    FROM json_each(?2)) AS c
-             JOIN jobs ON jobs.id = c.job_id
-             WHERE jobs.state IN ('running', 'done') AND jobs.lease_owner = ?1
+             CROSS JOIN jobs ON jobs.id = c.job_id
+             WHERE +jobs.state IN ('running', 'done') AND jobs.lease_owner = ?1
                AND jobs.lease_token = c.token",
                     )
                     .bind(&worker_id)
