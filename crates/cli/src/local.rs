@@ -64,8 +64,13 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         coordinator.spawn_reaper(Duration::from_secs(1))
     };
     let queue = Arc::new(Embedded { coordinator: coordinator.clone(), worker_id });
-    let options =
-        WorkerOptions { cores, heartbeat_every: LOCAL_LEASE / 4, idle_poll: Duration::from_millis(50), lease_batch: 1 };
+    let options = WorkerOptions {
+        cores,
+        heartbeat_every: LOCAL_LEASE / 4,
+        idle_poll: Duration::from_millis(50),
+        lease_batch: None,
+        lease_for: LOCAL_LEASE,
+    };
     let slots = Slots::start(queue, options, runtime.handle().clone())?;
 
     let bar = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(campaign.jobs.len() as u64) };

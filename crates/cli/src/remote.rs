@@ -169,9 +169,10 @@ pub struct WorkerArgs {
     /// (Slurm's SLURM_CPUS_ON_NODE, a Kubernetes CPU limit) rather than a list.
     #[arg(long, value_name = "N", conflicts_with = "cores", value_parser = clap::value_parser!(u32).range(1..))]
     core_count: Option<u32>,
-    /// Jobs leased per call (larger amortises round trips of short jobs).
-    #[arg(long, default_value_t = 1)]
-    lease_batch: u32,
+    /// Jobs leased per call, instead of as many as fit 100 ms of the observed run time (one at a
+    /// time for long jobs, up to 512 for short ones).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    lease_batch: Option<u32>,
 }
 
 pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
@@ -206,7 +207,8 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         cores,
         heartbeat_every: (lease_for / 4).max(Duration::from_millis(100)),
         idle_poll: Duration::from_millis(200),
-        lease_batch: args.lease_batch.max(1),
+        lease_batch: args.lease_batch,
+        lease_for,
     };
     let slots = Slots::start(Arc::new(remote), options, runtime.handle().clone())?;
     let halted = runtime.block_on(async {

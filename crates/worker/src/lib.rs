@@ -6,8 +6,10 @@
 //!
 //! - [`provenance`]: what the worker tells the coordinator about its machine and build.
 //! - [`slots`]: the pinned threads and the heartbeat that keeps their leases.
+//! - [`pace`]: how many jobs a slot leases at once, and when it asks for more.
 //! - [`remote`]: the [`JobQueue`] of a coordinator reached over gRPC.
 
+pub mod pace;
 pub mod provenance;
 pub mod remote;
 pub mod slots;

@@ -98,7 +98,8 @@ fn options(lease_batch: u32) -> WorkerOptions {
         cores: vec![0],
         heartbeat_every: Duration::from_millis(50),
         idle_poll: Duration::from_millis(10),
-        lease_batch,
+        lease_batch: Some(lease_batch),
+        lease_for: Duration::from_secs(60),
     }
 }
 
