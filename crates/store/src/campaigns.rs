@@ -29,7 +29,9 @@ impl Store {
             validate_job(job)?;
         }
         // The jobs travel as one JSON document and each step is one set-based statement, so a plan of
-        // tens of thousands of points holds the write lock for a fraction of a second.
+        // tens of thousands of points holds the write lock for a fraction of a second. Rows are
+        // inserted in id order, the order jobs are leased in: leasing and completing then touch
+        // consecutive rows (a few pages per hundred jobs) instead of one page per job.
         let document = serde_json::to_string(jobs)
             .map_err(|e| Error::Corrupt(format!("cannot encode jobs: {e}")))?;
         let campaign = campaign.clone();
@@ -50,7 +52,7 @@ impl Store {
                     "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at)
              SELECT value ->> 'id', value ->> 'kind', value ->> 'params_json',
                     value ->> 'estimate_s', value ->> 'exclusive', ?2
-             FROM json_each(?1) WHERE true
+             FROM json_each(?1) WHERE true ORDER BY value ->> 'id'
              ON CONFLICT (id) DO NOTHING",
                 )
                 .bind(&document)

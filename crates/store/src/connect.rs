@@ -24,6 +24,8 @@ static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations");
 
 const BUSY_TIMEOUT: Duration = Duration::from_secs(5);
 const READERS: u32 = 4;
+/// The writer's page cache, in KiB (negative `cache_size` means KiB): bounds the coordinator's memory.
+const WRITER_CACHE_KIB: &str = "-65536";
 
 /// A sweep database. Cheap to clone (pools and the writer task are shared).
 #[derive(Debug, Clone)]
@@ -50,6 +52,11 @@ impl Store {
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
             .synchronous(SqliteSynchronous::Normal)
+            // A group transaction touches pages all over the jobs and results B-trees (job ids are
+            // hashes): with SQLite's default 2 MB cache it spilled and re-read them mid-transaction,
+            // and the savepoint of each write journaled into a temporary file. Both in memory, bounded.
+            .pragma("cache_size", WRITER_CACHE_KIB)
+            .pragma("temp_store", "MEMORY")
             .busy_timeout(BUSY_TIMEOUT)
             .foreign_keys(true);
         let writer = SqlitePoolOptions::new()
