@@ -203,7 +203,9 @@ pub async fn serve(
     let reaper = coordinator.spawn_reaper(Duration::from_secs(1).min(coordinator.config().lease_for / 4));
     let services = Services { coordinator, expand };
     let auth = RequireToken::new(options.token);
-    let mut server = Server::builder().timeout(Duration::from_secs(30));
+    // Workers' calls carry their own 10 s deadline; this bounds the others. Submitting a plan of
+    // a million points takes tens of seconds.
+    let mut server = Server::builder().timeout(Duration::from_secs(600));
     if let Some((cert, key)) = options.tls {
         server = server
             .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))

@@ -5,6 +5,11 @@
 //! Nothing is acknowledged before the commit that made it durable: if the commit fails, every
 //! write of the group is answered [`Error::NotCommitted`] and none of it is in the database.
 //!
+//! A write whose caller gave up waiting before its group began (a gRPC request past its deadline,
+//! a dropped future) is not applied at all: the caller was told nothing, so either outcome is
+//! allowed, and under overload the queue then sheds the work nobody waits for (a lease answered
+//! to no one would hold its jobs until the lease expires).
+//!
 //! Why: under many concurrent callers (a coordinator serving hundreds of slots), the fixed cost of
 //! a transaction (taking the lock, BEGIN, COMMIT and its WAL append) is paid once per group
 //! instead of once per call. A lone caller pays one savepoint more than before.
@@ -42,12 +47,15 @@ pub struct WriteGroups {
     /// Transactions attempted (committed or not).
     pub transactions: u64,
     pub writes: u64,
+    /// Writes dropped unapplied because their caller had stopped waiting.
+    pub abandoned: u64,
 }
 
 #[derive(Debug, Default)]
 struct Counts {
     transactions: AtomicU64,
     writes: AtomicU64,
+    abandoned: AtomicU64,
 }
 
 impl Writer {
@@ -63,6 +71,7 @@ impl Writer {
         WriteGroups {
             transactions: self.counts.transactions.load(Ordering::Relaxed),
             writes: self.counts.writes.load(Ordering::Relaxed),
+            abandoned: self.counts.abandoned.load(Ordering::Relaxed),
         }
     }
 
@@ -98,6 +107,8 @@ trait Write: Send + std::fmt::Debug {
     fn apply<'a>(&'a mut self, conn: &'a mut SqliteConnection) -> BoxFuture<'a, bool>;
     /// Answers the caller once the group's fate is known.
     fn answer(self: Box<Self>, group: Result<(), Arc<sqlx::Error>>);
+    /// Whether the caller has stopped waiting for the answer.
+    fn abandoned(&self) -> bool;
 }
 
 struct Pending<F, T> {
@@ -131,6 +142,10 @@ where
         })
     }
 
+    fn abandoned(&self) -> bool {
+        self.reply.is_closed()
+    }
+
     fn answer(self: Box<Self>, group: Result<(), Arc<sqlx::Error>>) {
         let answer = match (self.result, group) {
             // A write that failed was undone alone: its own error is the answer, whatever the group.
@@ -159,6 +174,14 @@ async fn run(
                 Ok(next) => group.push(next),
                 Err(_) => break,
             }
+        }
+        let waited_for = group.len();
+        group.retain(|write| !write.abandoned());
+        counts
+            .abandoned
+            .fetch_add((waited_for - group.len()) as u64, Ordering::Relaxed);
+        if group.is_empty() {
+            continue;
         }
         counts.transactions.fetch_add(1, Ordering::Relaxed);
         counts
@@ -264,7 +287,8 @@ mod tests {
             writer.groups(),
             WriteGroups {
                 transactions: 1,
-                writes: 3
+                writes: 3,
+                abandoned: 0
             }
         );
     }
@@ -299,5 +323,35 @@ mod tests {
             3
         );
         assert_eq!(children(&pool).await, [3]);
+    }
+
+    /// A write whose caller stopped waiting before its group began is not applied.
+    #[tokio::test]
+    async fn a_write_nobody_waits_for_is_not_applied() {
+        let (_dir, pool, writer) = table().await;
+        let mut given_up = Box::pin(writer.write(insert_child(1, 1)));
+        // Polled once, it is queued; dropped before the writer task runs, its caller is gone.
+        let polled = std::future::poll_fn(|cx| {
+            std::task::Poll::Ready(given_up.as_mut().poll(cx).is_ready())
+        })
+        .await;
+        assert!(!polled);
+        drop(given_up);
+        assert_eq!(
+            writer
+                .write(insert_child(2, 1))
+                .await
+                .expect("the next write"),
+            2
+        );
+        assert_eq!(children(&pool).await, [2]);
+        assert_eq!(
+            writer.groups(),
+            WriteGroups {
+                transactions: 1,
+                writes: 1,
+                abandoned: 1
+            }
+        );
     }
 }

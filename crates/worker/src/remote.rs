@@ -1,6 +1,7 @@
 //! A [`JobQueue`] over gRPC: the worker side of `sweep worker --coordinator URL`. The channel
 //! connects lazily and reconnects by itself; the slots' backoff covers a coordinator that is away.
 
+use std::collections::HashSet;
 use std::time::Duration;
 
 use queue::{CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError, WorkerInfo};
@@ -13,6 +14,10 @@ use wire::v1::worker_client::WorkerClient;
 
 /// Every call carries this deadline: a hung coordinator must not hang a slot.
 const DEADLINE: Duration = Duration::from_secs(10);
+
+/// Leases per heartbeat or release message: a worker of many slots running short jobs holds tens
+/// of thousands, more than one message may carry (gRPC's default limit is 4 MB, ~70 bytes each).
+const LEASES_PER_CALL: usize = 4096;
 
 pub struct Remote {
     client: WorkerClient<InterceptedService<Channel, WithToken>>,
@@ -78,9 +83,13 @@ impl JobQueue for Remote {
     }
 
     async fn heartbeat(&self, leases: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
-        let message = pb::HeartbeatRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(Into::into).collect() };
-        let lost = self.client.clone().heartbeat(request(message)).await.map_err(transport)?.into_inner().lost;
-        Ok(leases.into_iter().filter(|l| !lost.iter().any(|x| x.job_id == l.job_id && x.token == l.token)).collect())
+        let mut lost = HashSet::new();
+        for chunk in leases.chunks(LEASES_PER_CALL) {
+            let message = pb::HeartbeatRequest { worker_id: self.worker_id.clone(), leases: chunk.iter().map(Into::into).collect() };
+            let answer = self.client.clone().heartbeat(request(message)).await.map_err(transport)?.into_inner();
+            lost.extend(answer.lost.into_iter().map(LeaseRef::from));
+        }
+        Ok(leases.into_iter().filter(|l| !lost.contains(l)).collect())
     }
 
     async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
@@ -103,8 +112,10 @@ impl JobQueue for Remote {
     }
 
     async fn release(&self, leases: Vec<LeaseRef>) -> Result<(), QueueError> {
-        let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(Into::into).collect() };
-        self.client.clone().release(request(message)).await.map_err(transport)?;
+        for chunk in leases.chunks(LEASES_PER_CALL) {
+            let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: chunk.iter().map(Into::into).collect() };
+            self.client.clone().release(request(message)).await.map_err(transport)?;
+        }
         Ok(())
     }
 }
