@@ -37,10 +37,19 @@ struct Settings {
 }
 
 fn settings() -> Settings {
-    let mut s = Settings { jobs: 1_000_000, clients: 8, slots: 128, job_ms: 0 };
+    let mut s = Settings {
+        jobs: 1_000_000,
+        clients: 8,
+        slots: 128,
+        job_ms: 0,
+    };
     for arg in std::env::args().skip(1) {
-        let Some((key, value)) = arg.split_once('=') else { continue }; // `--bench`
-        let number: u64 = value.parse().unwrap_or_else(|_| panic!("{arg}: not a number"));
+        let Some((key, value)) = arg.split_once('=') else {
+            continue;
+        }; // `--bench`
+        let number: u64 = value
+            .parse()
+            .unwrap_or_else(|_| panic!("{arg}: not a number"));
         match key {
             "jobs" => s.jobs = number,
             "clients" => s.clients = number as usize,
@@ -74,7 +83,10 @@ impl Histogram {
         if self.counts.len() < other.counts.len() {
             self.counts.resize(other.counts.len(), 0);
         }
-        self.counts.iter_mut().zip(&other.counts).for_each(|(a, b)| *a += b);
+        self.counts
+            .iter_mut()
+            .zip(&other.counts)
+            .for_each(|(a, b)| *a += b);
     }
 
     fn total(&self) -> u64 {
@@ -99,7 +111,11 @@ impl Histogram {
 // A client process: one worker of `slots` simulated slots.
 
 fn client(url: String, id: usize, slots: usize, job_ms: u64) {
-    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .unwrap();
     runtime.block_on(async move {
         let worker_id = format!("sim-{id}-{}", std::process::id());
         let token = wire::auth::Token::new(TOKEN).unwrap();
@@ -118,7 +134,8 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
         let done = Arc::new(AtomicU64::new(0));
         let failed_calls = Arc::new(AtomicU64::new(0));
         let held: Arc<Mutex<HashSet<LeaseRef>>> = Arc::default();
-        let latencies: Arc<Mutex<Vec<Histogram>>> = Arc::new(Mutex::new(vec![Histogram::default(); RPCS.len()]));
+        let latencies: Arc<Mutex<Vec<Histogram>>> =
+            Arc::new(Mutex::new(vec![Histogram::default(); RPCS.len()]));
         let record = {
             let latencies = latencies.clone();
             move |rpc: usize, took: Duration| latencies.lock().unwrap()[rpc].record(took)
@@ -151,7 +168,8 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
         };
         let slot_tasks: Vec<_> = (0..slots)
             .map(|slot| {
-                let (remote, held, done, record) = (remote.clone(), held.clone(), done.clone(), record.clone());
+                let (remote, held, done, record) =
+                    (remote.clone(), held.clone(), done.clone(), record.clone());
                 let failed_calls = failed_calls.clone();
                 tokio::spawn(async move {
                     let mut pace = Pace::default();
@@ -172,7 +190,9 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
                         if leases.is_empty() {
                             return;
                         }
-                        held.lock().unwrap().extend(leases.iter().map(|l| l.reference()));
+                        held.lock()
+                            .unwrap()
+                            .extend(leases.iter().map(|l| l.reference()));
                         let mut completions = Vec::with_capacity(leases.len());
                         for lease in &leases {
                             // tokio rounds a sleep up to the next millisecond: a no-op job does not sleep.
@@ -198,7 +218,10 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
                             tokio::time::sleep(RETRY).await;
                         };
                         record(1, started.elapsed());
-                        let accepted = outcomes.iter().filter(|o| **o == CompleteOutcome::Accepted).count();
+                        let accepted = outcomes
+                            .iter()
+                            .filter(|o| **o == CompleteOutcome::Accepted)
+                            .count();
                         let mut held = held.lock().unwrap();
                         leases.iter().for_each(|l| {
                             held.remove(&l.reference());
@@ -258,7 +281,10 @@ struct Report {
 fn main() {
     if let Ok(url) = std::env::var(CLIENT_ENV) {
         let s = settings();
-        let id = std::env::var("SWEEP_CLUSTER_ID").ok().and_then(|i| i.parse().ok()).unwrap_or(0);
+        let id = std::env::var("SWEEP_CLUSTER_ID")
+            .ok()
+            .and_then(|i| i.parse().ok())
+            .unwrap_or(0);
         return client(url, id, s.slots, s.job_ms);
     }
     let s = settings();
@@ -267,8 +293,19 @@ fn main() {
     std::fs::write(&token, TOKEN).unwrap();
     let db = dir.path().join("cluster.db");
     let mut coordinator = Command::new(SWEEP)
-        .args(["coordinator", "--listen", "127.0.0.1:0", "--db", db.to_str().unwrap()])
-        .args(["--token-file", token.to_str().unwrap(), "--lease-secs", "60"])
+        .args([
+            "coordinator",
+            "--listen",
+            "127.0.0.1:0",
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .args([
+            "--token-file",
+            token.to_str().unwrap(),
+            "--lease-secs",
+            "60",
+        ])
         .env("RUST_LOG", "info")
         .env("NO_COLOR", "1")
         .stdout(Stdio::piped())
@@ -277,10 +314,17 @@ fn main() {
         .unwrap();
     let coordinator_log = {
         let stderr = BufReader::new(coordinator.stderr.take().unwrap());
-        std::thread::spawn(move || stderr.lines().map_while(Result::ok).collect::<Vec<String>>())
+        std::thread::spawn(move || {
+            stderr
+                .lines()
+                .map_while(Result::ok)
+                .collect::<Vec<String>>()
+        })
     };
     let mut line = String::new();
-    BufReader::new(coordinator.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    BufReader::new(coordinator.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
     let url = format!("http://{}", line.trim().trim_start_matches("listening on "));
     let coordinator = Proc(coordinator);
     let pid = coordinator.0.id();
@@ -298,14 +342,31 @@ fn main() {
     );
 
     let plan = dir.path().join("plan.toml");
-    std::fs::write(&plan, format!("name = \"cluster\"\n[[noop]]\ncount = {}\nduration_ms = {}\n", s.jobs, s.job_ms))
-        .unwrap();
+    std::fs::write(
+        &plan,
+        format!(
+            "name = \"cluster\"\n[[noop]]\ncount = {}\nduration_ms = {}\n",
+            s.jobs, s.job_ms
+        ),
+    )
+    .unwrap();
     let started = Instant::now();
     let submitted = Command::new(SWEEP)
-        .args(["submit", plan.to_str().unwrap(), "--coordinator", &url, "--token-file", token.to_str().unwrap()])
+        .args([
+            "submit",
+            plan.to_str().unwrap(),
+            "--coordinator",
+            &url,
+            "--token-file",
+            token.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
-    assert!(submitted.status.success(), "{}", String::from_utf8_lossy(&submitted.stderr));
+    assert!(
+        submitted.status.success(),
+        "{}",
+        String::from_utf8_lossy(&submitted.stderr)
+    );
     println!(
         "submit: {:.1} s; coordinator RSS after submit {:.0} MB (peak {:.0} MB)",
         started.elapsed().as_secs_f64(),
@@ -334,10 +395,16 @@ fn main() {
                     if let Some(done) = line.strip_prefix("progress ") {
                         report.done.store(done.parse().unwrap(), Ordering::Relaxed);
                     } else if let Some(failed) = line.strip_prefix("failed ") {
-                        report.failed.store(failed.parse().unwrap(), Ordering::Relaxed);
+                        report
+                            .failed
+                            .store(failed.parse().unwrap(), Ordering::Relaxed);
                     } else if let Some(rest) = line.strip_prefix("latency ") {
                         let (rpc, counts) = rest.split_once(' ').unwrap();
-                        let counts = counts.split(',').filter(|c| !c.is_empty()).map(|c| c.parse().unwrap()).collect();
+                        let counts = counts
+                            .split(',')
+                            .filter(|c| !c.is_empty())
+                            .map(|c| c.parse().unwrap())
+                            .collect();
                         let mut latencies = report.latencies.lock().unwrap();
                         latencies.resize(RPCS.len(), Histogram::default());
                         latencies[rpc.parse::<usize>().unwrap()] = Histogram { counts };
@@ -359,11 +426,18 @@ fn main() {
             let (t, done, rss) = samples[samples.len() - 1];
             eprintln!("{t:.0} s: {done} jobs done, coordinator RSS {rss:.0} MB");
         }
-        let running = clients.iter_mut().map(|c| c.0.try_wait()).filter(|exit| matches!(exit, Ok(None))).count();
+        let running = clients
+            .iter_mut()
+            .map(|c| c.0.try_wait())
+            .filter(|exit| matches!(exit, Ok(None)))
+            .count();
         if running == 0 {
             break;
         }
-        assert!(started.elapsed() < Duration::from_secs(3600), "stalled at {done}");
+        assert!(
+            started.elapsed() < Duration::from_secs(3600),
+            "stalled at {done}"
+        );
     }
     std::thread::sleep(Duration::from_millis(200)); // the readers take the last lines
     drop(clients);
@@ -371,7 +445,11 @@ fn main() {
     assert_eq!(done, s.jobs, "results accepted by the coordinator");
 
     let crossing = |fraction: f64| {
-        samples.iter().find(|(_, d, _)| *d as f64 >= fraction * s.jobs as f64).copied().unwrap_or_default()
+        samples
+            .iter()
+            .find(|(_, d, _)| *d as f64 >= fraction * s.jobs as f64)
+            .copied()
+            .unwrap_or_default()
     };
     let (t10, d10, _) = crossing(0.1);
     let (t90, d90, _) = crossing(0.9);
@@ -402,16 +480,24 @@ fn main() {
             );
         }
     }
-    let failed: u64 = reports.iter().map(|r| r.failed.load(Ordering::Relaxed)).sum();
+    let failed: u64 = reports
+        .iter()
+        .map(|r| r.failed.load(Ordering::Relaxed))
+        .sum();
     println!("calls that failed (deadline) and were made again: {failed}");
-    let rss: Vec<String> = [0.1, 0.25, 0.5, 0.75, 1.0].iter().map(|&f| format!("{:.0}", crossing(f).2)).collect();
+    let rss: Vec<String> = [0.1, 0.25, 0.5, 0.75, 1.0]
+        .iter()
+        .map(|&f| format!("{:.0}", crossing(f).2))
+        .collect();
     println!(
         "coordinator RSS (MB) at 10/25/50/75/100 % done: {}; peak {:.0} MB",
         rss.join(" / "),
         rss_mb(pid, "VmHWM:")
     );
     // SIGTERM: the coordinator logs how its writes were grouped, then exits.
-    let _ = Command::new("kill").args(["-TERM", &pid.to_string()]).status();
+    let _ = Command::new("kill")
+        .args(["-TERM", &pid.to_string()])
+        .status();
     let mut coordinator = coordinator;
     let _ = coordinator.0.wait();
     for line in coordinator_log.join().unwrap_or_default() {

@@ -23,22 +23,41 @@ fn queue_error(error: Error) -> QueueError {
 
 impl JobQueue for Embedded {
     async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
-        self.coordinator.lease(&self.worker_id, max_jobs, true).await.map_err(queue_error)
+        self.coordinator
+            .lease(&self.worker_id, max_jobs, true)
+            .await
+            .map_err(queue_error)
     }
 
     async fn heartbeat(&self, held: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
-        self.coordinator.heartbeat(&self.worker_id, &held).await.map_err(queue_error)
+        self.coordinator
+            .heartbeat(&self.worker_id, &held)
+            .await
+            .map_err(queue_error)
     }
 
-    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
-        self.coordinator.complete_batch(&self.worker_id, &completions).await.map_err(queue_error)
+    async fn complete(
+        &self,
+        completions: Vec<Completion>,
+    ) -> Result<Vec<CompleteOutcome>, QueueError> {
+        self.coordinator
+            .complete_batch(&self.worker_id, &completions)
+            .await
+            .map_err(queue_error)
     }
 
     async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, QueueError> {
-        self.coordinator.fail(&self.worker_id, &lease.job_id, lease.token, &error).await.map_err(queue_error)
+        self.coordinator
+            .fail(&self.worker_id, &lease.job_id, lease.token, &error)
+            .await
+            .map_err(queue_error)
     }
 
     async fn release(&self, leases: Vec<LeaseRef>) -> Result<(), QueueError> {
-        self.coordinator.release(&self.worker_id, &leases).await.map(drop).map_err(queue_error)
+        self.coordinator
+            .release(&self.worker_id, &leases)
+            .await
+            .map(drop)
+            .map_err(queue_error)
     }
 }

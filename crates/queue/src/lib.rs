@@ -45,7 +45,10 @@ pub struct Lease {
 impl Lease {
     /// The reference quoted in heartbeats and reports.
     pub fn reference(&self) -> LeaseRef {
-        LeaseRef { job_id: self.job_id.clone(), token: self.token }
+        LeaseRef {
+            job_id: self.job_id.clone(),
+            token: self.token,
+        }
     }
 }
 
@@ -118,14 +121,22 @@ pub trait JobQueue: Send + Sync + 'static {
     /// Leases up to `max_jobs` queued jobs, oldest first; none when nothing may be leased now.
     fn lease(&self, max_jobs: u32) -> impl Future<Output = Result<Vec<Lease>, QueueError>> + Send;
     /// Extends `held`; answers the leases still valid.
-    fn heartbeat(&self, held: Vec<LeaseRef>) -> impl Future<Output = Result<Vec<LeaseRef>, QueueError>> + Send;
+    fn heartbeat(
+        &self,
+        held: Vec<LeaseRef>,
+    ) -> impl Future<Output = Result<Vec<LeaseRef>, QueueError>> + Send;
     /// Delivers finished jobs' records, several at once: one transaction, one round trip. The
     /// outcomes are in input order. The batch is taken whole or rejected whole.
     fn complete(
         &self,
         completions: Vec<Completion>,
     ) -> impl Future<Output = Result<Vec<CompleteOutcome>, QueueError>> + Send;
-    fn fail(&self, lease: &LeaseRef, error: String) -> impl Future<Output = Result<FailOutcome, QueueError>> + Send;
+    fn fail(
+        &self,
+        lease: &LeaseRef,
+        error: String,
+    ) -> impl Future<Output = Result<FailOutcome, QueueError>> + Send;
     /// Gives unstarted leases back without counting an attempt.
-    fn release(&self, leases: Vec<LeaseRef>) -> impl Future<Output = Result<(), QueueError>> + Send;
+    fn release(&self, leases: Vec<LeaseRef>)
+    -> impl Future<Output = Result<(), QueueError>> + Send;
 }

@@ -65,13 +65,19 @@ impl From<pb::Lease> for Lease {
 
 impl From<&LeaseRef> for pb::HeldLease {
     fn from(l: &LeaseRef) -> Self {
-        pb::HeldLease { job_id: l.job_id.clone(), token: l.token }
+        pb::HeldLease {
+            job_id: l.job_id.clone(),
+            token: l.token,
+        }
     }
 }
 
 impl From<pb::HeldLease> for LeaseRef {
     fn from(held: pb::HeldLease) -> Self {
-        LeaseRef { job_id: held.job_id, token: held.token }
+        LeaseRef {
+            job_id: held.job_id,
+            token: held.token,
+        }
     }
 }
 
@@ -88,7 +94,12 @@ impl From<Completion> for pb::Completion {
 
 impl From<pb::Completion> for Completion {
     fn from(c: pb::Completion) -> Self {
-        Completion { job_id: c.job_id, token: c.token, core_id: Some(c.core_id), records: c.records_json }
+        Completion {
+            job_id: c.job_id,
+            token: c.token,
+            core_id: Some(c.core_id),
+            records: c.records_json,
+        }
     }
 }
 
@@ -101,7 +112,9 @@ pub fn complete_outcome_to_wire(outcome: CompleteOutcome) -> pb::complete_respon
     }
 }
 
-pub fn complete_outcome_from_wire(outcome: pb::complete_response::Outcome) -> Option<CompleteOutcome> {
+pub fn complete_outcome_from_wire(
+    outcome: pb::complete_response::Outcome,
+) -> Option<CompleteOutcome> {
     use pb::complete_response::Outcome;
     match outcome {
         Outcome::Accepted => Some(CompleteOutcome::Accepted),
@@ -136,18 +149,37 @@ mod tests {
 
     #[test]
     fn outcomes_survive_the_round_trip() {
-        for o in [CompleteOutcome::Accepted, CompleteOutcome::Late, CompleteOutcome::AlreadyDone] {
-            assert_eq!(complete_outcome_from_wire(complete_outcome_to_wire(o)), Some(o));
+        for o in [
+            CompleteOutcome::Accepted,
+            CompleteOutcome::Late,
+            CompleteOutcome::AlreadyDone,
+        ] {
+            assert_eq!(
+                complete_outcome_from_wire(complete_outcome_to_wire(o)),
+                Some(o)
+            );
         }
-        for o in [FailOutcome::Requeued, FailOutcome::Failed, FailOutcome::Late] {
+        for o in [
+            FailOutcome::Requeued,
+            FailOutcome::Failed,
+            FailOutcome::Late,
+        ] {
             assert_eq!(fail_outcome_from_wire(fail_outcome_to_wire(o)), Some(o));
         }
-        assert_eq!(complete_outcome_from_wire(pb::complete_response::Outcome::Unspecified), None);
+        assert_eq!(
+            complete_outcome_from_wire(pb::complete_response::Outcome::Unspecified),
+            None
+        );
     }
 
     #[test]
     fn a_completion_keeps_its_records_and_core() {
-        let c = Completion { job_id: "j".into(), token: 7, core_id: Some(3), records: vec!["{}".into()] };
+        let c = Completion {
+            job_id: "j".into(),
+            token: 7,
+            core_id: Some(3),
+            records: vec!["{}".into()],
+        };
         assert_eq!(Completion::from(pb::Completion::from(c.clone())), c);
     }
 }

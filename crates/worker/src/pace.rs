@@ -52,7 +52,9 @@ impl Pace {
     /// Jobs to ask for: as many as fit in [`WINDOW`]; one before any job has been seen.
     pub fn batch(&self) -> u32 {
         match self.job_s {
-            Some(job_s) if job_s > 0.0 => (WINDOW.as_secs_f64() / job_s).clamp(1.0, MAX_BATCH as f64) as u32,
+            Some(job_s) if job_s > 0.0 => {
+                (WINDOW.as_secs_f64() / job_s).clamp(1.0, MAX_BATCH as f64) as u32
+            }
             Some(_) => MAX_BATCH,
             None => 1,
         }
@@ -69,7 +71,9 @@ impl Pace {
     /// (this one included): only for short jobs, once what is left would be done within two
     /// round trips, and at the latest when the last job starts.
     pub fn prefetch_now(&self, left: usize) -> bool {
-        let Some(job_s) = self.job_s.filter(|_| self.short_jobs()) else { return false };
+        let Some(job_s) = self.job_s.filter(|_| self.short_jobs()) else {
+            return false;
+        };
         let round_trip_s = self.lease_s.unwrap_or(0.0);
         left <= 1 || left as f64 * job_s <= 2.0 * round_trip_s
     }

@@ -31,7 +31,14 @@ struct State {
 
 impl Recorder {
     fn new(jobs: u64, duration_ms: u64, forced: Option<u32>) -> Arc<Recorder> {
-        Arc::new(Recorder { duration_ms, forced, state: Mutex::new(State { jobs, ..Default::default() }) })
+        Arc::new(Recorder {
+            duration_ms,
+            forced,
+            state: Mutex::new(State {
+                jobs,
+                ..Default::default()
+            }),
+        })
     }
 
     fn settled(&self) -> u64 {
@@ -50,7 +57,11 @@ impl JobQueue for Recorder {
         state.asked.push(max_jobs);
         let leases: Vec<Lease> = (state.next..state.next + n)
             .map(|index| {
-                let spec = JobSpec::Noop(NoopSpec { index, duration_ms: self.duration_ms, fail_rate: 0.0 });
+                let spec = JobSpec::Noop(NoopSpec {
+                    index,
+                    duration_ms: self.duration_ms,
+                    fail_rate: 0.0,
+                });
                 Lease {
                     job_id: format!("job{index}"),
                     kind: "noop".into(),
@@ -72,10 +83,15 @@ impl JobQueue for Recorder {
         Ok(held)
     }
 
-    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
+    async fn complete(
+        &self,
+        completions: Vec<Completion>,
+    ) -> Result<Vec<CompleteOutcome>, QueueError> {
         let mut state = self.state.lock().unwrap();
         state.outstanding -= completions.len() as u64;
-        state.completed.extend(completions.iter().map(|c| c.job_id.clone()));
+        state
+            .completed
+            .extend(completions.iter().map(|c| c.job_id.clone()));
         Ok(vec![CompleteOutcome::Accepted; completions.len()])
     }
 
@@ -92,7 +108,11 @@ impl JobQueue for Recorder {
 }
 
 fn run(queue: Arc<Recorder>, lease_for: Duration, until_settled: u64) {
-    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().expect("a runtime");
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .expect("a runtime");
     let options = WorkerOptions {
         cores: vec![0],
         heartbeat_every: lease_for / 4,
@@ -100,7 +120,8 @@ fn run(queue: Arc<Recorder>, lease_for: Duration, until_settled: u64) {
         lease_batch: None,
         lease_for,
     };
-    let slots = Slots::start(queue.clone(), options, runtime.handle().clone()).expect("slots start");
+    let slots =
+        Slots::start(queue.clone(), options, runtime.handle().clone()).expect("slots start");
     let started = Instant::now();
     while queue.settled() < until_settled {
         assert!(started.elapsed() < Duration::from_secs(30), "timed out");
@@ -132,9 +153,17 @@ fn short_jobs_are_leased_by_the_hundred_and_prefetched() {
     assert_eq!(state.completed.len(), 5_000);
     assert!(state.released.is_empty());
     assert_eq!(state.asked[0], 1, "a fresh slot knows nothing of its jobs");
-    assert!(state.asked.iter().skip(1).all(|&n| n >= 100), "{:?}", state.asked);
+    assert!(
+        state.asked.iter().skip(1).all(|&n| n >= 100),
+        "{:?}",
+        state.asked
+    );
     assert!(state.asked.len() < 30, "{} lease calls", state.asked.len());
-    assert!(state.peak_outstanding > u64::from(state.asked[1]), "never prefetched: {:?}", state.asked);
+    assert!(
+        state.peak_outstanding > u64::from(state.asked[1]),
+        "never prefetched: {:?}",
+        state.asked
+    );
 }
 
 /// Leases the slot cannot start within half their duration are given back, not started late
