@@ -12,14 +12,18 @@
 
 use std::collections::HashSet;
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use queue::{CompleteOutcome, Completion, JobQueue, LeaseRef, WorkerInfo};
 use worker::pace::Pace;
 use worker::remote::Remote;
+
+use common::{Proc, rss_kib};
+
+mod common;
 
 const SWEEP: &str = env!("CARGO_BIN_EXE_sweep");
 /// Set in a client process: the coordinator's URL.
@@ -132,6 +136,16 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
         };
         let lease_for = remote.register(&info).await.unwrap();
         let done = Arc::new(AtomicU64::new(0));
+        // The driver closes our stdin once every job is done: leases lost to a call past its
+        // deadline come back only when they expire, so an empty queue does not mean the end.
+        let stop = Arc::new(AtomicBool::new(false));
+        {
+            let stop = stop.clone();
+            std::thread::spawn(move || {
+                let _ = std::io::copy(&mut std::io::stdin(), &mut std::io::sink());
+                stop.store(true, Ordering::Relaxed);
+            });
+        }
         let failed_calls = Arc::new(AtomicU64::new(0));
         let held: Arc<Mutex<HashSet<LeaseRef>>> = Arc::default();
         let latencies: Arc<Mutex<Vec<Histogram>>> =
@@ -170,7 +184,7 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
             .map(|slot| {
                 let (remote, held, done, record) =
                     (remote.clone(), held.clone(), done.clone(), record.clone());
-                let failed_calls = failed_calls.clone();
+                let (failed_calls, stop) = (failed_calls.clone(), stop.clone());
                 tokio::spawn(async move {
                     let mut pace = Pace::default();
                     loop {
@@ -188,7 +202,11 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
                         };
                         record(0, started.elapsed());
                         if leases.is_empty() {
-                            return;
+                            if stop.load(Ordering::Relaxed) {
+                                return;
+                            }
+                            tokio::time::sleep(RETRY).await;
+                            continue;
                         }
                         held.lock()
                             .unwrap()
@@ -249,24 +267,9 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
 // ---------------------------------------------------------------------------------------------
 // The driver.
 
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
+/// A memory figure of the coordinator (see [`rss_kib`]) in MB.
 fn rss_mb(pid: u32, field: &str) -> f64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-    let kib: u64 = status
-        .lines()
-        .find(|l| l.starts_with(field))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(0);
-    kib as f64 / 1024.0
+    rss_kib(pid, field) as f64 / 1024.0
 }
 
 /// What the driver learns from one client's stdout.
@@ -385,6 +388,7 @@ fn main() {
                 .args([format!("slots={}", s.slots), format!("job_ms={}", s.job_ms)])
                 .env(CLIENT_ENV, &url)
                 .env("SWEEP_CLUSTER_ID", id.to_string())
+                .stdin(Stdio::piped())
                 .stdout(Stdio::piped())
                 .spawn()
                 .unwrap();
@@ -425,6 +429,10 @@ fn main() {
         if samples.len() % 10 == 0 {
             let (t, done, rss) = samples[samples.len() - 1];
             eprintln!("{t:.0} s: {done} jobs done, coordinator RSS {rss:.0} MB");
+        }
+        if done >= s.jobs {
+            // Every job is done: the clients' slots stop at their next empty lease.
+            clients.iter_mut().for_each(|c| drop(c.0.stdin.take()));
         }
         let running = clients
             .iter_mut()
