@@ -467,11 +467,16 @@ fn a_worker_killed_holding_a_large_adaptive_lease_loses_nothing() {
         std::thread::sleep(Duration::from_millis(20));
     }
     doomed.kill9();
-    let held = cluster.status(&url)["running"].as_u64().unwrap();
+    let status = cluster.status(&url);
+    let (held, done) = (status["running"].as_u64().unwrap(), status["done"].as_u64().unwrap());
     assert!(held >= 100, "the killed worker held only {held} leases");
     let _survivor = cluster.worker(&url, "1", Some(cluster.token()));
     cluster.wait_done(&url, JOBS, Duration::from_secs(120));
     assert_exactly_once(&cluster, JOBS as usize);
+    // A report the killed worker had already sent may land after the snapshot: those jobs were
+    // held but are done, not lost.
+    let reported_late = cluster.count("SELECT count(*) FROM results WHERE core_id = 0") - done;
+    let lost = held - reported_late;
     let re_leased = cluster.count("SELECT count(*) FROM jobs WHERE attempts >= 2");
-    assert!(re_leased >= held, "{held} leases lost with the worker, {re_leased} jobs leased again");
+    assert!(re_leased >= lost, "{lost} leases lost with the worker, {re_leased} jobs leased again");
 }

@@ -38,7 +38,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
     let coordinator = runtime.block_on(async {
         let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
-        let config = Config { lease_for: LOCAL_LEASE, max_attempts: 3 };
+        let config = Config { lease_for: LOCAL_LEASE, max_attempts: 3, ..Config::default() };
         anyhow::Ok(Coordinator::new(store, config, Arc::new(SystemClock))?)
     })?;
     let submitted = runtime.block_on(coordinator.submit(&campaign.campaign, &campaign.jobs))?;

@@ -136,7 +136,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
     });
     runtime()?.block_on(async {
         let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
-        let config = Config { lease_for: Duration::from_secs(args.lease_secs.max(1)), max_attempts: args.max_attempts };
+        let config = Config { lease_for: Duration::from_secs(args.lease_secs.max(1)), max_attempts: args.max_attempts, ..Config::default() };
         let coordinator = Coordinator::new(store, config, Arc::new(SystemClock))?;
         let listener = tokio::net::TcpListener::bind(args.listen).await.with_context(|| format!("--listen {}", args.listen))?;
         // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.

@@ -43,7 +43,7 @@ impl Store {
         drop(sorted);
         let campaign = campaign.clone();
         let submitted = jobs.len() as u64;
-        self.write(move |conn| {
+        self.write(jobs.len(), move |conn| {
             Box::pin(async move {
                 sqlx::query(
                     "INSERT INTO campaigns (id, name, plan_text, created_at) VALUES (?1, ?2, ?3, ?4)
@@ -79,7 +79,7 @@ impl Store {
     /// worker cannot be interrupted mid-measurement anyway). Returns the number of jobs cancelled.
     pub async fn cancel(&self, campaign_id: &str, now: f64) -> Result<u64> {
         let campaign_id = campaign_id.to_owned();
-        self.write(move |conn| {
+        self.write(1, move |conn| {
             Box::pin(async move {
                 let found = sqlx::query(
                     "UPDATE campaigns SET cancelled_at = coalesce(cancelled_at, ?2) WHERE id = ?1",

@@ -114,14 +114,15 @@ impl Store {
     }
 
     /// Applies `op` as one write of the next group transaction (see [`crate::writer`]) and answers
-    /// once that transaction committed. An `Err` from `op` undoes its own statements only.
-    pub(crate) async fn write<T, F>(&self, op: F) -> Result<T>
+    /// once that transaction committed. An `Err` from `op` undoes its own statements only. `rows`:
+    /// about how many rows it touches, which bounds the size of its group.
+    pub(crate) async fn write<T, F>(&self, rows: usize, op: F) -> Result<T>
     where
         T: Send + 'static,
         F: for<'c> FnOnce(&'c mut SqliteConnection) -> BoxFuture<'c, Result<T>> + Send + 'static,
     {
         let (_, writer) = self.writer.as_ref().ok_or(Error::ReadOnly)?;
-        writer.write(op).await
+        writer.write(rows, op).await
     }
 }
 

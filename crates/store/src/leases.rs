@@ -40,7 +40,7 @@ impl Store {
         exclusive_ok: bool,
     ) -> Result<Vec<Lease>> {
         let worker_id = worker_id.to_owned();
-        self.write(move |conn| {
+        self.write(max_jobs as usize, move |conn| {
             Box::pin(async move {
                 touch(conn, &worker_id, now).await?;
                 // Two existence tests (O(1) with the indexes), not counts: the rule only asks "is anything
@@ -145,7 +145,7 @@ impl Store {
             .map_err(|e| Error::Corrupt(format!("cannot encode leases: {e}")))?;
         let worker_id = worker_id.to_owned();
         let kept = self
-            .write(move |conn| {
+            .write(leases.len(), move |conn| {
                 Box::pin(async move {
                     touch(conn, &worker_id, now).await?;
                     // Set-based statements for all leases (`+state` and CROSS JOIN keep SQLite on the
@@ -256,7 +256,7 @@ impl Store {
             .map(|item| (item.job_id.to_owned(), item.token))
             .collect();
         let worker_id = worker_id.to_owned();
-        self.write(move |conn| Box::pin(async move {
+        self.write(keys.len(), move |conn| Box::pin(async move {
         let accepted: HashSet<String> = sqlx::query(
             "UPDATE jobs SET state = 'done', finished_at = ?2, lease_expires_at = NULL
              FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
@@ -328,7 +328,7 @@ impl Store {
     ) -> Result<FailOutcome> {
         let (worker_id, job_id, error) =
             (worker_id.to_owned(), job_id.to_owned(), error.to_owned());
-        self.write(move |conn| {
+        self.write(1, move |conn| {
             Box::pin(async move {
                 let current = current_lease(conn, &job_id).await?;
                 if !(current.state == JobState::Running
@@ -372,7 +372,7 @@ impl Store {
     /// lease that is no longer the worker's is skipped. Returns how many were released.
     pub async fn release(&self, worker_id: &str, leases: &[LeaseRef], now: f64) -> Result<u64> {
         let (worker_id, leases) = (worker_id.to_owned(), leases.to_vec());
-        self.write(move |conn| {
+        self.write(leases.len(), move |conn| {
             Box::pin(async move {
                 touch(conn, &worker_id, now).await?;
                 let mut released = 0;
@@ -400,7 +400,7 @@ impl Store {
     /// any lost lease. Returns how many leases were reaped.
     pub async fn reclaim(&self, worker_id: &str, now: f64, max_attempts: u32) -> Result<u64> {
         let worker_id = worker_id.to_owned();
-        self.write(move |conn| Box::pin(async move {
+        self.write(1, move |conn| Box::pin(async move {
             sqlx::query(
                 "UPDATE jobs SET lease_expires_at = ?1 WHERE lease_owner = ?2 AND state = 'running'",
             )
@@ -418,7 +418,7 @@ impl Store {
     /// used `max_attempts` attempts. Returns the number of leases reaped. A later report from a reaped
     /// lease is `Late`.
     pub async fn expire_leases(&self, now: f64, max_attempts: u32) -> Result<u64> {
-        self.write(move |conn| {
+        self.write(1, move |conn| {
             Box::pin(async move {
                 // INDEXED BY: without statistics SQLite picks the state index and reads every
                 // running job each second (524,288 of them held by 1,024 paced slots), inside the

@@ -15,7 +15,7 @@ impl Store {
         let cores = serde_json::to_string(&worker.cores)
             .map_err(|e| Error::Corrupt(format!("cannot encode core list: {e}")))?;
         let worker = worker.clone();
-        self.write(move |conn| Box::pin(async move {
+        self.write(1, move |conn| Box::pin(async move {
         let existing = sqlx::query(
             "SELECT hostname, cores, cpu_model, cpu_flags, rustc, git_commit, profile
              FROM workers WHERE id = ?1",
@@ -71,8 +71,10 @@ impl Store {
     /// Records that a worker is alive (lease and heartbeat do this implicitly).
     pub async fn touch_worker(&self, worker_id: &str, now: f64) -> Result<()> {
         let worker_id = worker_id.to_owned();
-        self.write(move |conn| Box::pin(async move { touch(conn, &worker_id, now).await }))
-            .await
+        self.write(1, move |conn| {
+            Box::pin(async move { touch(conn, &worker_id, now).await })
+        })
+        .await
     }
 }
 

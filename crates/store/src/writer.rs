@@ -1,6 +1,6 @@
 //! Group commit. Every write of a [`Store`](crate::Store) goes to one task that owns the writer
 //! connection. While it runs a transaction, new writes queue up; the next transaction takes all
-//! of them (up to [`MAX_GROUP`]), applies each inside its own savepoint, so that one failing write
+//! of them (up to [`MAX_GROUP`] writes or [`MAX_GROUP_ROWS`] rows), applies each inside its own savepoint, so that one failing write
 //! is undone alone and answers its own error, commits once, and only then answers every caller.
 //! Nothing is acknowledged before the commit that made it durable: if the commit fails, every
 //! write of the group is answered [`Error::NotCommitted`] and none of it is in the database.
@@ -31,6 +31,11 @@ use crate::error::{Error, Result};
 
 /// The most writes one transaction takes: bounds how long the first of them waits for its answer.
 pub(crate) const MAX_GROUP: usize = 256;
+
+/// The most job rows one transaction takes, by the writes' own estimates (a lease of 500 jobs
+/// counts 500): a group stops taking writes once it reaches this. Bounding writes alone let one
+/// group of 256 large leases update 10⁵ rows and outlive its callers' deadlines.
+pub(crate) const MAX_GROUP_ROWS: usize = 8192;
 
 pub(crate) type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
 
@@ -77,14 +82,16 @@ impl Writer {
 
     /// Applies `op` in the next group transaction and answers once that transaction committed.
     /// `op` gets the connection inside the transaction (and inside its savepoint); an `Err` from it
-    /// undoes its own statements only.
-    pub(crate) async fn write<T, F>(&self, op: F) -> Result<T>
+    /// undoes its own statements only. `rows` is about how many rows it touches (at least 1 is
+    /// counted), for [`MAX_GROUP_ROWS`].
+    pub(crate) async fn write<T, F>(&self, rows: usize, op: F) -> Result<T>
     where
         T: Send + 'static,
         F: for<'c> FnOnce(&'c mut SqliteConnection) -> BoxFuture<'c, Result<T>> + Send + 'static,
     {
         let (reply, answer) = oneshot::channel();
         let pending = Pending {
+            rows: rows.max(1),
             op: Some(op),
             result: None,
             reply,
@@ -109,9 +116,12 @@ trait Write: Send + std::fmt::Debug {
     fn answer(self: Box<Self>, group: Result<(), Arc<sqlx::Error>>);
     /// Whether the caller has stopped waiting for the answer.
     fn abandoned(&self) -> bool;
+    /// About how many rows it touches.
+    fn rows(&self) -> usize;
 }
 
 struct Pending<F, T> {
+    rows: usize,
     op: Option<F>,
     result: Option<Result<T>>,
     reply: oneshot::Sender<Result<T>>,
@@ -146,6 +156,10 @@ where
         self.reply.is_closed()
     }
 
+    fn rows(&self) -> usize {
+        self.rows
+    }
+
     fn answer(self: Box<Self>, group: Result<(), Arc<sqlx::Error>>) {
         let answer = match (self.result, group) {
             // A write that failed was undone alone: its own error is the answer, whatever the group.
@@ -168,10 +182,14 @@ async fn run(
 ) {
     let mut group = Vec::with_capacity(MAX_GROUP);
     while let Some(first) = queue.recv().await {
+        let mut rows = first.rows();
         group.push(first);
-        while group.len() < MAX_GROUP {
+        while group.len() < MAX_GROUP && rows < MAX_GROUP_ROWS {
             match queue.try_recv() {
-                Ok(next) => group.push(next),
+                Ok(next) => {
+                    rows += next.rows();
+                    group.push(next);
+                }
                 Err(_) => break,
             }
         }
@@ -271,14 +289,14 @@ mod tests {
         let (_dir, pool, writer) = table().await;
         // `join!` polls all three before the writer task can run: they land in one group.
         let (a, b, c) = tokio::join!(
-            writer.write(insert_child(10, 1)),
-            writer.write(|conn| Box::pin(async move {
+            writer.write(1, insert_child(10, 1)),
+            writer.write(1, |conn| Box::pin(async move {
                 sqlx::query("INSERT INTO child VALUES (20, 1)")
                     .execute(&mut *conn)
                     .await?;
                 Err::<i64, _>(Error::UnknownJob("20".into()))
             })),
-            writer.write(insert_child(30, 1)),
+            writer.write(1, insert_child(30, 1)),
         );
         assert_eq!((a.expect("a"), c.expect("c")), (10, 30));
         assert!(matches!(b, Err(Error::UnknownJob(id)) if id == "20"));
@@ -299,8 +317,8 @@ mod tests {
     async fn nothing_is_acknowledged_when_the_commit_fails() {
         let (_dir, pool, writer) = table().await;
         let (a, b) = tokio::join!(
-            writer.write(insert_child(1, 1)),
-            writer.write(|conn| Box::pin(async move {
+            writer.write(1, insert_child(1, 1)),
+            writer.write(1, |conn| Box::pin(async move {
                 sqlx::query("PRAGMA defer_foreign_keys = ON")
                     .execute(&mut *conn)
                     .await?;
@@ -317,7 +335,7 @@ mod tests {
         // The writer goes on with the next group.
         assert_eq!(
             writer
-                .write(insert_child(3, 1))
+                .write(1, insert_child(3, 1))
                 .await
                 .expect("after a failed group"),
             3
@@ -329,7 +347,7 @@ mod tests {
     #[tokio::test]
     async fn a_write_nobody_waits_for_is_not_applied() {
         let (_dir, pool, writer) = table().await;
-        let mut given_up = Box::pin(writer.write(insert_child(1, 1)));
+        let mut given_up = Box::pin(writer.write(1, insert_child(1, 1)));
         // Polled once, it is queued; dropped before the writer task runs, its caller is gone.
         let polled = std::future::poll_fn(|cx| {
             std::task::Poll::Ready(given_up.as_mut().poll(cx).is_ready())
@@ -339,7 +357,7 @@ mod tests {
         drop(given_up);
         assert_eq!(
             writer
-                .write(insert_child(2, 1))
+                .write(1, insert_child(2, 1))
                 .await
                 .expect("the next write"),
             2
@@ -351,6 +369,30 @@ mod tests {
                 transactions: 1,
                 writes: 1,
                 abandoned: 1
+            }
+        );
+    }
+
+    /// A group stops taking writes once their rows reach `MAX_GROUP_ROWS`: three writes of
+    /// 3/5 of it each, sent together, take two transactions (the second write tips the first group
+    /// over, the third waits for the next).
+    #[tokio::test]
+    async fn a_group_is_bounded_by_rows_not_only_by_writes() {
+        let (_dir, pool, writer) = table().await;
+        let rows = MAX_GROUP_ROWS * 3 / 5;
+        let (a, b, c) = tokio::join!(
+            writer.write(rows, insert_child(1, 1)),
+            writer.write(rows, insert_child(2, 1)),
+            writer.write(rows, insert_child(3, 1)),
+        );
+        assert_eq!((a.expect("a"), b.expect("b"), c.expect("c")), (1, 2, 3));
+        assert_eq!(children(&pool).await, [1, 2, 3]);
+        assert_eq!(
+            writer.groups(),
+            WriteGroups {
+                transactions: 2,
+                writes: 3,
+                abandoned: 0
             }
         );
     }
