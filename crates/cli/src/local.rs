@@ -7,9 +7,9 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
-use coordinator::{Config, Coordinator, Status, Store, SystemClock};
+use coordinator::{Config, Coordinator, Embedded, Status, Store, SystemClock};
 use indicatif::{ProgressBar, ProgressStyle};
-use worker::{Embedded, Slots, WorkerOptions};
+use worker::{Slots, WorkerOptions};
 
 use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_json};
@@ -38,7 +38,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
     let coordinator = runtime.block_on(async {
         let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
-        let config = Config { lease_for: LOCAL_LEASE, max_attempts: 3 };
+        let config = Config { lease_for: LOCAL_LEASE, max_attempts: 3, ..Config::default() };
         anyhow::Ok(Coordinator::new(store, config, Arc::new(SystemClock))?)
     })?;
     let submitted = runtime.block_on(coordinator.submit(&campaign.campaign, &campaign.jobs))?;
@@ -64,8 +64,13 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         coordinator.spawn_reaper(Duration::from_secs(1))
     };
     let queue = Arc::new(Embedded { coordinator: coordinator.clone(), worker_id });
-    let options =
-        WorkerOptions { cores, heartbeat_every: LOCAL_LEASE / 4, idle_poll: Duration::from_millis(50), lease_batch: 1 };
+    let options = WorkerOptions {
+        cores,
+        heartbeat_every: LOCAL_LEASE / 4,
+        idle_poll: Duration::from_millis(50),
+        lease_batch: None,
+        lease_for: LOCAL_LEASE,
+    };
     let slots = Slots::start(queue, options, runtime.handle().clone())?;
 
     let bar = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(campaign.jobs.len() as u64) };

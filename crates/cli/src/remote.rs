@@ -65,11 +65,12 @@ impl ClientArgs {
         self.ca.as_ref().map(|p| std::fs::read(p).with_context(|| format!("--ca {}", p.display()))).transpose()
     }
 
-    async fn admin(&self) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
+    /// A client whose calls give up after `timeout`.
+    async fn admin(&self, timeout: Duration) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
         let mut endpoint = Endpoint::from_shared(self.coordinator.clone())
             .with_context(|| format!("--coordinator {}", self.coordinator))?
             .connect_timeout(Duration::from_secs(5))
-            .timeout(Duration::from_secs(60));
+            .timeout(timeout);
         if let Some(ca) = self.ca_pem()? {
             endpoint = endpoint.tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))?;
         }
@@ -77,6 +78,11 @@ impl ClientArgs {
         Ok(AdminClient::with_interceptor(channel, WithToken::new(self.auth.token()?)))
     }
 }
+
+/// How long an admin call may take, but a submission.
+const ADMIN_TIMEOUT: Duration = Duration::from_secs(60);
+/// Expanding and storing a plan of a million points takes tens of seconds.
+const SUBMIT_TIMEOUT: Duration = Duration::from_secs(600);
 
 /// A refused call as one line: the server's message, not tonic's wrapping.
 fn rpc_error(status: tonic::Status) -> anyhow::Error {
@@ -130,13 +136,20 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
     });
     runtime()?.block_on(async {
         let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
-        let config = Config { lease_for: Duration::from_secs(args.lease_secs.max(1)), max_attempts: args.max_attempts };
+        let config = Config { lease_for: Duration::from_secs(args.lease_secs.max(1)), max_attempts: args.max_attempts, ..Config::default() };
         let coordinator = Coordinator::new(store, config, Arc::new(SystemClock))?;
         let listener = tokio::net::TcpListener::bind(args.listen).await.with_context(|| format!("--listen {}", args.listen))?;
         // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.
         println!("listening on {}", listener.local_addr()?);
         let options = ServeOptions { listen: args.listen, token, tls };
         coordinator::grpc::serve(coordinator.clone(), expand, options, listener, shutdown_signal()).await?;
+        let writes = coordinator.store().write_groups();
+        tracing::info!(
+            transactions = writes.transactions,
+            writes = writes.writes,
+            abandoned = writes.abandoned,
+            "database writes since start (group commit)"
+        );
         coordinator.store().close().await;
         anyhow::Ok(())
     })
@@ -169,9 +182,10 @@ pub struct WorkerArgs {
     /// (Slurm's SLURM_CPUS_ON_NODE, a Kubernetes CPU limit) rather than a list.
     #[arg(long, value_name = "N", conflicts_with = "cores", value_parser = clap::value_parser!(u32).range(1..))]
     core_count: Option<u32>,
-    /// Jobs leased per call (larger amortises round trips of short jobs).
-    #[arg(long, default_value_t = 1)]
-    lease_batch: u32,
+    /// Jobs leased per call, instead of as many as fit 100 ms of the observed run time (one at a
+    /// time for long jobs, up to 512 for short ones).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    lease_batch: Option<u32>,
 }
 
 pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
@@ -193,7 +207,7 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         loop {
             match remote.register(&info).await {
                 Ok(lease_for) => return anyhow::Ok(lease_for),
-                Err(error @ worker::WorkerError::Refused(_)) => bail!("{error}"),
+                Err(error @ worker::QueueError::Refused(_)) => bail!("{error}"),
                 Err(error) => {
                     tracing::warn!(%error, "coordinator not reachable; retrying");
                     tokio::time::sleep(wait).await;
@@ -206,7 +220,8 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         cores,
         heartbeat_every: (lease_for / 4).max(Duration::from_millis(100)),
         idle_poll: Duration::from_millis(200),
-        lease_batch: args.lease_batch.max(1),
+        lease_batch: args.lease_batch,
+        lease_for,
     };
     let slots = Slots::start(Arc::new(remote), options, runtime.handle().clone())?;
     let halted = runtime.block_on(async {
@@ -234,7 +249,7 @@ pub struct SubmitArgs {
 pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
     let (text, name) = read_plan_file(&args.plan)?;
     let response = runtime()?.block_on(async {
-        let mut admin = args.client.admin().await?;
+        let mut admin = args.client.admin(SUBMIT_TIMEOUT).await?;
         let request = pb::SubmitRequest { plan_toml: text, file_name: name };
         anyhow::Ok(admin.submit(request).await.map_err(rpc_error)?.into_inner())
     })?;
@@ -254,7 +269,7 @@ pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
 
 pub fn remote_status(client: &ClientArgs, campaign: Option<&str>, format: Format) -> anyhow::Result<()> {
     let s = runtime()?.block_on(async {
-        let mut admin = client.admin().await?;
+        let mut admin = client.admin(ADMIN_TIMEOUT).await?;
         let request = pb::StatusRequest { campaign_id: campaign.unwrap_or_default().to_string() };
         anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
     })?;
@@ -271,7 +286,7 @@ pub struct CancelArgs {
 
 pub fn cancel(args: &CancelArgs, format: Format) -> anyhow::Result<()> {
     let cancelled = runtime()?.block_on(async {
-        let mut admin = args.client.admin().await?;
+        let mut admin = args.client.admin(ADMIN_TIMEOUT).await?;
         let request = pb::CancelRequest { campaign_id: args.campaign.clone() };
         anyhow::Ok(admin.cancel(request).await.map_err(rpc_error)?.into_inner().cancelled)
     })?;
@@ -292,7 +307,7 @@ pub struct WorkersArgs {
 
 pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
     let workers = runtime()?.block_on(async {
-        let mut admin = args.client.admin().await?;
+        let mut admin = args.client.admin(ADMIN_TIMEOUT).await?;
         anyhow::Ok(admin.workers(pb::WorkersRequest {}).await.map_err(rpc_error)?.into_inner().workers)
     })?;
     let rows: Vec<serde_json::Value> = workers

@@ -1,5 +1,6 @@
 //! The gRPC face of the [`Coordinator`]: the `sweep.v1` Worker and Admin services. Each call is
-//! one coordinator operation, hence one committed SQLite transaction, before it is answered.
+//! one coordinator operation, hence one write of a committed SQLite transaction (shared with the
+//! calls that arrived with it: group commit, in the store), before it is answered.
 //! What a plan means is not known here: the application injects an [`ExpandPlan`] function.
 
 use std::net::SocketAddr;
@@ -13,7 +14,9 @@ use wire::v1 as pb;
 use wire::v1::admin_server::{Admin, AdminServer};
 use wire::v1::worker_server::{Worker, WorkerServer};
 
-use crate::{CompleteOutcome, Completion, Coordinator, Error, FailOutcome, LeaseRef, NewCampaign, NewJob};
+use wire::convert::{complete_outcome_to_wire, fail_outcome_to_wire};
+
+use crate::{Completion, Coordinator, Error, LeaseRef, NewCampaign, NewJob};
 
 /// Plan text and file name → the campaign and its jobs, or the one-line error a user sees.
 pub type ExpandPlan = Arc<dyn Fn(&str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
@@ -52,40 +55,11 @@ fn status(error: Error) -> Status {
     }
 }
 
-fn lease_ref(held: pb::HeldLease) -> LeaseRef {
-    LeaseRef { job_id: held.job_id, token: held.token }
-}
-
-/// Conversions between the wire messages and the coordinator's types, used by both ends.
+/// Conversions of the admin messages, used by both ends (the queue contract's are in
+/// [`wire::convert`]).
 pub mod convert {
     use super::pb;
-    use crate::{Status, WorkerInfo};
-
-    pub fn worker_info_to_wire(info: WorkerInfo) -> pb::WorkerInfo {
-        pb::WorkerInfo {
-            id: info.id,
-            hostname: info.hostname,
-            cores: info.cores,
-            cpu_model: info.cpu_model,
-            cpu_flags: info.cpu_flags,
-            rustc: info.rustc,
-            git_commit: info.git_commit,
-            profile: info.profile,
-        }
-    }
-
-    pub fn worker_info_from_wire(w: pb::WorkerInfo) -> WorkerInfo {
-        WorkerInfo {
-            id: w.id,
-            hostname: w.hostname,
-            cores: w.cores,
-            cpu_model: w.cpu_model,
-            cpu_flags: w.cpu_flags,
-            rustc: w.rustc,
-            git_commit: w.git_commit,
-            profile: w.profile,
-        }
-    }
+    use crate::Status;
 
     pub fn status_to_wire(s: &Status) -> pb::StatusResponse {
         pb::StatusResponse {
@@ -125,7 +99,7 @@ impl Worker for Services {
         if w.id.is_empty() {
             return Err(Status::invalid_argument("register: empty worker id"));
         }
-        self.coordinator.register(&convert::worker_info_from_wire(w)).await.map_err(status)?;
+        self.coordinator.register(&w.into()).await.map_err(status)?;
         let lease_ms = self.coordinator.config().lease_for.as_millis() as u64;
         Ok(Response::new(pb::RegisterResponse { heartbeat_interval_ms: lease_ms / 4, lease_ms }))
     }
@@ -133,67 +107,34 @@ impl Worker for Services {
     async fn lease(&self, request: Request<pb::LeaseRequest>) -> Result<Response<pb::LeaseResponse>, Status> {
         let r = request.into_inner();
         let leases = self.coordinator.lease(&r.worker_id, r.max_jobs, true).await.map_err(status)?;
-        let leases = leases
-            .into_iter()
-            .map(|l| pb::Lease {
-                job_id: l.job_id,
-                kind: l.kind,
-                params_json: l.params_json,
-                attempt: l.attempt,
-                token: l.token,
-                exclusive: l.exclusive,
-            })
-            .collect();
-        Ok(Response::new(pb::LeaseResponse { leases }))
+        Ok(Response::new(pb::LeaseResponse { leases: leases.into_iter().map(Into::into).collect() }))
     }
 
     async fn heartbeat(&self, request: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
         let r = request.into_inner();
-        let held: Vec<LeaseRef> = r.leases.into_iter().map(lease_ref).collect();
+        let held: Vec<LeaseRef> = r.leases.into_iter().map(Into::into).collect();
         let valid = self.coordinator.heartbeat(&r.worker_id, &held).await.map_err(status)?;
-        let lost = held
-            .into_iter()
-            .filter(|l| !valid.contains(l))
-            .map(|l| pb::HeldLease { job_id: l.job_id, token: l.token })
-            .collect();
+        let lost = held.iter().filter(|l| !valid.contains(l)).map(Into::into).collect();
         Ok(Response::new(pb::HeartbeatResponse { lost }))
     }
 
     async fn complete(&self, request: Request<pb::CompleteRequest>) -> Result<Response<pb::CompleteResponse>, Status> {
-        use pb::complete_response::Outcome;
         let r = request.into_inner();
-        let completions: Vec<Completion> = r
-            .completions
-            .into_iter()
-            .map(|c| Completion { job_id: c.job_id, token: c.token, core_id: Some(c.core_id), records: c.records_json })
-            .collect();
+        let completions: Vec<Completion> = r.completions.into_iter().map(Into::into).collect();
         let outcomes = self.coordinator.complete_batch(&r.worker_id, &completions).await.map_err(status)?;
-        let outcomes = outcomes
-            .into_iter()
-            .map(|o| match o {
-                CompleteOutcome::Accepted => Outcome::Accepted as i32,
-                CompleteOutcome::Late => Outcome::Late as i32,
-                CompleteOutcome::AlreadyDone => Outcome::AlreadyDone as i32,
-            })
-            .collect();
+        let outcomes = outcomes.into_iter().map(|o| complete_outcome_to_wire(o) as i32).collect();
         Ok(Response::new(pb::CompleteResponse { outcomes }))
     }
 
     async fn fail(&self, request: Request<pb::FailRequest>) -> Result<Response<pb::FailResponse>, Status> {
-        use pb::fail_response::Outcome;
         let r = request.into_inner();
         let outcome = self.coordinator.fail(&r.worker_id, &r.job_id, r.token, &r.error).await.map_err(status)?;
-        let outcome = match outcome {
-            FailOutcome::Requeued => Outcome::Requeued,
-            FailOutcome::Failed => Outcome::Failed,
-            FailOutcome::Late => Outcome::Late,
-        };
-        Ok(Response::new(pb::FailResponse { outcome: outcome as i32 }))
+        Ok(Response::new(pb::FailResponse { outcome: fail_outcome_to_wire(outcome) as i32 }))
     }
 
     async fn release(&self, request: Request<pb::ReleaseRequest>) -> Result<Response<pb::ReleaseResponse>, Status> {
         let r = request.into_inner();
-        let held: Vec<LeaseRef> = r.leases.into_iter().map(lease_ref).collect();
+        let held: Vec<LeaseRef> = r.leases.into_iter().map(Into::into).collect();
         self.coordinator.release(&r.worker_id, &held).await.map_err(status)?;
         Ok(Response::new(pb::ReleaseResponse {}))
     }
@@ -230,7 +171,7 @@ impl Admin for Services {
         let workers = workers
             .into_iter()
             .map(|w| pb::workers_response::Entry {
-                worker: Some(convert::worker_info_to_wire(w.info)),
+                worker: Some(w.info.into()),
                 last_seen_at: w.last_seen_at,
                 running: w.running,
             })
@@ -262,7 +203,9 @@ pub async fn serve(
     let reaper = coordinator.spawn_reaper(Duration::from_secs(1).min(coordinator.config().lease_for / 4));
     let services = Services { coordinator, expand };
     let auth = RequireToken::new(options.token);
-    let mut server = Server::builder().timeout(Duration::from_secs(30));
+    // Workers' calls carry their own 10 s deadline; this bounds the others. Submitting a plan of
+    // a million points takes tens of seconds.
+    let mut server = Server::builder().timeout(Duration::from_secs(600));
     if let Some((cert, key)) = options.tls {
         server = server
             .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))

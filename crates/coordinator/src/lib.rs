@@ -8,21 +8,25 @@
 //!   one [`store`] transaction that supplies the time and the retry policy.
 //! - [`clock`]: [`SystemClock`] for production, [`ManualClock`] for tests that advance time.
 //! - [`grpc`]: the `sweep.v1` Worker and Admin services over this coordinator, with auth and TLS.
+//! - [`embedded`]: the [`queue::JobQueue`] of local mode, this coordinator called in-process.
 //!
 //! Where the guarantees live: exactly-once results, fencing tokens and the exclusive-job rule are
 //! enforced inside the store's transactions, so they hold across processes sharing one database, not
 //! only inside one coordinator.
 
 pub mod clock;
+pub mod embedded;
 pub mod grpc;
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 use tokio::task::JoinHandle;
 
 pub use clock::{Clock, ManualClock, SystemClock};
+pub use embedded::Embedded;
 pub use store::{
     CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, NewCampaign, NewJob, Status, Store,
     SubmitOutcome, WorkerInfo,
@@ -43,7 +47,10 @@ impl Error {
     /// Whether the same request may succeed later: the database was busy or unavailable. Every
     /// other error (an unknown job, a malformed record, a read-only store) will recur.
     pub fn is_transient(&self) -> bool {
-        matches!(self, Error::Store(store::Error::Database(_)))
+        matches!(
+            self,
+            Error::Store(store::Error::Database(_) | store::Error::NotCommitted(_))
+        )
     }
 }
 
@@ -54,6 +61,17 @@ pub struct Config {
     pub lease_for: Duration,
     /// Attempts (failures or lost leases) before a job is marked failed.
     pub max_attempts: u32,
+    /// The jobs one round of grants may hand out across the cluster: a lease is capped at a fair
+    /// share, `min(queued, in_flight_budget) / active slots` (at least 1), so no worker hoards the
+    /// queue and the jobs in flight stay near this whatever the slot count (a paced no-op slot asks
+    /// for 512: 1,024 of them held 524,288 leases, more than the writer could turn over before
+    /// their callers' deadlines).
+    #[serde(default = "default_in_flight_budget")]
+    pub in_flight_budget: u64,
+}
+
+fn default_in_flight_budget() -> u64 {
+    32_768
 }
 
 impl Default for Config {
@@ -61,8 +79,20 @@ impl Default for Config {
         Config {
             lease_for: Duration::from_secs(60),
             max_attempts: 3,
+            in_flight_budget: default_in_flight_budget(),
         }
     }
+}
+
+/// How often, in seconds of the coordinator's clock, the fair lease share is recomputed (sooner
+/// after anything that queues jobs or adds slots).
+const SHARE_REFRESH_S: f64 = 1.0;
+
+/// The fair share of one grant, as last computed.
+#[derive(Debug, Default)]
+struct LeaseShare {
+    computed_at: Option<f64>,
+    per_grant: u32,
 }
 
 /// The scheduler: a [`Store`] plus policy and clock. Cheap to clone; clones share everything.
@@ -71,6 +101,10 @@ pub struct Coordinator {
     store: Store,
     config: Config,
     clock: Arc<dyn Clock>,
+    share: Arc<tokio::sync::Mutex<LeaseShare>>,
+    /// Set by what may grow the queue or the slots (submit, register, a requeue): the share is
+    /// recomputed at the next lease instead of up to [`SHARE_REFRESH_S`] later.
+    share_stale: Arc<AtomicBool>,
 }
 
 impl std::fmt::Debug for Coordinator {
@@ -91,11 +125,41 @@ impl Coordinator {
         if config.max_attempts == 0 {
             return Err(Error::Config("max_attempts must be at least 1"));
         }
+        if config.in_flight_budget == 0 {
+            return Err(Error::Config("in_flight_budget must be at least 1"));
+        }
         Ok(Coordinator {
             store,
             config,
             clock,
+            share: Arc::default(),
+            share_stale: Arc::default(),
         })
+    }
+
+    /// The most jobs one grant may take now: `min(queued, in_flight_budget) / active slots`, at
+    /// least 1 (a slot always gets work while any is queued). The inputs are read at most every
+    /// [`SHARE_REFRESH_S`] (counting the queue is O(budget), too much for every lease).
+    async fn fair_share(&self, now: f64) -> Result<u32> {
+        let mut share = self.share.lock().await;
+        let stale = self.share_stale.swap(false, Ordering::AcqRel);
+        if let Some(at) = share.computed_at
+            && !stale
+            && (at..at + SHARE_REFRESH_S).contains(&now)
+        {
+            return Ok(share.per_grant);
+        }
+        let budget = self.config.in_flight_budget;
+        let active_since = now - self.config.lease_for.as_secs_f64();
+        let (queued, slots) = self.store.lease_share_inputs(budget, active_since).await?;
+        let per_grant = (queued.min(budget) / slots.max(1)).max(1);
+        share.per_grant = u32::try_from(per_grant).unwrap_or(u32::MAX);
+        share.computed_at = Some(now);
+        Ok(share.per_grant)
+    }
+
+    fn share_changed(&self) {
+        self.share_stale.store(true, Ordering::Release);
     }
 
     /// The underlying store, for reads (reports, export, queries).
@@ -109,11 +173,14 @@ impl Coordinator {
 
     /// Registers a worker (or refreshes a re-registration with identical provenance).
     pub async fn register(&self, worker: &WorkerInfo) -> Result<()> {
-        Ok(self.store.register_worker(worker, self.clock.now()).await?)
+        self.store.register_worker(worker, self.clock.now()).await?;
+        self.share_changed();
+        Ok(())
     }
 
-    /// Leases up to `max_jobs` jobs to `worker_id` for [`Config::lease_for`]. `exclusive_ok` says the
-    /// worker may take a job that must run alone (see [`Store::lease`] for the exclusive rule).
+    /// Leases up to `max_jobs` jobs to `worker_id` for [`Config::lease_for`], and no more than a
+    /// fair share of the queue (see [`Config::in_flight_budget`]). `exclusive_ok` says the worker
+    /// may take a job that must run alone (see [`Store::lease`] for the exclusive rule).
     pub async fn lease(
         &self,
         worker_id: &str,
@@ -121,6 +188,10 @@ impl Coordinator {
         exclusive_ok: bool,
     ) -> Result<Vec<Lease>> {
         let now = self.clock.now();
+        if max_jobs == 0 {
+            return Ok(Vec::new());
+        }
+        let max_jobs = max_jobs.min(self.fair_share(now).await?);
         Ok(self
             .store
             .lease(
@@ -183,7 +254,7 @@ impl Coordinator {
         error: &str,
     ) -> Result<FailOutcome> {
         let now = self.clock.now();
-        Ok(self
+        let outcome = self
             .store
             .fail(
                 worker_id,
@@ -193,26 +264,42 @@ impl Coordinator {
                 self.config.max_attempts,
                 now,
             )
-            .await?)
+            .await?;
+        self.share_changed();
+        Ok(outcome)
     }
 
     /// Gives unstarted leases back without counting an attempt (a worker shutting down).
     pub async fn release(&self, worker_id: &str, leases: &[LeaseRef]) -> Result<u64> {
-        Ok(self.store.release(worker_id, leases, self.clock.now()).await?)
+        let released = self
+            .store
+            .release(worker_id, leases, self.clock.now())
+            .await?;
+        self.share_changed();
+        Ok(released)
     }
 
     /// Ends every lease of a worker known to be dead, so its jobs run again at once.
     pub async fn reclaim(&self, worker_id: &str) -> Result<u64> {
-        Ok(self.store.reclaim(worker_id, self.clock.now(), self.config.max_attempts).await?)
+        let reaped = self
+            .store
+            .reclaim(worker_id, self.clock.now(), self.config.max_attempts)
+            .await?;
+        self.share_changed();
+        Ok(reaped)
     }
 
     /// Reaps expired leases (their jobs are retried, or failed after [`Config::max_attempts`]).
     /// Returns how many were reaped. Called periodically, e.g. by [`Coordinator::spawn_reaper`].
     pub async fn tick(&self) -> Result<u64> {
-        Ok(self
+        let reaped = self
             .store
             .expire_leases(self.clock.now(), self.config.max_attempts)
-            .await?)
+            .await?;
+        if reaped > 0 {
+            self.share_changed();
+        }
+        Ok(reaped)
     }
 
     /// Runs [`Coordinator::tick`] every `every` until the returned task is aborted. Errors are logged,
@@ -235,7 +322,9 @@ impl Coordinator {
 
     /// Submits a campaign; only jobs not known yet are scheduled (see [`Store::submit`]).
     pub async fn submit(&self, campaign: &NewCampaign, jobs: &[NewJob]) -> Result<SubmitOutcome> {
-        Ok(self.store.submit(campaign, jobs, self.clock.now()).await?)
+        let outcome = self.store.submit(campaign, jobs, self.clock.now()).await?;
+        self.share_changed();
+        Ok(outcome)
     }
 
     /// Job counts of one campaign, or of everything with `None`.

@@ -50,6 +50,7 @@ async fn setup(workers: &[&str]) -> (tempfile::TempDir, Coordinator, Arc<ManualC
     let config = Config {
         lease_for: LEASE,
         max_attempts: 2,
+        ..Config::default()
     };
     let coordinator = Coordinator::new(store, config, clock.clone()).unwrap();
     for w in workers {
@@ -65,15 +66,92 @@ async fn a_config_that_would_expire_or_fail_everything_is_refused() {
     let zero_lease = Config {
         lease_for: Duration::ZERO,
         max_attempts: 3,
+        ..Config::default()
     };
     let zero_attempts = Config {
         lease_for: LEASE,
         max_attempts: 0,
+        ..Config::default()
     };
-    for config in [zero_lease, zero_attempts] {
+    let zero_budget = Config {
+        in_flight_budget: 0,
+        ..Config::default()
+    };
+    for config in [zero_lease, zero_attempts, zero_budget] {
         let result = Coordinator::new(store.clone(), config, Arc::new(SystemClock));
         assert!(matches!(result, Err(Error::Config(_))));
     }
+}
+
+/// A coordinator whose workers have `slots` cores each, `budget` jobs in flight.
+async fn setup_slots(
+    workers: usize,
+    slots: u32,
+    budget: u64,
+) -> (tempfile::TempDir, Coordinator, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(dir.path().join("c.db")).await.unwrap();
+    let config = Config {
+        lease_for: LEASE,
+        in_flight_budget: budget,
+        ..Config::default()
+    };
+    let clock = Arc::new(ManualClock::new(1_000.0));
+    let coordinator = Coordinator::new(store, config, clock).unwrap();
+    let mut ids = Vec::new();
+    for w in 0..workers {
+        let info = WorkerInfo {
+            cores: (0..slots).collect(),
+            ..worker(&format!("w{w}"))
+        };
+        coordinator.register(&info).await.unwrap();
+        ids.push(info.id);
+    }
+    (dir, coordinator, ids)
+}
+
+/// 100 slots each asking for 512 jobs of a 1,000-job queue get 10 each, all of them, instead of
+/// the first two taking everything; on a queue smaller than the slots, every grant is one job.
+#[tokio::test]
+async fn a_small_queue_is_shared_fairly_among_the_slots() {
+    let (_dir, coordinator, workers) = setup_slots(10, 10, 32_768).await;
+    let jobs: Vec<NewJob> = (0..1000).map(|i| job(i, false)).collect();
+    coordinator.submit(&campaign("c"), &jobs).await.unwrap();
+    let mut leased = std::collections::HashSet::new();
+    for slot in 0..100 {
+        let grant = coordinator
+            .lease(&workers[slot % workers.len()], 512, true)
+            .await
+            .unwrap();
+        assert_eq!(grant.len(), 10, "slot {slot}");
+        leased.extend(grant.into_iter().map(|l| l.job_id));
+    }
+    assert_eq!(leased.len(), 1000);
+
+    let few: Vec<NewJob> = (1000..1003).map(|i| job(i, false)).collect();
+    coordinator.submit(&campaign("d"), &few).await.unwrap();
+    for slot in 0..3 {
+        let grant = coordinator.lease(&workers[slot], 512, true).await.unwrap();
+        assert_eq!(grant.len(), 1, "slot {slot} of a 3-job queue");
+    }
+}
+
+/// On a queue far larger than the budget, a grant is the budget's share per slot, not what the
+/// slot asked for: 4 slots under a budget of 64 get 16 jobs a lease.
+#[tokio::test]
+async fn jobs_in_flight_are_bounded_by_the_budget() {
+    let (_dir, coordinator, workers) = setup_slots(1, 4, 64).await;
+    let jobs: Vec<NewJob> = (0..1000).map(|i| job(i, false)).collect();
+    coordinator.submit(&campaign("c"), &jobs).await.unwrap();
+    for _ in 0..4 {
+        let grant = coordinator.lease(&workers[0], 512, true).await.unwrap();
+        assert_eq!(grant.len(), 16);
+    }
+    // Asking for fewer than the share gets what was asked.
+    assert_eq!(
+        coordinator.lease(&workers[0], 3, true).await.unwrap().len(),
+        3
+    );
 }
 
 #[tokio::test]
@@ -82,7 +160,9 @@ async fn leases_expire_by_the_coordinator_clock_unless_heartbeaten() {
     c.submit(&campaign("c"), &[job(0, false), job(1, false)])
         .await
         .unwrap();
-    let leases = c.lease("w1", 2, true).await.unwrap();
+    // Two one-core workers: a fair share is one job a grant, so w1 leases twice.
+    let mut leases = c.lease("w1", 2, true).await.unwrap();
+    leases.extend(c.lease("w1", 2, true).await.unwrap());
     assert_eq!(leases.len(), 2);
     assert_eq!(leases[0].expires_at, 1_000.0 + 30.0);
 

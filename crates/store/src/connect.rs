@@ -1,9 +1,10 @@
 //! Opening a store: connection options, pools, migrations.
 //!
-//! One writer connection serialises all writes of this process (SQLite allows one writer anyway, and
-//! queueing in the pool is cheaper than spinning on the busy handler); every write transaction still
-//! starts with `BEGIN IMMEDIATE` so that writers in *other* processes wait on `busy_timeout` instead of
-//! failing with "database is locked" when a deferred transaction tries to upgrade its lock.
+//! One writer connection, owned by the group-commit task of [`crate::writer`], serialises all writes
+//! of this process (SQLite allows one writer anyway, and queueing is cheaper than spinning on the
+//! busy handler); every write transaction still starts with `BEGIN IMMEDIATE` so that writers in
+//! *other* processes wait on `busy_timeout` instead of failing with "database is locked" when a
+//! deferred transaction tries to upgrade its lock.
 //! Readers use separate read-only connections: WAL lets them run while the writer commits, and an
 //! accidental write through them is refused by SQLite itself.
 
@@ -13,26 +14,30 @@ use std::time::Duration;
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
-use sqlx::{Row, Sqlite, Transaction};
+use sqlx::{Row, SqliteConnection};
 
 use crate::error::{Error, Result};
+use crate::writer::{BoxFuture, WriteGroups, Writer};
 
 /// The schema, embedded at compile time from `/migrations`.
 static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("../../migrations");
 
 const BUSY_TIMEOUT: Duration = Duration::from_secs(5);
 const READERS: u32 = 4;
+/// The writer's page cache, in KiB (negative `cache_size` means KiB): bounds the coordinator's memory.
+const WRITER_CACHE_KIB: &str = "-65536";
 
-/// A sweep database. Cheap to clone (pools are reference counted).
+/// A sweep database. Cheap to clone (pools and the writer task are shared).
 #[derive(Debug, Clone)]
 pub struct Store {
     /// `None` when opened with [`Store::open_read_only`].
-    writer: Option<SqlitePool>,
+    writer: Option<(SqlitePool, Writer)>,
     pub(crate) reader: SqlitePool,
 }
 
 impl Store {
-    /// Opens (creating it if missing) the database at `path` and applies pending migrations.
+    /// Opens (creating it if missing) the database at `path` and applies pending migrations. Starts
+    /// the task that groups writes into transactions: call it inside a tokio runtime.
     ///
     /// Two processes creating the same new file at the same instant may race on switching it to WAL;
     /// opening an existing database concurrently is safe.
@@ -47,6 +52,11 @@ impl Store {
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
             .synchronous(SqliteSynchronous::Normal)
+            // A group transaction touches pages all over the jobs and results B-trees (job ids are
+            // hashes): with SQLite's default 2 MB cache it spilled and re-read them mid-transaction,
+            // and the savepoint of each write journaled into a temporary file. Both in memory, bounded.
+            .pragma("cache_size", WRITER_CACHE_KIB)
+            .pragma("temp_store", "MEMORY")
             .busy_timeout(BUSY_TIMEOUT)
             .foreign_keys(true);
         let writer = SqlitePoolOptions::new()
@@ -63,8 +73,9 @@ impl Store {
                 source,
             })?;
         let reader = reader_pool(path).await.map_err(open_err)?;
+        let group_writer = Writer::start(writer.clone());
         Ok(Store {
-            writer: Some(writer),
+            writer: Some((writer, group_writer)),
             reader,
         })
     }
@@ -88,15 +99,30 @@ impl Store {
     /// checkpoints the WAL into the database file and removes it.
     pub async fn close(&self) {
         self.reader.close().await;
-        if let Some(writer) = &self.writer {
+        if let Some((writer, _)) = &self.writer {
             writer.close().await;
         }
     }
 
-    /// Starts a write transaction that holds SQLite's write lock from its first statement.
-    pub(crate) async fn begin_write(&self) -> Result<Transaction<'static, Sqlite>> {
-        let writer = self.writer.as_ref().ok_or(Error::ReadOnly)?;
-        Ok(writer.begin_with("BEGIN IMMEDIATE").await?)
+    /// How many writes went into how many transactions since this store was opened (group commit
+    /// at work: under concurrent callers, several writes per transaction). Zero when read-only.
+    pub fn write_groups(&self) -> WriteGroups {
+        self.writer
+            .as_ref()
+            .map(|(_, writer)| writer.groups())
+            .unwrap_or_default()
+    }
+
+    /// Applies `op` as one write of the next group transaction (see [`crate::writer`]) and answers
+    /// once that transaction committed. An `Err` from `op` undoes its own statements only. `rows`:
+    /// about how many rows it touches, which bounds the size of its group.
+    pub(crate) async fn write<T, F>(&self, rows: usize, op: F) -> Result<T>
+    where
+        T: Send + 'static,
+        F: for<'c> FnOnce(&'c mut SqliteConnection) -> BoxFuture<'c, Result<T>> + Send + 'static,
+    {
+        let (_, writer) = self.writer.as_ref().ok_or(Error::ReadOnly)?;
+        writer.write(rows, op).await
     }
 }
 

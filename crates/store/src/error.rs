@@ -62,6 +62,10 @@ pub enum Error {
     Corrupt(String),
     #[error("database error: {0}")]
     Database(#[from] sqlx::Error),
+    /// The transaction this write was grouped into did not commit: nothing of it was written, and
+    /// the same write may succeed if tried again.
+    #[error("database error, nothing written: {0}")]
+    NotCommitted(std::sync::Arc<sqlx::Error>),
 }
 
 /// Shorthand used throughout the crate.

@@ -13,9 +13,11 @@
 //! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
 //!   [`Store::export`], [`Store::overlap_rows`], [`Store::overlap_quality`],
 //!   [`Store::query_read_only`].
+//! - `writer`: group commit — the task that applies concurrent writes in one transaction.
 //! - [`types`] and [`error`]: the plain data and error types of the API.
 //!
-//! Invariants: every write is one `BEGIN IMMEDIATE` transaction on the single writer connection; a
+//! Invariants: every write runs inside a `BEGIN IMMEDIATE` transaction on the single writer
+//! connection, grouped with the writes that arrived meanwhile, and is answered after the commit; a
 //! job's results are written exactly once, in the transaction that marks it done, and only by the
 //! lease (fencing token) that currently owns it; times are caller-supplied Unix seconds, so the
 //! scheduler's clock can be simulated.
@@ -27,6 +29,7 @@ mod leases;
 mod read;
 pub mod types;
 mod workers;
+mod writer;
 
 pub use connect::Store;
 pub use error::{Error, Result};
@@ -35,3 +38,4 @@ pub use types::{
     Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, QueryResult, Status, SubmitOutcome,
     WorkerInfo, WorkerRecord,
 };
+pub use writer::WriteGroups;

@@ -16,6 +16,23 @@ use crate::types::{
 };
 
 impl Store {
+    /// What a fair lease is sized from: the queued jobs, counted only up to `at_most` (so the count
+    /// costs O(`at_most`), not O(queue)), and the slots (cores) of the workers seen since
+    /// `active_since`.
+    pub async fn lease_share_inputs(&self, at_most: u64, active_since: f64) -> Result<(u64, u64)> {
+        let row = sqlx::query(
+            "SELECT (SELECT count(*) FROM (SELECT 1 FROM jobs WHERE state = 'queued' LIMIT ?1)),
+                    (SELECT coalesce(sum(json_array_length(cores)), 0) FROM workers
+                     WHERE last_seen_at >= ?2)",
+        )
+        .bind(i64::try_from(at_most).unwrap_or(i64::MAX))
+        .bind(active_since)
+        .fetch_one(&self.reader)
+        .await?;
+        let (queued, slots): (i64, i64) = (row.try_get(0)?, row.try_get(1)?);
+        Ok((queued.max(0) as u64, slots.max(0) as u64))
+    }
+
     /// Job counts of one campaign, or of the whole store with `None`.
     pub async fn status(&self, campaign: Option<&str>) -> Result<Status> {
         let rows = match campaign {

@@ -3,6 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The queue contract's types, shared with workers that do not link the store.
+pub use queue::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, WorkerInfo};
+
 /// A campaign as submitted: its id is a hash of the plan, computed by the caller.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NewCampaign {
@@ -37,21 +40,6 @@ pub struct SubmitOutcome {
     pub already_known: u64,
 }
 
-/// Who a worker is: provenance recorded with every result it produces.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct WorkerInfo {
-    pub id: String,
-    pub hostname: String,
-    /// The core ids this worker pins its job slots to.
-    pub cores: Vec<u32>,
-    pub cpu_model: String,
-    pub cpu_flags: String,
-    pub rustc: String,
-    pub git_commit: String,
-    /// Cargo build profile (`release`, `dev`, ...).
-    pub profile: String,
-}
-
 /// A registered worker, as listed by [`crate::Store::workers`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WorkerRecord {
@@ -60,62 +48,6 @@ pub struct WorkerRecord {
     pub last_seen_at: f64,
     /// Jobs this worker holds leases on now.
     pub running: u32,
-}
-
-/// A job handed to a worker. The worker must quote `job_id` and `token` when it reports.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Lease {
-    pub job_id: String,
-    pub kind: String,
-    pub params_json: String,
-    /// 1 for the first attempt.
-    pub attempt: u32,
-    /// Fencing token: unique per lease, never reused, so a report from an older lease is recognised.
-    pub token: i64,
-    pub expires_at: f64,
-    /// The job must run alone on the machine (exclusive timing).
-    pub exclusive: bool,
-}
-
-/// A reference to a lease held by a worker (for heartbeats).
-#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct LeaseRef {
-    pub job_id: String,
-    pub token: i64,
-}
-
-/// One job's report in [`crate::Store::complete_batch`].
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Completion {
-    pub job_id: String,
-    pub token: i64,
-    /// The core the job ran on, for provenance.
-    pub core_id: Option<u32>,
-    /// Result records, each a JSON object.
-    pub records: Vec<String>,
-}
-
-/// What became of a completion report.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum CompleteOutcome {
-    /// Results stored and the job is done.
-    Accepted,
-    /// The lease was no longer this worker's (expired and reaped, re-leased, cancelled, or done by
-    /// another lease): recorded in `late_reports`, results not written.
-    Late,
-    /// This very lease already completed the job (a retried report): nothing written.
-    AlreadyDone,
-}
-
-/// What became of a failure report.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum FailOutcome {
-    /// Attempts remain: the job is queued again.
-    Requeued,
-    /// `max_attempts` reached: the job is failed with this error as `last_error`.
-    Failed,
-    /// The lease was no longer this worker's: recorded in `late_reports`, the job is untouched.
-    Late,
 }
 
 /// Job counts by state and the estimated work left.

@@ -1,6 +1,6 @@
 //! Worker registration: the provenance recorded with every result.
 
-use sqlx::{Row, Sqlite, Transaction};
+use sqlx::{Row, SqliteConnection};
 
 use crate::Store;
 use crate::error::{Error, Result};
@@ -14,13 +14,14 @@ impl Store {
     pub async fn register_worker(&self, worker: &WorkerInfo, now: f64) -> Result<()> {
         let cores = serde_json::to_string(&worker.cores)
             .map_err(|e| Error::Corrupt(format!("cannot encode core list: {e}")))?;
-        let mut tx = self.begin_write().await?;
+        let worker = worker.clone();
+        self.write(1, move |conn| Box::pin(async move {
         let existing = sqlx::query(
             "SELECT hostname, cores, cpu_model, cpu_flags, rustc, git_commit, profile
              FROM workers WHERE id = ?1",
         )
         .bind(&worker.id)
-        .fetch_optional(&mut *tx)
+        .fetch_optional(&mut *conn)
         .await?;
         match existing {
             Some(row) => {
@@ -41,7 +42,7 @@ impl Store {
                         });
                     }
                 }
-                touch(&mut tx, &worker.id, now).await?;
+                touch(conn, &worker.id, now).await?;
             }
             None => {
                 sqlx::query(
@@ -58,33 +59,31 @@ impl Store {
                 .bind(&worker.git_commit)
                 .bind(&worker.profile)
                 .bind(now)
-                .execute(&mut *tx)
+                .execute(&mut *conn)
                 .await?;
             }
         }
-        tx.commit().await?;
         Ok(())
+        }))
+        .await
     }
 
     /// Records that a worker is alive (lease and heartbeat do this implicitly).
     pub async fn touch_worker(&self, worker_id: &str, now: f64) -> Result<()> {
-        let mut tx = self.begin_write().await?;
-        touch(&mut tx, worker_id, now).await?;
-        tx.commit().await?;
-        Ok(())
+        let worker_id = worker_id.to_owned();
+        self.write(1, move |conn| {
+            Box::pin(async move { touch(conn, &worker_id, now).await })
+        })
+        .await
     }
 }
 
 /// Updates `last_seen_at`, failing with [`Error::UnknownWorker`] for an unregistered id.
-pub(crate) async fn touch(
-    tx: &mut Transaction<'static, Sqlite>,
-    worker_id: &str,
-    now: f64,
-) -> Result<()> {
+pub(crate) async fn touch(conn: &mut SqliteConnection, worker_id: &str, now: f64) -> Result<()> {
     let found = sqlx::query("UPDATE workers SET last_seen_at = ?2 WHERE id = ?1")
         .bind(worker_id)
         .bind(now)
-        .execute(&mut **tx)
+        .execute(&mut *conn)
         .await?
         .rows_affected();
     if found == 0 {

@@ -1,6 +1,6 @@
 //! The machine and build a result was measured on: stored with every result row.
 
-use coordinator::WorkerInfo;
+use queue::WorkerInfo;
 
 /// CPU features that change what the kernels run (`ocsi_batch` dispatches on them).
 const RELEVANT_FLAGS: [&str; 6] = ["sse2", "avx", "avx2", "fma", "avx512f", "avx512vl"];

@@ -1,20 +1,23 @@
 //! A [`JobQueue`] over gRPC: the worker side of `sweep worker --coordinator URL`. The channel
 //! connects lazily and reconnects by itself; the slots' backoff covers a coordinator that is away.
 
+use std::collections::HashSet;
 use std::time::Duration;
 
-use coordinator::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, WorkerInfo};
+use queue::{CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError, WorkerInfo};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
 use wire::auth::{Token, WithToken};
-use coordinator::grpc::convert::worker_info_to_wire;
+use wire::convert::{complete_outcome_from_wire, fail_outcome_from_wire};
 use wire::v1 as pb;
 use wire::v1::worker_client::WorkerClient;
 
-use crate::{JobQueue, WorkerError};
-
 /// Every call carries this deadline: a hung coordinator must not hang a slot.
 const DEADLINE: Duration = Duration::from_secs(10);
+
+/// Leases per heartbeat or release message: a worker of many slots running short jobs holds tens
+/// of thousands, more than one message may carry (gRPC's default limit is 4 MB, ~70 bytes each).
+const LEASES_PER_CALL: usize = 4096;
 
 pub struct Remote {
     client: WorkerClient<InterceptedService<Channel, WithToken>>,
@@ -22,18 +25,18 @@ pub struct Remote {
 }
 
 /// Sorts a failed call by whether retrying it can help (see the coordinator's `status`).
-fn transport(status: tonic::Status) -> WorkerError {
+fn transport(status: tonic::Status) -> QueueError {
     use tonic::Code;
     let message = status.message().to_string();
     match status.code() {
-        Code::Unauthenticated | Code::PermissionDenied => WorkerError::Refused(message),
+        Code::Unauthenticated | Code::PermissionDenied => QueueError::Refused(message),
         Code::InvalidArgument
         | Code::NotFound
         | Code::AlreadyExists
         | Code::FailedPrecondition
         | Code::OutOfRange
-        | Code::Unimplemented => WorkerError::Rejected(message),
-        code => WorkerError::Transport(format!("{code:?}: {message}")),
+        | Code::Unimplemented => QueueError::Rejected(message),
+        code => QueueError::Transport(format!("{code:?}: {message}")),
     }
 }
 
@@ -43,14 +46,10 @@ fn request<T>(message: T) -> tonic::Request<T> {
     request
 }
 
-fn held(lease: &LeaseRef) -> pb::HeldLease {
-    pb::HeldLease { job_id: lease.job_id.clone(), token: lease.token }
-}
-
 impl Remote {
     /// `url` like `http://host:port` or `https://…` (then `ca_pem` verifies the coordinator).
-    pub fn new(url: &str, token: Option<Token>, ca_pem: Option<Vec<u8>>, worker_id: String) -> Result<Remote, WorkerError> {
-        let bad = |e: tonic::transport::Error| WorkerError::Transport(format!("{url}: {e}"));
+    pub fn new(url: &str, token: Option<Token>, ca_pem: Option<Vec<u8>>, worker_id: String) -> Result<Remote, QueueError> {
+        let bad = |e: tonic::transport::Error| QueueError::Transport(format!("{url}: {e}"));
         let mut endpoint = Endpoint::from_shared(url.to_string())
             .map_err(bad)?
             .connect_timeout(Duration::from_secs(5))
@@ -63,11 +62,11 @@ impl Remote {
     }
 
     /// Registers this worker; answers the coordinator's lease duration.
-    pub async fn register(&self, info: &WorkerInfo) -> Result<Duration, WorkerError> {
+    pub async fn register(&self, info: &WorkerInfo) -> Result<Duration, QueueError> {
         let response = self
             .client
             .clone()
-            .register(request(pb::RegisterRequest { worker: Some(worker_info_to_wire(info.clone())) }))
+            .register(request(pb::RegisterRequest { worker: Some(info.clone().into()) }))
             .await
             .map_err(transport)?
             .into_inner();
@@ -77,70 +76,46 @@ impl Remote {
 }
 
 impl JobQueue for Remote {
-    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, WorkerError> {
+    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
         let message = pb::LeaseRequest { worker_id: self.worker_id.clone(), max_jobs };
         let leases = self.client.clone().lease(request(message)).await.map_err(transport)?.into_inner().leases;
-        Ok(leases
-            .into_iter()
-            .map(|l| Lease {
-                job_id: l.job_id,
-                kind: l.kind,
-                params_json: l.params_json,
-                attempt: l.attempt,
-                token: l.token,
-                // The coordinator tracks expiry; the worker only heartbeats.
-                expires_at: f64::NAN,
-                exclusive: l.exclusive,
-            })
-            .collect())
+        Ok(leases.into_iter().map(Into::into).collect())
     }
 
-    async fn heartbeat(&self, leases: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, WorkerError> {
-        let message = pb::HeartbeatRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(held).collect() };
-        let lost = self.client.clone().heartbeat(request(message)).await.map_err(transport)?.into_inner().lost;
-        Ok(leases.into_iter().filter(|l| !lost.iter().any(|x| x.job_id == l.job_id && x.token == l.token)).collect())
+    async fn heartbeat(&self, leases: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
+        let mut lost = HashSet::new();
+        for chunk in leases.chunks(LEASES_PER_CALL) {
+            let message = pb::HeartbeatRequest { worker_id: self.worker_id.clone(), leases: chunk.iter().map(Into::into).collect() };
+            let answer = self.client.clone().heartbeat(request(message)).await.map_err(transport)?.into_inner();
+            lost.extend(answer.lost.into_iter().map(LeaseRef::from));
+        }
+        Ok(leases.into_iter().filter(|l| !lost.contains(l)).collect())
     }
 
-    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, WorkerError> {
-        use pb::complete_response::Outcome;
+    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
         let message = pb::CompleteRequest {
             worker_id: self.worker_id.clone(),
-            completions: completions
-                .into_iter()
-                .map(|c| pb::Completion {
-                    job_id: c.job_id,
-                    token: c.token,
-                    core_id: c.core_id.unwrap_or_default(),
-                    records_json: c.records,
-                })
-                .collect(),
+            completions: completions.into_iter().map(Into::into).collect(),
         };
         let response = self.client.clone().complete(request(message)).await.map_err(transport)?.into_inner();
         response
             .outcomes()
-            .map(|o| match o {
-                Outcome::Accepted => Ok(CompleteOutcome::Accepted),
-                Outcome::Late => Ok(CompleteOutcome::Late),
-                Outcome::AlreadyDone => Ok(CompleteOutcome::AlreadyDone),
-                Outcome::Unspecified => Err(WorkerError::Transport("complete: no outcome".into())),
-            })
+            .map(|o| complete_outcome_from_wire(o).ok_or_else(|| QueueError::Transport("complete: no outcome".into())))
             .collect()
     }
 
-    async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, WorkerError> {
+    async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, QueueError> {
         let message =
             pb::FailRequest { worker_id: self.worker_id.clone(), job_id: lease.job_id.clone(), token: lease.token, error };
-        match self.client.clone().fail(request(message)).await.map_err(transport)?.into_inner().outcome() {
-            pb::fail_response::Outcome::Requeued => Ok(FailOutcome::Requeued),
-            pb::fail_response::Outcome::Failed => Ok(FailOutcome::Failed),
-            pb::fail_response::Outcome::Late => Ok(FailOutcome::Late),
-            pb::fail_response::Outcome::Unspecified => Err(WorkerError::Transport("fail: no outcome".into())),
-        }
+        let outcome = self.client.clone().fail(request(message)).await.map_err(transport)?.into_inner().outcome();
+        fail_outcome_from_wire(outcome).ok_or_else(|| QueueError::Transport("fail: no outcome".into()))
     }
 
-    async fn release(&self, leases: Vec<LeaseRef>) -> Result<(), WorkerError> {
-        let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: leases.iter().map(held).collect() };
-        self.client.clone().release(request(message)).await.map_err(transport)?;
+    async fn release(&self, leases: Vec<LeaseRef>) -> Result<(), QueueError> {
+        for chunk in leases.chunks(LEASES_PER_CALL) {
+            let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: chunk.iter().map(Into::into).collect() };
+            self.client.clone().release(request(message)).await.map_err(transport)?;
+        }
         Ok(())
     }
 }
@@ -156,9 +131,9 @@ mod tests {
             assert!(sort(code).is_transient(), "{code:?}");
         }
         for code in [tonic::Code::InvalidArgument, tonic::Code::NotFound, tonic::Code::FailedPrecondition] {
-            assert!(matches!(sort(code), WorkerError::Rejected(m) if m == "why"), "{code:?}");
+            assert!(matches!(sort(code), QueueError::Rejected(m) if m == "why"), "{code:?}");
         }
-        assert!(matches!(sort(tonic::Code::Unauthenticated), WorkerError::Refused(_)));
+        assert!(matches!(sort(tonic::Code::Unauthenticated), QueueError::Refused(_)));
         assert!(!sort(tonic::Code::PermissionDenied).is_transient());
     }
 }

@@ -1,6 +1,14 @@
 //! The slots: one OS thread per core, pinned before it runs anything, each looping lease → run →
-//! report. A heartbeat task extends every lease held. Stopping lets each slot finish the job in
-//! hand (a timing cannot be interrupted without being lost) and lease nothing more.
+//! report. A heartbeat task extends every lease whose job has started. Stopping lets each slot
+//! finish the job in hand (a timing cannot be interrupted without being lost), return the leases
+//! it has not started, and lease nothing more.
+//!
+//! Leasing is paced ([`crate::pace`]): as many jobs as fit a short window of observed run time,
+//! the next lease asked for before the current one runs out when jobs are short, and a leased job
+//! not started within half its lease duration is given back instead of started. Reports of short
+//! jobs travel while the next jobs run (at most one report in flight per slot); a slot of long
+//! jobs reports before it leases again, so it holds one lease at a time. A lease stays held, hence
+//! heartbeaten, until its report has landed.
 //!
 //! Calls that fail for a reason that may pass (the coordinator away or busy) are retried; a report
 //! is never dropped for that. A call the coordinator rejects is not retried: a rejected result is
@@ -8,20 +16,20 @@
 //! ([`Slots::halted`]).
 
 use std::collections::HashMap;
+use std::future::Future;
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use std::future::Future;
-
-use coordinator::{CompleteOutcome, Completion, Lease, LeaseRef};
 use jobs::JobSpec;
+use queue::{CompleteOutcome, Completion, JobQueue, Lease, LeaseRef, QueueError};
 use tokio::runtime::Handle;
 use tokio::sync::watch;
 
-use crate::{JobQueue, WorkerError};
+use crate::WorkerError;
+use crate::pace::Pace;
 
 #[derive(Clone, Debug)]
 pub struct WorkerOptions {
@@ -30,8 +38,11 @@ pub struct WorkerOptions {
     pub heartbeat_every: Duration,
     /// Wait between lease attempts when the queue is empty.
     pub idle_poll: Duration,
-    /// Jobs leased per call: larger batches amortise the round trip of short jobs.
-    pub lease_batch: u32,
+    /// Jobs leased per call; `None`: paced by the observed run time ([`crate::pace`]).
+    pub lease_batch: Option<u32>,
+    /// How long a lease lasts without a heartbeat (the coordinator's setting). A leased job not
+    /// started within half of it is given back.
+    pub lease_for: Duration,
 }
 
 /// Leases currently held by this worker, by job id.
@@ -84,17 +95,15 @@ impl Slots {
             .into_iter()
             .map(|core| {
                 let slot = Slot {
-                    queue: queue.clone(),
+                    reporter: Reporter { queue: queue.clone(), held: held.clone(), control: control.clone() },
                     core,
-                    control: control.clone(),
-                    held: held.clone(),
                     runtime: runtime.clone(),
                     options: options.clone(),
                 };
                 std::thread::Builder::new()
                     .name(format!("slot-core{}", core.id))
                     .spawn(move || slot.run())
-                    .map_err(|e| WorkerError::Transport(format!("cannot start a slot thread: {e}")))
+                    .map_err(WorkerError::Thread)
             })
             .collect::<Result<Vec<_>, _>>()?;
         let heartbeat = runtime.spawn(heartbeat_loop(queue, held, options.heartbeat_every, control.clone()));
@@ -138,21 +147,33 @@ async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration,
         }
         match queue.heartbeat(leases.clone()).await {
             Ok(valid) => {
-                for lost in leases.iter().filter(|l| !valid.contains(l)) {
-                    tracing::warn!(job = %lost.job_id, "lease lost: the result will be recorded as late");
+                let lost: Vec<&str> =
+                    leases.iter().filter(|l| !valid.contains(l)).map(|l| l.job_id.as_str()).collect();
+                if let Some(first) = lost.first() {
+                    // One line per beat, not per job: a paced lease holds hundreds.
+                    tracing::warn!(leases = lost.len(), first, "leases lost: their results will be recorded as late");
                 }
             }
-            Err(error @ WorkerError::Refused(_)) => control.halt(error.to_string()),
+            Err(error @ QueueError::Refused(_)) => control.halt(error.to_string()),
             Err(error) => tracing::warn!(%error, "heartbeat failed; retrying at the next beat"),
         }
     }
 }
 
+/// Jobs leased together, when they were asked for (their leases are at least that old), and how
+/// long the call took.
+struct Leased {
+    leases: Vec<Lease>,
+    asked_at: Instant,
+    round_trip: Duration,
+}
+
+/// A lease call under way while the slot runs jobs.
+type Prefetch = tokio::task::JoinHandle<Result<Leased, QueueError>>;
+
 struct Slot<Q> {
-    queue: Arc<Q>,
+    reporter: Reporter<Q>,
     core: core_affinity::CoreId,
-    control: Arc<Control>,
-    held: Held,
     runtime: Handle,
     options: WorkerOptions,
 }
@@ -161,6 +182,10 @@ struct Slot<Q> {
 const BACKOFF: [u64; 6] = [100, 200, 500, 1000, 2000, 5000];
 
 impl<Q: JobQueue> Slot<Q> {
+    fn control(&self) -> &Control {
+        &self.reporter.control
+    }
+
     fn run(self) {
         if !core_affinity::set_for_current(self.core) {
             tracing::error!(core = self.core.id, "cannot pin the slot: it will not run jobs");
@@ -182,15 +207,38 @@ impl<Q: JobQueue> Slot<Q> {
                 return;
             }
         };
+        let mut pace = Pace::default();
+        let mut prefetch: Option<Prefetch> = None;
+        let mut reporting: Option<tokio::task::JoinHandle<()>> = None;
         let mut failures = 0usize;
-        while !self.control.stopping() {
-            match self.runtime.block_on(self.queue.lease(self.options.lease_batch)) {
-                Ok(leases) if leases.is_empty() => self.sleep(self.options.idle_poll),
-                Ok(leases) => {
+        while !self.control().stopping() {
+            let prefetched = prefetch.take().map(|call| self.settle(call));
+            let leased = match prefetched {
+                // A prefetch that found nothing may have been too early (our own job kept an
+                // exclusive one waiting): ask again now rather than idle.
+                Some(Ok(leased)) if !leased.leases.is_empty() => Ok(leased),
+                _ => self.runtime.block_on(lease_timed(&*self.reporter.queue, self.batch(&pace))),
+            };
+            match leased {
+                Ok(leased) if leased.leases.is_empty() => self.sleep(self.options.idle_poll),
+                Ok(leased) => {
                     failures = 0;
-                    self.run_batch(leases, &pool);
+                    pace.observe_lease(leased.round_trip);
+                    let completions = self.run_leased(leased, &pool, &mut pace, &mut prefetch);
+                    if let Some(previous) = reporting.take() {
+                        let _ = self.runtime.block_on(previous);
+                    }
+                    if completions.is_empty() {
+                        continue;
+                    }
+                    if pace.short_jobs() {
+                        let reporter = self.reporter.clone();
+                        reporting = Some(self.runtime.spawn(async move { reporter.report(completions).await }));
+                    } else {
+                        self.runtime.block_on(self.reporter.report(completions));
+                    }
                 }
-                Err(error) if !error.is_transient() => self.control.halt(format!("cannot lease jobs: {error}")),
+                Err(error) if !error.is_transient() => self.control().halt(format!("cannot lease jobs: {error}")),
                 Err(error) => {
                     tracing::warn!(%error, "lease failed; backing off");
                     self.sleep(Duration::from_millis(BACKOFF[failures.min(BACKOFF.len() - 1)]));
@@ -198,22 +246,130 @@ impl<Q: JobQueue> Slot<Q> {
                 }
             }
         }
+        if let Some(call) = prefetch {
+            if let Ok(leased) = self.settle(call) {
+                self.give_back(leased.leases.iter().map(Lease::reference).collect());
+            }
+        }
+        if let Some(report) = reporting {
+            let _ = self.runtime.block_on(report);
+        }
+    }
+
+    fn batch(&self, pace: &Pace) -> u32 {
+        self.options.lease_batch.unwrap_or_else(|| pace.batch())
+    }
+
+    /// Waits for a prefetch; a failed one is logged (the slot asks again at once).
+    fn settle(&self, call: Prefetch) -> Result<Leased, QueueError> {
+        let result = self
+            .runtime
+            .block_on(call)
+            .unwrap_or_else(|e| Err(QueueError::Transport(format!("the lease call was lost: {e}"))));
+        if let Err(error @ QueueError::Refused(_)) = &result {
+            self.control().halt(error.to_string());
+        }
+        result
     }
 
     /// Sleeps up to `duration`, waking early when asked to stop.
     fn sleep(&self, duration: Duration) {
         let step = Duration::from_millis(20);
         let mut left = duration;
-        while !left.is_zero() && !self.control.stopping() {
+        while !left.is_zero() && !self.control().stopping() {
             let nap = left.min(step);
             std::thread::sleep(nap);
             left -= nap;
         }
     }
 
+    /// Runs the leased jobs in order and answers their completions (failures are reported here).
+    /// Unstarted leases go back when stopping, or once they have waited half their duration: a
+    /// slot never starts a job whose lease may be about to expire, nor sits on it.
+    fn run_leased(
+        &self,
+        leased: Leased,
+        pool: &rayon::ThreadPool,
+        pace: &mut Pace,
+        prefetch: &mut Option<Prefetch>,
+    ) -> Vec<Completion> {
+        let total = leased.leases.len();
+        let mut completions = Vec::with_capacity(total);
+        let mut leases = leased.leases.into_iter();
+        let mut started = 0;
+        while started < total {
+            if self.control().stopping() || leased.asked_at.elapsed() > self.options.lease_for / 2 {
+                break;
+            }
+            let Some(lease) = leases.next() else { break };
+            if prefetch.is_none() && pace.prefetch_now(total - started) {
+                let queue = self.reporter.queue.clone();
+                let batch = self.batch(pace);
+                *prefetch = Some(self.runtime.spawn(async move { lease_timed(&*queue, batch).await }));
+            }
+            started += 1;
+            self.reporter.hold(&lease);
+            let began = Instant::now();
+            let ran = run_job(&lease, pool);
+            pace.observe_job(began.elapsed());
+            match ran {
+                Ok(records) => completions.push(Completion {
+                    job_id: lease.job_id,
+                    token: lease.token,
+                    core_id: Some(self.core.id as u32),
+                    records,
+                }),
+                Err(error) => {
+                    tracing::warn!(job = %lease.job_id, %error, "job failed");
+                    self.runtime.block_on(self.reporter.report_failure(&lease.reference(), error));
+                }
+            }
+        }
+        let unstarted: Vec<LeaseRef> = leases.map(|l| l.reference()).collect();
+        if !unstarted.is_empty() && !self.control().stopping() {
+            tracing::info!(
+                jobs = unstarted.len(),
+                "giving back leases not started within half their duration (jobs longer than their pace)"
+            );
+        }
+        self.give_back(unstarted);
+        completions
+    }
+
+    fn give_back(&self, unstarted: Vec<LeaseRef>) {
+        if unstarted.is_empty() {
+            return;
+        }
+        if let Err(error) = self.runtime.block_on(self.reporter.queue.release(unstarted)) {
+            tracing::warn!(%error, "could not return unstarted leases; they will expire");
+        }
+    }
+}
+
+/// One lease call, timed from when it was asked.
+async fn lease_timed<Q: JobQueue>(queue: &Q, batch: u32) -> Result<Leased, QueueError> {
+    let asked_at = Instant::now();
+    let leases = queue.lease(batch).await?;
+    Ok(Leased { leases, asked_at, round_trip: asked_at.elapsed() })
+}
+
+/// What the slots share to deliver reports: the queue, the leases held, the stop control.
+struct Reporter<Q> {
+    queue: Arc<Q>,
+    held: Held,
+    control: Arc<Control>,
+}
+
+impl<Q> Clone for Reporter<Q> {
+    fn clone(&self) -> Self {
+        Reporter { queue: self.queue.clone(), held: self.held.clone(), control: self.control.clone() }
+    }
+}
+
+impl<Q: JobQueue> Reporter<Q> {
     fn hold(&self, lease: &Lease) {
         if let Ok(mut held) = self.held.lock() {
-            held.insert(lease.job_id.clone(), LeaseRef { job_id: lease.job_id.clone(), token: lease.token });
+            held.insert(lease.job_id.clone(), lease.reference());
         }
     }
 
@@ -223,75 +379,56 @@ impl<Q: JobQueue> Slot<Q> {
         }
     }
 
-    /// Runs the leased jobs in order and reports their results together (one transaction for the
-    /// batch); a lease stays held, hence heartbeaten, until its report has landed. Stopping
-    /// returns the unstarted leases.
-    fn run_batch(&self, leases: Vec<Lease>, pool: &rayon::ThreadPool) {
-        let mut completions = Vec::with_capacity(leases.len());
-        let mut leases = leases.into_iter();
-        for lease in leases.by_ref() {
-            self.hold(&lease);
-            match run_job(&lease, pool) {
-                Ok(records) => completions.push(Completion {
-                    job_id: lease.job_id,
-                    token: lease.token,
-                    core_id: Some(self.core.id as u32),
-                    records,
-                }),
-                Err(error) => {
-                    tracing::warn!(job = %lease.job_id, %error, "job failed");
-                    self.report_failure(&LeaseRef { job_id: lease.job_id, token: lease.token }, error);
-                }
-            }
-            if self.control.stopping() {
-                break;
-            }
-        }
-        let unstarted: Vec<LeaseRef> = leases.map(|l| LeaseRef { job_id: l.job_id, token: l.token }).collect();
-        if !unstarted.is_empty() {
-            if let Err(error) = self.runtime.block_on(self.queue.release(unstarted)) {
-                tracing::warn!(%error, "could not return unstarted leases; they will expire");
-            }
-        }
-        self.report(completions);
-    }
-
     /// Reports finished jobs in one call. The coordinator takes a batch whole or not at all, so
     /// when it rejects one, each job is reported on its own: one malformed result must not cost
     /// the others theirs.
-    fn report(&self, completions: Vec<Completion>) {
-        if completions.is_empty() {
-            return;
-        }
-        match self.deliver(|| self.queue.complete(completions.clone())) {
-            Ok(outcomes) => {
-                for (completion, outcome) in completions.iter().zip(outcomes) {
-                    if outcome != CompleteOutcome::Accepted {
-                        tracing::warn!(job = %completion.job_id, ?outcome, "result not counted");
-                    }
-                    self.forget(&completion.job_id);
+    async fn report(&self, completions: Vec<Completion>) {
+        let delivered = self.deliver(|| self.queue.complete(completions.clone())).await;
+        match delivered {
+            Err(QueueError::Transport(_) | QueueError::Rejected(_)) if completions.len() > 1 => {
+                for completion in completions {
+                    let alone = vec![completion];
+                    let delivered = self.deliver(|| self.queue.complete(alone.clone())).await;
+                    self.settle(alone, delivered).await;
                 }
             }
-            Err(error @ WorkerError::Refused(_)) => {
+            delivered => self.settle(completions, delivered).await,
+        }
+    }
+
+    /// Lets the reported leases go, once their report's fate is known; a rejected result is
+    /// reported as a failure of its job.
+    async fn settle(&self, completions: Vec<Completion>, delivered: Result<Vec<CompleteOutcome>, QueueError>) {
+        match delivered {
+            Ok(outcomes) => {
+                let mut not_counted = completions.iter().zip(&outcomes).filter(|(_, o)| **o != CompleteOutcome::Accepted);
+                if let Some((first, outcome)) = not_counted.next() {
+                    let results = 1 + not_counted.count();
+                    tracing::warn!(results, first = %first.job_id, ?outcome, "results not counted (late or repeated)");
+                }
+                completions.iter().for_each(|c| self.forget(&c.job_id));
+            }
+            Err(error @ QueueError::Refused(_)) => {
                 // The leases expire and the jobs run again elsewhere.
                 self.control.halt(error.to_string());
                 completions.iter().for_each(|c| self.forget(&c.job_id));
             }
-            Err(_) if completions.len() > 1 => completions.into_iter().for_each(|c| self.report(vec![c])),
             Err(error) => {
-                let lease = LeaseRef { job_id: completions[0].job_id.clone(), token: completions[0].token };
-                tracing::error!(job = %lease.job_id, %error, "result rejected; reporting the job as failed");
-                self.report_failure(&lease, format!("the coordinator rejected the result: {error}"));
+                for completion in completions {
+                    let lease = LeaseRef { job_id: completion.job_id, token: completion.token };
+                    tracing::error!(job = %lease.job_id, %error, "result rejected; reporting the job as failed");
+                    self.report_failure(&lease, format!("the coordinator rejected the result: {error}")).await;
+                }
             }
         }
     }
 
     /// Reports that a job failed (the coordinator retries it or marks it failed), then lets its
     /// lease go.
-    fn report_failure(&self, lease: &LeaseRef, error: String) {
-        match self.deliver(|| self.queue.fail(lease, error.clone())) {
+    async fn report_failure(&self, lease: &LeaseRef, error: String) {
+        match self.deliver(|| self.queue.fail(lease, error.clone())).await {
             Ok(_) => {}
-            Err(refused @ WorkerError::Refused(_)) => self.control.halt(refused.to_string()),
+            Err(refused @ QueueError::Refused(_)) => self.control.halt(refused.to_string()),
             Err(rejected) => {
                 tracing::error!(job = %lease.job_id, error = %rejected, "failure report rejected; the lease will expire")
             }
@@ -302,14 +439,14 @@ impl<Q: JobQueue> Slot<Q> {
     /// Makes a call, retrying while the coordinator is unreachable or busy: a report is only lost
     /// if the worker itself dies, and then the lease expires and the job runs again. An error that
     /// would recur is returned at once.
-    fn deliver<T, F: Future<Output = Result<T, WorkerError>>>(&self, call: impl Fn() -> F) -> Result<T, WorkerError> {
+    async fn deliver<T, F: Future<Output = Result<T, QueueError>>>(&self, call: impl Fn() -> F) -> Result<T, QueueError> {
         let mut attempt = 0;
         loop {
-            match self.runtime.block_on(call()) {
+            match call().await {
                 Ok(value) => return Ok(value),
                 Err(error) if error.is_transient() => {
                     tracing::warn!(%error, "report failed; retrying");
-                    std::thread::sleep(Duration::from_millis(BACKOFF[attempt.min(BACKOFF.len() - 1)]));
+                    tokio::time::sleep(Duration::from_millis(BACKOFF[attempt.min(BACKOFF.len() - 1)])).await;
                     attempt += 1;
                 }
                 Err(error) => return Err(error),

@@ -5,9 +5,9 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use coordinator::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef};
+use queue::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, QueueError};
 use jobs::{JobSpec, NoopSpec};
-use worker::{JobQueue, Slots, WorkerError, WorkerOptions};
+use worker::{JobQueue, Slots, WorkerOptions};
 
 /// What the fake coordinator does with a call.
 #[derive(Default)]
@@ -54,41 +54,41 @@ impl Fake {
 }
 
 impl JobQueue for Fake {
-    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, WorkerError> {
+    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
         if self.script.lock().unwrap().refuse_leases {
-            return Err(WorkerError::Refused("token revoked".into()));
+            return Err(QueueError::Refused("token revoked".into()));
         }
         let mut queued = self.queued.lock().unwrap();
         let n = (max_jobs as usize).min(queued.len());
         Ok(queued.drain(..n).collect())
     }
 
-    async fn heartbeat(&self, held: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, WorkerError> {
+    async fn heartbeat(&self, held: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
         Ok(held)
     }
 
-    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, WorkerError> {
+    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
         *self.complete_calls.lock().unwrap() += 1;
         let mut script = self.script.lock().unwrap();
         if script.unreachable > 0 {
             script.unreachable -= 1;
-            return Err(WorkerError::Transport("Unavailable: connection refused".into()));
+            return Err(QueueError::Transport("Unavailable: connection refused".into()));
         }
         if let Some(bad) = &script.reject_job
             && completions.iter().any(|c| &c.job_id == bad)
         {
-            return Err(WorkerError::Rejected(format!("job {bad:?}: result record 0 is not a JSON object")));
+            return Err(QueueError::Rejected(format!("job {bad:?}: result record 0 is not a JSON object")));
         }
         self.completed.lock().unwrap().extend(completions.iter().map(|c| c.job_id.clone()));
         Ok(vec![CompleteOutcome::Accepted; completions.len()])
     }
 
-    async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, WorkerError> {
+    async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, QueueError> {
         self.failed.lock().unwrap().push((lease.job_id.clone(), error));
         Ok(FailOutcome::Failed)
     }
 
-    async fn release(&self, _: Vec<LeaseRef>) -> Result<(), WorkerError> {
+    async fn release(&self, _: Vec<LeaseRef>) -> Result<(), QueueError> {
         Ok(())
     }
 }
@@ -98,7 +98,8 @@ fn options(lease_batch: u32) -> WorkerOptions {
         cores: vec![0],
         heartbeat_every: Duration::from_millis(50),
         idle_poll: Duration::from_millis(10),
-        lease_batch,
+        lease_batch: Some(lease_batch),
+        lease_for: Duration::from_secs(60),
     }
 }
 
