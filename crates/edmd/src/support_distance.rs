@@ -37,6 +37,19 @@ pub enum Certified {
     },
 }
 
+/// Apart, once the best separating axis so far (its gap `best.0`, axis and support points)
+/// proves a positive distance within `tol` of the upper bound.
+fn apart_within(best: &(f64, V3, V3, V3), upper: f64, tol: f64) -> Option<Certified> {
+    let &(lower, n, xa, xb) = best;
+    (lower > 0.0 && upper - lower <= tol).then_some(Certified::Apart {
+        lower,
+        upper,
+        n,
+        xa,
+        xb,
+    })
+}
+
 /// The support point of the placed body along the unit lab direction `n`, in the lab frame.
 pub fn support_point_lab<S: Surface>(s: &S, p: &Pose, n: &V3) -> V3 {
     p.to_lab(&s.support_point(&(p.rot * n)))
@@ -84,14 +97,8 @@ pub fn certify<S: Surface>(
         if lower > best.0 {
             best = (lower, n, a, b);
         }
-        if best.0 > 0.0 && upper - best.0 <= tol {
-            return Certified::Apart {
-                lower: best.0,
-                upper,
-                n: best.1,
-                xa: best.2,
-                xb: best.3,
-            };
+        if let Some(apart) = apart_within(&best, upper, tol) {
+            return apart;
         }
         // Exact line search on the segment from v to w.
         let step = w - v;
@@ -108,14 +115,8 @@ pub fn certify<S: Surface>(
         pb_in += (b - pb_in) * lambda;
     }
     let upper = (pb_in - pa_in).norm();
-    if best.0 > 0.0 && upper - best.0 <= tol {
-        return Certified::Apart {
-            lower: best.0,
-            upper,
-            n: best.1,
-            xa: best.2,
-            xb: best.3,
-        };
+    if let Some(apart) = apart_within(&best, upper, tol) {
+        return apart;
     }
     Certified::Undecided {
         lower: best.0,
