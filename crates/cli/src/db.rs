@@ -90,7 +90,7 @@ pub struct ReportArgs {
     pub(crate) ci: bool,
 }
 
-/// A report row from the store's: the estimate re-made from the stored blocks (their 10th
+/// A report row from the store's: the estimate re-made from the stored blocks (their 5th
 /// percentile over every set, `overlap::estimate`, with its interval; results measured with the
 /// earlier statistic get this one too), or for points measured before blocks were kept the mean
 /// over repeats the store gave, with Student's interval.

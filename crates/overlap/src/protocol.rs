@@ -9,7 +9,7 @@
 //!   ns/check is kept.
 //! - **Interleaving.** Within a set the algorithms run one after the other (A B C), then the
 //!   next set (A B C …): a slow phase of the machine hits all of them.
-//! - **Robust estimate.** An algorithm's estimate is the 10th percentile of its blocks over
+//! - **Robust estimate.** An algorithm's estimate is the 5th percentile of its blocks over
 //!   every set (noise only ever adds time), with a 95 % confidence interval
 //!   ([`crate::estimate`]).
 //! - **Repeat until precise.** With `ci_target`, sets are added until every algorithm's CI
