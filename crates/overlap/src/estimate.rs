@@ -174,7 +174,12 @@ pub fn estimate(blocks_by_repeat: &[Vec<f64>]) -> Option<Estimate> {
 /// [`estimate`] for any quantile `q` (0 < q < 1).
 pub fn estimate_quantile(blocks_by_repeat: &[Vec<f64>], q: f64) -> Option<Estimate> {
     let sets: Vec<&Vec<f64>> = blocks_by_repeat.iter().filter(|b| !b.is_empty()).collect();
-    let pooled = sorted(&sets.iter().flat_map(|b| b.iter().copied()).collect::<Vec<f64>>());
+    let pooled = sorted(
+        &sets
+            .iter()
+            .flat_map(|b| b.iter().copied())
+            .collect::<Vec<f64>>(),
+    );
     if pooled.is_empty() {
         return None;
     }
@@ -232,7 +237,10 @@ fn jackknife_half_width(sets: &[&Vec<f64>], pooled: &[f64], q: f64) -> Option<f6
         })
         .collect();
     let mean = leave_one_out.iter().sum::<f64>() / k as f64;
-    let spread = leave_one_out.iter().map(|t| (t - mean).powi(2)).sum::<f64>();
+    let spread = leave_one_out
+        .iter()
+        .map(|t| (t - mean).powi(2))
+        .sum::<f64>();
     let standard_error = ((k - 1) as f64 / k as f64 * spread).sqrt();
     Some(student_t975(k - 1) * standard_error)
 }

@@ -7,7 +7,8 @@
 //! checked by the experiments in the README; here the truth is known.
 
 use overlap::estimate::{
-    Goal, QUANTILE, Stop, estimate, estimate_quantile, mean_interval, median, quantile, student_t975,
+    Goal, QUANTILE, Stop, estimate, estimate_quantile, mean_interval, median, quantile,
+    student_t975,
 };
 use overlap::rng::Rng;
 use proptest::prelude::*;
@@ -117,7 +118,10 @@ fn the_jackknife_measures_what_the_sets_change() {
     let one = estimate(std::slice::from_ref(&set)).expect("samples");
     let same = estimate(&[set.clone(), set.clone(), set.clone()]).expect("samples");
     // (Equal up to the interpolation between tied order statistics: 0.01 apart.)
-    assert!((same.value - one.value).abs() <= 0.01, "{same:?} vs {one:?}");
+    assert!(
+        (same.value - one.value).abs() <= 0.01,
+        "{same:?} vs {one:?}"
+    );
     assert!(same.hi - same.lo <= one.hi - one.lo, "{same:?} vs {one:?}");
     let faster: Vec<f64> = set.iter().map(|x| x - 1.0).collect();
     let mixed = estimate(&[set.clone(), set.clone(), faster]).expect("samples");
