@@ -5,14 +5,15 @@ relative difference |a - b| / ((a + b) / 2) of the per-point ns/check of seeds 1
 - old-N.db (no protocol): the mean over sets of whole-pass times, as main reported them;
 - new-N.db: the robust estimate, read from `sweep report fig2 --format json` (the same code
   the reports use), and, from the same passes, the whole-pass mean ("new runs, plain"), which
-  isolates the estimator from the machine's state during the runs.
+  isolates the estimator from the machine's state during the runs, and from the same blocks the
+  median of the sets' median blocks (the estimate before the 5th percentile).
 Also prints each new run's flagged and re-run point counts, sets per point and their cost.
 """
 import json, os, sqlite3, statistics, subprocess, sys
 
 out = sys.argv[1]
 new_sweep = os.environ.get("NEW_SWEEP", "target/release/sweep")
-ALGORITHMS = ("qri", "qrf")
+ALGORITHMS = ("qri", "qrf", "ocsi", "sse")
 
 
 def ranks(values):
@@ -43,6 +44,17 @@ def whole_pass_means(db, column):
         f"SELECT algorithm, l_star, w_star, AVG({column}) FROM overlap_timings "
         "WHERE precision = 'f32' GROUP BY algorithm, l_star, w_star").fetchall()
     return {(a, l, w): v for a, l, w, v in rows}
+
+
+def median_of_set_medians(db):
+    """(algorithm, L*, W*) -> the median over sets of each set's median block."""
+    con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    sets = {}
+    for a, l, w, blocks in con.execute(
+            "SELECT algorithm, l_star, w_star, block_ns_per_check FROM overlap_timings "
+            "WHERE precision = 'f32'"):
+        sets.setdefault((a, l, w), []).append(statistics.median(json.loads(blocks)))
+    return {k: statistics.median(v) for k, v in sets.items()}
 
 
 def estimates(db):
@@ -76,6 +88,8 @@ agreement("new protocol (robust estimate)", e1, e2)
 per_config = "total_ms * 1e6 / configurations"
 agreement("new runs, plain whole-pass mean", whole_pass_means(db("new-1"), per_config),
           whole_pass_means(db("new-2"), per_config))
+agreement("new runs, median of set medians", median_of_set_medians(db("new-1")),
+          median_of_set_medians(db("new-2")))
 for seed, (points, flagged, rerun, reruns, sets, capped, wall_s) in ((1, q1), (2, q2)):
     print(f"new-{seed}: {points} points, {flagged} flagged, {rerun} re-run ({reruns} re-runs), "
           f"{sets:.1f} sets per point on average, {capped} stopped by time_cap_s, "

@@ -34,7 +34,7 @@ pub struct BenchOverlapArgs {
     #[arg(long, default_value_t = 2_000_000)]
     configurations: u64,
     /// Independent configuration sets (at least; see --ci-target). Each algorithm's result is
-    /// the median of its timed blocks over every set.
+    /// the 5th percentile of its timed blocks over every set.
     #[arg(long, default_value_t = 3)]
     repeats: u32,
     /// Measure more sets until every 95 % CI half-width is at most this fraction of its estimate.

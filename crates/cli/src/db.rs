@@ -90,8 +90,9 @@ pub struct ReportArgs {
     pub(crate) ci: bool,
 }
 
-/// A report row from the store's: the estimate re-made from the stored blocks (the median of
-/// the sets' median blocks, with its interval), or for points measured before blocks were kept the mean
+/// A report row from the store's: the estimate re-made from the stored blocks (their 5th
+/// percentile over every set, `overlap::estimate`, with its interval; results measured with the
+/// earlier statistic get this one too), or for points measured before blocks were kept the mean
 /// over repeats the store gave, with Student's interval.
 fn report_row(r: store::OverlapRow) -> OverlapRow {
     let checks_ms = r.configurations as f64 * 1e-6;

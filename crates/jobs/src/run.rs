@@ -37,7 +37,7 @@ pub enum JobError {
 ///
 /// Records of an overlap job: one per (algorithm, repeat), in run order,
 /// `{"algorithm", "repeat", "ms", "ns_per_check", "acceptance", "total_ms", "block_ns_per_check"}`
-/// (`ns_per_check` the median of the pass's blocks and `ms` that × N_c; `total_ms` the whole
+/// (`ns_per_check` the 5th percentile of the pass's blocks and `ms` that × N_c; `total_ms` the whole
 /// pass; `block_ns_per_check` every block, to 4 significant digits; acceptance as measured),
 /// then one point record, the only one without an `algorithm` key:
 /// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho", "block_configurations",

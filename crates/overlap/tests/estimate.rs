@@ -1,10 +1,15 @@
 //! The estimator and the stopping rule on synthetic timings: blocks drawn from a known
 //! distribution (true cost μ, Gaussian jitter), with the noise of a shared machine injected —
-//! blocks that lost a time slice (slower by a random factor) and whole sets slowed by a phase of
-//! the machine. What the protocol measures on real hardware is checked by the experiments in
-//! the README; here the truth is known.
+//! blocks that lost a time slice (slower by a random factor), whole sets slowed by a phase of
+//! the machine, and a CPU hog that slows most blocks by a varying amount. Noise that only adds
+//! leaves the fastest blocks alone, so the truth the estimate must find is the 5th percentile
+//! of the clean blocks, μ·(1 + z₀.₀₅·jitter). What the protocol measures on real hardware is
+//! checked by the experiments in the README; here the truth is known.
 
-use overlap::estimate::{Goal, Stop, estimate, mean_interval, median, quantile, student_t975};
+use overlap::estimate::{
+    Goal, QUANTILE, Stop, estimate, estimate_quantile, mean_interval, median, quantile,
+    student_t975,
+};
 use overlap::rng::Rng;
 use proptest::prelude::*;
 
@@ -23,9 +28,11 @@ struct Noise {
     outliers: f64,
     /// A slowed block takes 1 + U(0, 1)·(factor − 1) times as long.
     factor: f64,
-    /// Relative standard deviation of a whole set's cost (a phase of the machine, or a set of
-    /// configurations cheaper than the next).
+    /// Relative standard deviation of a whole set's cost (a set of configurations cheaper than
+    /// the next: symmetric).
     set_shift: f64,
+    /// Fraction of sets measured during a slow phase of the machine, each slowed by 5–50 %.
+    slow_sets: f64,
 }
 
 const QUIET: Noise = Noise {
@@ -33,7 +40,17 @@ const QUIET: Noise = Noise {
     outliers: 0.0,
     factor: 1.0,
     set_shift: 0.0,
+    slow_sets: 0.0,
 };
+
+/// z of the 5th percentile of a standard normal.
+const Z_QUANTILE: f64 = -1.644_853_626_951_472_2;
+
+/// The estimand under `noise`: the 5th percentile of the clean blocks (of every set, when sets
+/// differ symmetrically).
+fn clean_quantile(mu: f64, noise: Noise) -> f64 {
+    mu * (1.0 + Z_QUANTILE * noise.jitter.hypot(noise.set_shift))
+}
 
 fn synthetic_sets(
     rng: &mut Rng,
@@ -44,7 +61,10 @@ fn synthetic_sets(
 ) -> Vec<Vec<f64>> {
     (0..repeats)
         .map(|_| {
-            let shift = 1.0 + noise.set_shift * normal(rng);
+            let mut shift = 1.0 + noise.set_shift * normal(rng);
+            if rng.uniform() < noise.slow_sets {
+                shift *= 1.05 + 0.45 * rng.uniform();
+            }
             (0..blocks)
                 .map(|_| {
                     let clean = mu * shift * (1.0 + noise.jitter * normal(rng));
@@ -66,17 +86,50 @@ fn order_statistics_and_quantiles() {
     assert!(median(&[]).is_nan());
     assert_eq!(quantile(&[0.0, 10.0], 0.25), 2.5);
     assert_eq!(quantile(&[5.0, 1.0, 3.0], 1.0), 5.0);
-    // The textbook 95 % interval of a median of 100 samples is [x_(40), x_(61)].
+    assert_eq!(QUANTILE, 0.05);
     let hundred: Vec<f64> = (1..=100).map(f64::from).collect();
-    let e = estimate(&[hundred]).expect("samples");
+    // The 5th percentile of 1..=100 interpolates x_(5) and x_(6); its 95 % interval by binomial
+    // ranks (B ~ Bin(100, 0.05): P(B ≤ 0) = 0.006 but P(B ≤ 1) = 0.037; P(B ≥ 11) = 0.011 but
+    // P(B ≥ 10) = 0.028) is [x_(1), x_(11)].
+    let e = estimate(std::slice::from_ref(&hundred)).expect("samples");
+    assert!((e.value - 5.95).abs() < 1e-12, "{}", e.value);
+    assert_eq!((e.lo, e.hi), (1.0, 11.0));
+    // The same rule at the median gives the textbook [x_(40), x_(61)].
+    let e = estimate_quantile(&[hundred], 0.5).expect("samples");
     assert_eq!((e.value, e.lo, e.hi), (50.5, 40.0, 61.0));
-    // Ten samples: [x_(2), x_(9)]; five: no rank reaches 95 %, so the whole range.
+    // Ten samples: even x_(1) is below the 5th percentile with probability 0.40 only, so the
+    // low side is the smallest sample; the high side is x_(3) (P(B ≥ 3) = 0.012).
     let ten: Vec<f64> = (1..=10).map(f64::from).collect();
     let e = estimate(&[ten]).expect("samples");
-    assert_eq!((e.lo, e.hi), (2.0, 9.0));
+    assert_eq!((e.lo, e.hi), (1.0, 3.0));
     let five: Vec<f64> = (1..=5).map(f64::from).collect();
-    assert_eq!(estimate(&[five]).map(|e| (e.lo, e.hi)), Some((1.0, 5.0)));
+    assert_eq!(
+        estimate_quantile(&[five], 0.5).map(|e| (e.lo, e.hi)),
+        Some((1.0, 5.0))
+    );
     assert_eq!(estimate(&[vec![], vec![]]), None);
+}
+
+/// The between-set part: identical sets add nothing to the interval, and leaving out a set
+/// that holds the fastest blocks moves the estimate, so it widens it.
+#[test]
+fn the_jackknife_measures_what_the_sets_change() {
+    let set: Vec<f64> = (0..64).map(|i| 30.0 + 0.01 * f64::from(i)).collect();
+    let one = estimate(std::slice::from_ref(&set)).expect("samples");
+    let same = estimate(&[set.clone(), set.clone(), set.clone()]).expect("samples");
+    // (Equal up to the interpolation between tied order statistics: 0.01 apart.)
+    assert!(
+        (same.value - one.value).abs() <= 0.01,
+        "{same:?} vs {one:?}"
+    );
+    assert!(same.hi - same.lo <= one.hi - one.lo, "{same:?} vs {one:?}");
+    let faster: Vec<f64> = set.iter().map(|x| x - 1.0).collect();
+    let mixed = estimate(&[set.clone(), set.clone(), faster]).expect("samples");
+    assert!(
+        mixed.hi - mixed.lo > 5.0 * (same.hi - same.lo),
+        "{mixed:?} vs {same:?}"
+    );
+    assert_eq!((mixed.samples, mixed.repeats), (192, 3));
 }
 
 #[test]
@@ -100,52 +153,84 @@ fn the_mean_of_old_results_keeps_its_value() {
     assert!(one.lo.is_nan() && one.relative_half_width().is_nan());
 }
 
-/// A shared core: 30 % of the blocks lose a time slice and take up to 3× as long. The mean of
-/// the blocks (what a whole-pass timing measures) is off by tens of per cent; the median is
-/// within a per cent of the truth, and its interval covers the truth as often as it claims to
-/// when the noise is what the interval assumes.
+/// A CPU hog beside the measurement: 60 % of the blocks are slowed, each by 5–40 %. The median
+/// of the blocks lands among the slowed ones, and where depends on how busy the hog was; the
+/// 5th percentile is the clean blocks' 12.5th (0.05 / 0.4) and stays within a jitter of the
+/// truth.
 #[test]
-fn the_median_ignores_lost_time_slices_that_move_the_mean() {
+fn the_low_quantile_ignores_a_hog_that_moves_the_median() {
     let mut rng = Rng::new(11);
     let mu = 30.0;
+    let sets: Vec<Vec<f64>> = (0..3)
+        .map(|_| {
+            (0..128)
+                .map(|_| {
+                    let clean = mu * (1.0 + 0.01 * normal(&mut rng));
+                    if rng.uniform() < 0.6 {
+                        clean * (1.05 + 0.35 * rng.uniform())
+                    } else {
+                        clean
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let e = estimate(&sets).expect("samples");
+    let truth = clean_quantile(mu, QUIET);
+    assert!(
+        (e.value - truth).abs() < 0.01 * mu,
+        "estimate {} for a clean 5th percentile of {truth}",
+        e.value
+    );
+    let all = sets.concat();
+    assert!(
+        median(&all) / mu - 1.0 > 0.05,
+        "median {}: the injected hog was too mild to test anything",
+        median(&all)
+    );
+    assert!(e.lo <= e.value && e.value <= e.hi);
+}
+
+/// Lost time slices: 30 % of the blocks take up to 3× as long. The mean of the blocks (what a
+/// whole-pass timing measures) is off by tens of per cent; the estimate is not.
+#[test]
+fn the_estimate_ignores_lost_time_slices_that_move_the_mean() {
+    let mut rng = Rng::new(12);
     let noise = Noise {
         outliers: 0.3,
         factor: 3.0,
         ..QUIET
     };
-    let sets = synthetic_sets(&mut rng, mu, noise, 3, 122);
+    let sets = synthetic_sets(&mut rng, 30.0, noise, 3, 122);
     let e = estimate(&sets).expect("samples");
     let all = sets.concat();
     let mean = all.iter().sum::<f64>() / all.len() as f64;
     assert!(
-        (e.value / mu - 1.0).abs() < 0.01,
-        "median {} for μ = {mu}",
+        (e.value / clean_quantile(30.0, noise) - 1.0).abs() < 0.01,
+        "estimate {}",
         e.value
     );
-    assert!(
-        mean / mu - 1.0 > 0.2,
-        "mean {mean}: the injected outliers were too mild to test anything"
-    );
-    assert!(e.lo <= e.value && e.value <= e.hi);
+    assert!(mean / 30.0 - 1.0 > 0.2, "mean {mean}: outliers too mild");
 }
 
-/// One slow set of three (a phase of the machine 10 % slow) does not move the estimate: the
-/// median of the sets' medians is one of the two clean ones.
+/// One slow set of three (a phase of the machine 10 % slow) does not move the estimate: its
+/// blocks are all slower than the clean sets' fastest tenth.
 #[test]
 fn one_slow_set_does_not_move_the_estimate() {
     let mut rng = Rng::new(21);
     let mut sets = synthetic_sets(&mut rng, 30.0, QUIET, 3, 64);
+    let clean = estimate(&[sets[0].clone(), sets[2].clone()]).expect("samples");
     for block in &mut sets[1] {
         *block *= 1.10;
     }
     let e = estimate(&sets).expect("samples");
-    let clean = [median(&sets[0]), median(&sets[2])];
     assert!(
-        e.value == clean[0] || e.value == clean[1],
-        "{} vs clean {clean:?}",
-        e.value
+        (e.value / clean.value - 1.0).abs() < 0.003,
+        "{} vs clean {}",
+        e.value,
+        clean.value
     );
-    // Ten sets, one slow: the interval is that of the clean ones, one rank wider.
+    // Ten sets, one slow: the interval stays within 1 % and covers the truth.
     let mut sets = synthetic_sets(&mut rng, 30.0, QUIET, 10, 64);
     for block in &mut sets[4] {
         *block *= 1.5;
@@ -156,52 +241,74 @@ fn one_slow_set_does_not_move_the_estimate() {
         "±{:.2} %",
         e.relative_half_width() * 100.0
     );
-    assert!(e.lo <= 30.0 && 30.0 <= e.hi);
+    let truth = clean_quantile(30.0, QUIET);
+    assert!(e.lo <= truth && truth <= e.hi, "{e:?} vs {truth}");
 }
 
-/// Coverage of the 95 % interval over many synthetic points, for clean blocks and for sets that
-/// differ as a whole (the case the between-set part of the interval is for: the blocks of one
-/// set alone would give an interval far too narrow). The interval is
-/// conservative by construction (the wider of two), so at least 90 % of 400 must cover μ: a
-/// binomial 95 % process falls below that with probability under 10⁻⁴. The last case injects
-/// the noise of a shared machine on top: 2 % of the blocks lost a time slice and took up to 3×
-/// as long. Such outliers only ever add, so they bias the median by about p/2 of a jitter's
-/// quantile (here 0.03 σ), which the interval must absorb at 122 blocks per set (a set of
-/// 2·10⁶ configurations).
+/// Coverage of the 95 % interval over 400 synthetic points of 5 sets. Where the noise is what
+/// the protocol assumes — clean blocks, positive noise on single blocks (lost time slices: 2 %
+/// take up to 3× as long) and on whole sets (30 % of the sets in a slow phase, 5–50 % slow),
+/// configuration sets that differ by 0.5 % — at least 90 % must cover the truth: a binomial
+/// 95 % process falls below that with probability under 10⁻⁴. Sets that differ
+/// *symmetrically* by twice the block jitter (2 % sd) are where the jackknife of a quantile
+/// over 5 sets is weakest (a simulation of this test in Python gave 76 %): asserted ≥ 70 % so
+/// that a regression shows. On this project's machine the configuration mix moves a set by
+/// about 0.1 %.
 #[test]
 fn intervals_cover_the_truth() {
-    for (noise, what, blocks) in [
-        (QUIET, "clean", 64),
+    for (noise, what, blocks, at_least) in [
+        (QUIET, "clean", 64, 0.9),
         (
             Noise {
-                set_shift: 0.02,
+                slow_sets: 0.3,
                 ..QUIET
             },
             "slow phases",
             64,
+            0.9,
         ),
         (
             Noise {
                 outliers: 0.02,
                 factor: 3.0,
-                set_shift: 0.01,
+                slow_sets: 0.3,
                 ..QUIET
             },
             "slow phases and lost time slices",
             122,
+            0.9,
+        ),
+        (
+            Noise {
+                set_shift: 0.005,
+                ..QUIET
+            },
+            "configuration sets 0.5 % apart",
+            64,
+            0.9,
+        ),
+        (
+            Noise {
+                set_shift: 0.02,
+                ..QUIET
+            },
+            "sets that differ symmetrically by 2 %",
+            64,
+            0.7,
         ),
     ] {
         let mut rng = Rng::new(5);
         let trials = 400;
+        let truth = clean_quantile(30.0, noise);
         let mut covered = 0;
         for _ in 0..trials {
             let sets = synthetic_sets(&mut rng, 30.0, noise, 5, blocks);
             let e = estimate(&sets).expect("samples");
             assert!(e.lo <= e.value && e.value <= e.hi);
-            covered += usize::from(e.lo <= 30.0 && 30.0 <= e.hi);
+            covered += usize::from(e.lo <= truth && truth <= e.hi);
         }
         assert!(
-            covered * 10 >= trials * 9,
+            covered as f64 >= at_least * trials as f64,
             "{what}: {covered} of {trials} intervals cover the truth"
         );
     }
@@ -251,7 +358,7 @@ fn measure_until_done(rng: &mut Rng, goal: Goal, noise: Noise, set_s: f64) -> (u
     let mut sets = Vec::new();
     let mut spent = 0.0;
     loop {
-        sets.extend(synthetic_sets(rng, 30.0, noise, 1, 32));
+        sets.extend(synthetic_sets(rng, 30.0, noise, 1, 64));
         spent += set_s;
         let e = estimate(&sets).expect("samples");
         if let Some(stop) = goal.next(sets.len() as u32, e.relative_half_width(), spent, set_s) {
@@ -270,28 +377,31 @@ fn noisier_points_take_more_sets_and_the_cap_bounds_them() {
     };
     let mut rng = Rng::new(3);
     let (quiet_sets, quiet_stop, quiet_value) = measure_until_done(&mut rng, goal, QUIET, 1.0);
+    // Blocks three times as noisy, a fifth of them slowed up to 3×, a third of the sets in a
+    // slow phase.
     let phases = Noise {
-        set_shift: 0.03,
+        jitter: 0.03,
         outliers: 0.2,
         factor: 3.0,
+        slow_sets: 0.3,
         ..QUIET
     };
     let (noisy_sets, noisy_stop, noisy_value) = measure_until_done(&mut rng, goal, phases, 1.0);
-    // Two sets are rarely enough (Student's t with one degree of freedom is 12.7); three are.
+    // Two sets are rarely enough (Student's t with one degree of freedom is 12.7); a few are.
     assert!(
-        quiet_sets <= 3 && quiet_stop == Stop::Precise,
+        quiet_sets <= 5 && quiet_stop == Stop::Precise,
         "{quiet_sets} sets, {quiet_stop:?}"
     );
-    assert!((quiet_value / 30.0 - 1.0).abs() < 0.01);
+    assert!((quiet_value / clean_quantile(30.0, QUIET) - 1.0).abs() < 0.01);
     assert_eq!(noisy_stop, Stop::Precise);
     // Precise to 1 %: the estimate is within twice that of the truth despite the outliers.
     assert!(
-        (noisy_value / 30.0 - 1.0).abs() < 0.02,
+        (noisy_value / clean_quantile(30.0, phases) - 1.0).abs() < 0.02,
         "{noisy_value} after {noisy_sets} sets"
     );
     assert!(
         noisy_sets > quiet_sets + 2,
-        "slow phases took only {noisy_sets} sets"
+        "slow phases took only {noisy_sets} sets, a quiet machine {quiet_sets}"
     );
     // A target no measurement reaches stops at the cap: 10 s of 1 s sets, never more.
     let impossible = Goal {
@@ -307,9 +417,9 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
 
     /// Whatever the true cost and jitter, with up to 30 % of blocks slowed by up to 4×, the
-    /// median stays within 2.5 jitters of the truth (one-sided contamination p moves it to the
-    /// clean 0.5/(1 − p) ≤ 0.71 quantile, 0.57 σ, plus its own sampling error), and the
-    /// interval holds the estimate.
+    /// estimate stays within 2 jitters of the clean 5th percentile (one-sided contamination p
+    /// moves it to the clean 0.05/(1 − p) ≤ 0.071 quantile, 0.18 σ, and its sampling error over
+    /// at least 32 blocks has a standard deviation of 0.37 σ), and the interval holds it.
     #[test]
     fn the_estimate_resists_outliers(
         seed in any::<u64>(),
@@ -321,10 +431,11 @@ proptest! {
         blocks in 32usize..200,
     ) {
         let mut rng = Rng::new(seed);
-        let noise = Noise { jitter, outliers, factor, set_shift: 0.0 };
+        let noise = Noise { jitter, outliers, factor, ..QUIET };
         let sets = synthetic_sets(&mut rng, mu, noise, repeats, blocks);
         let e = estimate(&sets).expect("samples");
-        prop_assert!((e.value / mu - 1.0).abs() <= 2.5 * jitter, "estimate {} for μ = {mu}", e.value);
+        let truth = clean_quantile(mu, noise);
+        prop_assert!((e.value / truth - 1.0).abs() <= 2.0 * jitter, "estimate {} for {truth}", e.value);
         prop_assert!(e.lo <= e.value && e.value <= e.hi);
         prop_assert_eq!(e.samples, repeats * blocks);
         prop_assert_eq!(e.repeats, repeats);

@@ -33,8 +33,8 @@ pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use units::LengthUnit;
 pub use table::{Table1Row, TableFormat, render_table, table1};
 
-/// One benchmark point's result for one algorithm: its estimate (the median of its sets'
-/// median timed blocks, or for points measured before blocks were kept the mean over its repeats) with the
+/// One benchmark point's result for one algorithm: its estimate (the 5th percentile of its
+/// timed blocks over every set, or for points measured before blocks were kept the mean over its repeats) with the
 /// 95 % confidence interval, and whether the machine was disturbed while it was measured.
 /// `sweep report fig2 --format json` prints these.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
