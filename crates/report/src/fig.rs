@@ -13,7 +13,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::render::{DrawResult, Drawing, FONT, render};
+use crate::render::{DrawResult, Drawing, FONT, render, render_svg};
 use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, quantile};
 
 const PANEL_WIDTH: u32 = 330;
@@ -53,6 +53,11 @@ pub fn fig2(
     options: Fig2Options,
 ) -> Result<(), ReportError> {
     render(&Figure::new(rows, precision, options)?, path)
+}
+
+/// Figure 2 as [`fig2`] draws it, as an SVG document in memory.
+pub fn fig2_svg(rows: &[OverlapRow], precision: &str, options: Fig2Options) -> Result<String, ReportError> {
+    render_svg(&Figure::new(rows, precision, options)?)
 }
 
 /// The points of Figure 2 for `precision`, each with its estimate and interval, ordered by
