@@ -727,3 +727,103 @@ fn the_status_page_off_loopback_needs_the_token() {
     let (status, _, body) = http(&page, "GET", "/api/campaigns", &[("Authorization", "Bearer e2e-secret-token")], "");
     assert_eq!((status, body.as_str()), (200, "[]"));
 }
+
+/// Headless Chromium on the page (`--dump-dom` for the DOM after the script ran, `--screenshot`
+/// for a picture), with a fresh profile each time.
+fn chromium(args: &[&str], profile: &Path) -> Output {
+    let browser = std::env::var("SWEEP_CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
+    let out = Command::new(&browser)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run"])
+        .args(["--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        // Virtual time runs the page's polls and waits for their fetches before the DOM is taken.
+        .args(["--window-size=1400,1700", "--virtual-time-budget=5000"])
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{browser}: {e} (apt-get install chromium, or set SWEEP_CHROMIUM)"));
+    assert!(out.status.success(), "{browser}: {}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+/// The markup of the element carrying `data-figure="NAME"`, up to the next figure.
+fn figure_markup<'a>(dom: &'a str, name: &str) -> &'a str {
+    let start = dom.find(&format!("data-figure=\"{name}\"")).unwrap_or_else(|| panic!("no figure {name} in the page"));
+    let rest = &dom[start..];
+    let end = rest[1..].find("data-figure=").map_or(rest.len(), |i| i + 1);
+    &rest[..end]
+}
+
+/// The page in a real browser during a campaign: at the start it shows partial progress, at the
+/// end 100 % and Fig. 2 drawn as an inline SVG (and Table 1) as of the final done count.
+/// Screenshots of both go to target/tmp/status-page/. Needs Debian's chromium; only with
+/// SWEEP_BROWSER_TEST=1 (`.ci/run` installs it then). About 30 s.
+#[test]
+fn the_status_page_in_a_browser() {
+    if std::env::var("SWEEP_BROWSER_TEST").as_deref() != Ok("1") {
+        eprintln!("skipped: SWEEP_BROWSER_TEST=1 runs it (needs /usr/bin/chromium)");
+        return;
+    }
+    let begun = Instant::now();
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("status-page");
+    std::fs::create_dir_all(&shots).unwrap();
+    let cluster = Cluster::new();
+    let (_coordinator, url, page) = coordinator_with_page(&cluster, "127.0.0.1:0", true);
+    let page_url = format!("http://{page}/");
+    let plan = "name = \"browser\"\n\
+        [[noop]]\ncount = 40\nduration_ms = 400\n\
+        [[noop]]\ncount = 2\nduration_ms = 0\nfail_rate = 1.0\n\
+        [[overlap]]\nl_star = [1, 2, 3]\nw_star = [1, 2, 3]\nr_star = 0.5\nacceptance = 0.4\nconfigurations = 20_000\nrepeats = 1\nprecision = \"f32\"\n\
+        algorithms = [\"arvo\", \"qri\", \"qrf\", \"sse\", \"ocsi\", \"ocsi_batch\"]\n";
+    let total = 51;
+    cluster.submit(&url, &cluster.plan("browser.toml", plan));
+    let _w0 = cluster.worker(&url, "0", Some(cluster.token()));
+    let _w1 = cluster.worker(&url, "1", Some(cluster.token()));
+    let finished = |s: &serde_json::Value| s["done"].as_u64().unwrap() + s["failed"].as_u64().unwrap();
+    let started = Instant::now();
+    while finished(&cluster.status(&url)) < 3 {
+        assert!(started.elapsed() < Duration::from_secs(60), "no job finished");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+
+    let start_png = shots.join("status-page-start.png");
+    let at = Instant::now();
+    chromium(&[&format!("--screenshot={}", start_png.display()), &page_url], &cluster.path("profile-start"));
+    let start_shot_s = at.elapsed().as_secs_f64();
+    let dom = String::from_utf8(chromium(&["--dump-dom", &page_url], &cluster.path("profile-start-dom")).stdout).unwrap();
+    assert!(dom.contains("data-progress=\""), "the page shows the campaign's progress: {dom}");
+    assert!(!dom.contains("data-progress=\"100.0\""), "the campaign is not over yet: the start is seen");
+
+    let started = Instant::now();
+    while finished(&cluster.status(&url)) < total {
+        assert!(started.elapsed() < Duration::from_secs(120), "campaign not finished");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // The page samples the store every second or so; the browser's own polls then catch up.
+    let done_total = loop {
+        let snapshot = http_json(&page, "/api/snapshot");
+        if snapshot["campaigns"][0]["progress"] == 1.0 && snapshot["campaigns"][0]["status"]["running"] == 0 {
+            break snapshot["done_total"].as_u64().unwrap();
+        }
+        assert!(started.elapsed() < Duration::from_secs(140), "the page never reached 100 %");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let dom = String::from_utf8(chromium(&["--dump-dom", &page_url], &cluster.path("profile-end-dom")).stdout).unwrap();
+    assert!(dom.contains("data-progress=\"100.0\""), "the page reached 100 %: {dom}");
+    let fig2 = figure_markup(&dom, "fig2");
+    assert!(fig2.contains("<svg"), "Fig. 2 is drawn inline: {fig2}");
+    assert!(fig2.contains(&format!("data-drawn-at=\"{done_total}\"")), "Fig. 2 as of the last job: {fig2}");
+    assert!(figure_markup(&dom, "table1").contains("ocsi_batch"), "Table 1 is shown");
+    assert!(dom.contains("injected failure"), "the failures are listed");
+    let end_png = shots.join("status-page-end.png");
+    chromium(&[&format!("--screenshot={}", end_png.display()), &page_url], &cluster.path("profile-end"));
+    for png in [&start_png, &end_png] {
+        let bytes = std::fs::read(png).unwrap();
+        assert!(bytes.starts_with(b"\x89PNG") && bytes.len() > 10_000, "{}", png.display());
+    }
+    eprintln!(
+        "browser test: screenshots {} and {}; one Chromium load {start_shot_s:.1} s; whole test {:.1} s",
+        start_png.display(),
+        end_png.display(),
+        begun.elapsed().as_secs_f64()
+    );
+}

@@ -26,8 +26,7 @@ fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
 /// (the status page draws with the same conversion).
 pub(crate) fn edmd_rows(runs: Vec<store::EdmdRun>, clock: Clock) -> Vec<EdmdRow> {
     let count = |n: i64| u64::try_from(n).unwrap_or_default();
-    runs
-        .into_iter()
+    runs.into_iter()
         .map(|r| {
             let (tau_c_us, clock) = match (clock, r.tau_c_cpu_us) {
                 (Clock::Cpu, Some(cpu)) => (cpu, Clock::Cpu),

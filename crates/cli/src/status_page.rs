@@ -39,7 +39,10 @@ pub async fn start(
     let url = bound.url()?;
     let coordinator = coordinator.clone();
     let task = tokio::spawn(async move {
-        if let Err(error) = bound.serve(coordinator, conversions(), std::future::pending()).await {
+        if let Err(error) = bound
+            .serve(coordinator, conversions(), std::future::pending())
+            .await
+        {
             tracing::error!(%error, "the status page stopped");
         }
     });
@@ -47,7 +50,10 @@ pub async fn start(
 }
 
 /// Reads `--tls-cert` and `--tls-key`.
-pub fn read_tls(cert: Option<&std::path::Path>, key: Option<&std::path::Path>) -> anyhow::Result<Option<(Vec<u8>, Vec<u8>)>> {
+pub fn read_tls(
+    cert: Option<&std::path::Path>,
+    key: Option<&std::path::Path>,
+) -> anyhow::Result<Option<(Vec<u8>, Vec<u8>)>> {
     match (cert, key) {
         (Some(cert), Some(key)) => Ok(Some((
             std::fs::read(cert).with_context(|| format!("--tls-cert {}", cert.display()))?,

@@ -136,8 +136,6 @@ function svgNode(text) {
   const root = doc.documentElement;
   if (root.nodeName !== "svg") throw new Error("not an SVG document");
   root.querySelectorAll("script, foreignObject").forEach((n) => n.remove());
-  root.removeAttribute("width");
-  root.removeAttribute("height");
   return document.importNode(root, true);
 }
 

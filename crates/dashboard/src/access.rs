@@ -102,7 +102,9 @@ impl Credentials {
 
     /// The session cookie's value: hex of a key derived from the token.
     pub fn session_value(&self) -> Option<String> {
-        self.token.as_ref().map(|t| t.derive(SESSION_PURPOSE).to_hex().to_string())
+        self.token
+            .as_ref()
+            .map(|t| t.derive(SESSION_PURPOSE).to_hex().to_string())
     }
 
     /// Whether the request carries the bearer token or a valid session cookie.
@@ -167,7 +169,11 @@ mod tests {
             (Change, false, true, Allow),
         ];
         for (asks, local, authenticated, expected) in table {
-            assert_eq!(decide(asks, local, authenticated), expected, "{asks:?} local={local} auth={authenticated}");
+            assert_eq!(
+                decide(asks, local, authenticated),
+                expected,
+                "{asks:?} local={local} auth={authenticated}"
+            );
         }
     }
 
@@ -175,8 +181,18 @@ mod tests {
     fn only_get_and_head_read() {
         assert_eq!(Asks::of(&Method::GET, "/api/campaigns"), Asks::Read);
         assert_eq!(Asks::of(&Method::HEAD, "/"), Asks::Read);
-        for method in [Method::POST, Method::PUT, Method::DELETE, Method::PATCH, Method::OPTIONS] {
-            assert_eq!(Asks::of(&method, "/api/campaigns/x/cancel"), Asks::Change, "{method}");
+        for method in [
+            Method::POST,
+            Method::PUT,
+            Method::DELETE,
+            Method::PATCH,
+            Method::OPTIONS,
+        ] {
+            assert_eq!(
+                Asks::of(&method, "/api/campaigns/x/cancel"),
+                Asks::Change,
+                "{method}"
+            );
         }
         assert_eq!(Asks::of(&Method::POST, "/login"), Asks::Login);
     }
@@ -190,7 +206,10 @@ mod tests {
         assert!(is_local(lo, Some(Peer(lo))));
         assert!(is_local(lo, Some(Peer(lo6))));
         assert!(!is_local(lo, Some(Peer(remote))));
-        assert!(!is_local(any, Some(Peer(lo))), "a server listening off loopback trusts no peer");
+        assert!(
+            !is_local(any, Some(Peer(lo))),
+            "a server listening off loopback trusts no peer"
+        );
         assert!(!is_local(lo, None), "no peer address: treated as remote");
     }
 
@@ -207,7 +226,9 @@ mod tests {
         assert!(!credentials.authenticated(&with(header::AUTHORIZATION, "s3cret")));
         let session = credentials.session_value().unwrap();
         assert_ne!(session, "s3cret", "the cookie is not the token");
-        assert!(credentials.authenticated(&with(header::COOKIE, &format!("a=b; {COOKIE}={session}"))));
+        assert!(
+            credentials.authenticated(&with(header::COOKIE, &format!("a=b; {COOKIE}={session}")))
+        );
         assert!(!credentials.authenticated(&with(header::COOKIE, &format!("{COOKIE}=s3cret"))));
         assert!(!credentials.authenticated(&with(header::COOKIE, &format!("other={session}"))));
         let none = Credentials::new(None);

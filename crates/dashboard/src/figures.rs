@@ -57,7 +57,12 @@ impl Figure {
             Drawing::Table { .. } => ("table", format!("/api/tables/{}.json", self.name)),
             _ => ("svg", format!("/api/figures/{}.svg", self.name)),
         };
-        FigureLink { name: self.name, title: self.title, format, url }
+        FigureLink {
+            name: self.name,
+            title: self.title,
+            format,
+            url,
+        }
     }
 
     fn is_table(&self) -> bool {
@@ -66,19 +71,45 @@ impl Figure {
 }
 
 const FIGURES: [Figure; 5] = [
-    Figure { name: "table1", title: "Table 1: mean run time per algorithm and R* (f32)", drawing: Drawing::Table { precision: "f32" } },
-    Figure { name: "fig2", title: "Figure 2: run time over the (L*, W*) plane (f32)", drawing: Drawing::Fig2 { precision: "f32" } },
-    Figure { name: "table2", title: "Table 2: as Table 1 in f64", drawing: Drawing::Table { precision: "f64" } },
-    Figure { name: "fig3", title: "Figure 3: as Figure 2 in f64", drawing: Drawing::Fig2 { precision: "f64" } },
-    Figure { name: "fig7", title: "Figure 7: EDMD time per collision τ_c against φ", drawing: Drawing::Fig7 },
+    Figure {
+        name: "table1",
+        title: "Table 1: mean run time per algorithm and R* (f32)",
+        drawing: Drawing::Table { precision: "f32" },
+    },
+    Figure {
+        name: "fig2",
+        title: "Figure 2: run time over the (L*, W*) plane (f32)",
+        drawing: Drawing::Fig2 { precision: "f32" },
+    },
+    Figure {
+        name: "table2",
+        title: "Table 2: as Table 1 in f64",
+        drawing: Drawing::Table { precision: "f64" },
+    },
+    Figure {
+        name: "fig3",
+        title: "Figure 3: as Figure 2 in f64",
+        drawing: Drawing::Fig2 { precision: "f64" },
+    },
+    Figure {
+        name: "fig7",
+        title: "Figure 7: EDMD time per collision τ_c against φ",
+        drawing: Drawing::Fig7,
+    },
 ];
 
 /// What the page shows for a job kind once any of its jobs is done.
-pub const BY_KIND: [(&str, &[Figure]); 2] = [("overlap", &[FIGURES[0], FIGURES[1]]), ("edmd", &[FIGURES[4]])];
+pub const BY_KIND: [(&str, &[Figure]); 2] = [
+    ("overlap", &[FIGURES[0], FIGURES[1]]),
+    ("edmd", &[FIGURES[4]]),
+];
 
 /// Looks a figure up by name; `table` says whether a table (JSON) or a figure (SVG) is asked.
 pub fn find(name: &str, table: bool) -> Option<Figure> {
-    FIGURES.iter().copied().find(|f| f.name == name && f.is_table() == table)
+    FIGURES
+        .iter()
+        .copied()
+        .find(|f| f.name == name && f.is_table() == table)
 }
 
 /// A drawing, or why there is nothing to draw, and the done count it was made at.
@@ -101,7 +132,11 @@ pub struct Figures {
 impl Figures {
     pub fn new(store: Store, rows: RowConversions) -> Self {
         let slots = FIGURES.iter().map(|f| (f.name, Arc::default())).collect();
-        Figures { store, rows, slots: Arc::new(slots) }
+        Figures {
+            store,
+            rows,
+            slots: Arc::new(slots),
+        }
     }
 
     /// `figure` as of `done` jobs done, from the cache when it is fresh enough (see the module).
@@ -116,23 +151,37 @@ impl Figures {
         let started = Instant::now();
         let (store, rows) = (self.store.clone(), self.rows);
         let runtime = tokio::runtime::Handle::current();
-        let body = tokio::task::spawn_blocking(move || draw(&runtime, &store, rows, figure.drawing))
-            .await
-            .unwrap_or_else(|panic| Err(format!("drawing {} panicked: {panic}", figure.name)));
-        let drawn = Drawn { done, body: body.map(Arc::new), at: Instant::now(), cost: started.elapsed() };
+        let body =
+            tokio::task::spawn_blocking(move || draw(&runtime, &store, rows, figure.drawing))
+                .await
+                .unwrap_or_else(|panic| Err(format!("drawing {} panicked: {panic}", figure.name)));
+        let drawn = Drawn {
+            done,
+            body: body.map(Arc::new),
+            at: Instant::now(),
+            cost: started.elapsed(),
+        };
         *cached = Some(drawn.clone());
         drawn
     }
 }
 
 /// Reads the rows and draws, in a blocking thread.
-fn draw(runtime: &tokio::runtime::Handle, store: &Store, rows: RowConversions, drawing: Drawing) -> Result<String, String> {
+fn draw(
+    runtime: &tokio::runtime::Handle,
+    store: &Store,
+    rows: RowConversions,
+    drawing: Drawing,
+) -> Result<String, String> {
     match drawing {
         Drawing::Table { precision } | Drawing::Fig2 { precision } => {
-            let stored = runtime.block_on(store.overlap_rows()).map_err(|e| e.to_string())?;
+            let stored = runtime
+                .block_on(store.overlap_rows())
+                .map_err(|e| e.to_string())?;
             let rows: Vec<report::OverlapRow> = stored.into_iter().map(rows.overlap).collect();
             if let Drawing::Fig2 { .. } = drawing {
-                return report::fig2_svg(&rows, precision, report::Fig2Options::default()).map_err(|e| e.to_string());
+                return report::fig2_svg(&rows, precision, report::Fig2Options::default())
+                    .map_err(|e| e.to_string());
             }
             let table = report::table1(&rows, precision);
             if table.is_empty() {
@@ -141,7 +190,9 @@ fn draw(runtime: &tokio::runtime::Handle, store: &Store, rows: RowConversions, d
             report::render_table(&table, TableFormat::Json).map_err(|e| e.to_string())
         }
         Drawing::Fig7 => {
-            let stored = runtime.block_on(store.edmd_runs()).map_err(|e| e.to_string())?;
+            let stored = runtime
+                .block_on(store.edmd_runs())
+                .map_err(|e| e.to_string())?;
             let rows = (rows.edmd)(stored);
             report::fig7_svg(&rows).map_err(|e| e.to_string())
         }

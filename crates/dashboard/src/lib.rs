@@ -40,10 +40,15 @@ use crate::snapshot::Sampler;
 
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    #[error("--http {0}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)")]
+    #[error(
+        "--http {0}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)"
+    )]
     NoTokenOffLoopback(SocketAddr),
     #[error("--http {addr}: {source}")]
-    Bind { addr: SocketAddr, source: std::io::Error },
+    Bind {
+        addr: SocketAddr,
+        source: std::io::Error,
+    },
     #[error("status page TLS: {0}")]
     Tls(String),
     #[error("status page: {0}")]
@@ -92,15 +97,38 @@ pub async fn router(
     };
     let router = Router::new()
         .route("/", get(page))
-        .route("/page.js", get(|| async { asset("text/javascript; charset=utf-8", include_str!("../page/page.js")) }))
-        .route("/page.css", get(|| async { asset("text/css; charset=utf-8", include_str!("../page/page.css")) }))
+        .route(
+            "/page.js",
+            get(|| async {
+                asset(
+                    "text/javascript; charset=utf-8",
+                    include_str!("../page/page.js"),
+                )
+            }),
+        )
+        .route(
+            "/page.css",
+            get(|| async { asset("text/css; charset=utf-8", include_str!("../page/page.css")) }),
+        )
         .route("/login", get(login_form).post(login))
         .route("/logout", post(logout))
         .route("/api/snapshot", get(snapshot))
-        .route("/api/campaigns", get(|State(app): State<App>| async move { json(&app.sampler.latest().campaigns) }))
-        .route("/api/workers", get(|State(app): State<App>| async move { json(&app.sampler.latest().workers) }))
-        .route("/api/failures", get(|State(app): State<App>| async move { json(&app.sampler.latest().failures) }))
-        .route("/api/figures", get(|State(app): State<App>| async move { json(&app.sampler.latest().figures) }))
+        .route(
+            "/api/campaigns",
+            get(|State(app): State<App>| async move { json(&app.sampler.latest().campaigns) }),
+        )
+        .route(
+            "/api/workers",
+            get(|State(app): State<App>| async move { json(&app.sampler.latest().workers) }),
+        )
+        .route(
+            "/api/failures",
+            get(|State(app): State<App>| async move { json(&app.sampler.latest().failures) }),
+        )
+        .route(
+            "/api/figures",
+            get(|State(app): State<App>| async move { json(&app.sampler.latest().figures) }),
+        )
         .route("/api/figures/{file}", get(figure))
         .route("/api/tables/{file}", get(table))
         .route("/api/campaigns/{id}/cancel", post(cancel))
@@ -127,8 +155,15 @@ pub async fn bind(options: Options) -> Result<Bound, Error> {
     };
     let listener = tokio::net::TcpListener::bind(options.listen)
         .await
-        .map_err(|source| Error::Bind { addr: options.listen, source })?;
-    Ok(Bound { listener, tls, options })
+        .map_err(|source| Error::Bind {
+            addr: options.listen,
+            source,
+        })?;
+    Ok(Bound {
+        listener,
+        tls,
+        options,
+    })
 }
 
 impl Bound {
@@ -146,14 +181,27 @@ impl Bound {
         shutdown: impl std::future::Future<Output = ()> + Send + 'static,
     ) -> Result<(), Error> {
         let listen = self.listener.local_addr()?;
-        let (router, sampling) = router(coordinator, rows, listen, self.options.token, self.tls.is_some()).await?;
+        let (router, sampling) = router(
+            coordinator,
+            rows,
+            listen,
+            self.options.token,
+            self.tls.is_some(),
+        )
+        .await?;
         let service = router.into_make_service_with_connect_info::<Peer>();
         let served = match self.tls {
             Some(acceptor) => {
                 let listener = tls::TlsListener::new(self.listener, acceptor)?;
-                axum::serve(listener, service).with_graceful_shutdown(shutdown).await
+                axum::serve(listener, service)
+                    .with_graceful_shutdown(shutdown)
+                    .await
             }
-            None => axum::serve(self.listener, service).with_graceful_shutdown(shutdown).await,
+            None => {
+                axum::serve(self.listener, service)
+                    .with_graceful_shutdown(shutdown)
+                    .await
+            }
         };
         sampling.abort();
         Ok(served?)
@@ -169,13 +217,18 @@ async fn guard(State(app): State<App>, mut request: Request, next: Next) -> Resp
     let asks = Asks::of(request.method(), request.uri().path());
     match access::decide(asks, local, authenticated) {
         Decision::Allow => {
-            request.extensions_mut().insert(Authenticated(authenticated));
+            request
+                .extensions_mut()
+                .insert(Authenticated(authenticated));
             let mut response = next.run(request).await;
             // Nothing here may be framed by another site or cached by a proxy.
             let headers = response.headers_mut();
             headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
             headers.insert("x-frame-options", HeaderValue::from_static("DENY"));
-            headers.insert("x-content-type-options", HeaderValue::from_static("nosniff"));
+            headers.insert(
+                "x-content-type-options",
+                HeaderValue::from_static("nosniff"),
+            );
             response
         }
         Decision::NeedToken if asks == Asks::Read && request.uri().path() == "/" => {
@@ -183,8 +236,12 @@ async fn guard(State(app): State<App>, mut request: Request, next: Next) -> Resp
         }
         Decision::NeedToken => {
             let why = match asks {
-                Asks::Change => "changing anything needs the token (Authorization: Bearer, or log in at /login)",
-                _ => "off loopback, the status page needs the token (Authorization: Bearer, or log in at /login)",
+                Asks::Change => {
+                    "changing anything needs the token (Authorization: Bearer, or log in at /login)"
+                }
+                _ => {
+                    "off loopback, the status page needs the token (Authorization: Bearer, or log in at /login)"
+                }
             };
             error(StatusCode::UNAUTHORIZED, why)
         }
@@ -211,11 +268,17 @@ fn error(status: StatusCode, message: &str) -> Response {
 }
 
 async fn page() -> Response {
-    asset("text/html; charset=utf-8", include_str!("../page/index.html"))
+    asset(
+        "text/html; charset=utf-8",
+        include_str!("../page/index.html"),
+    )
 }
 
 async fn snapshot(State(app): State<App>, request: Request) -> Response {
-    let authenticated = request.extensions().get::<Authenticated>().is_some_and(|a| a.0);
+    let authenticated = request
+        .extensions()
+        .get::<Authenticated>()
+        .is_some_and(|a| a.0);
     #[derive(Serialize)]
     struct WithSession<'a> {
         authenticated: bool,
@@ -224,7 +287,11 @@ async fn snapshot(State(app): State<App>, request: Request) -> Response {
         snapshot: &'a snapshot::Snapshot,
     }
     let latest = app.sampler.latest();
-    json(&WithSession { authenticated, token_configured: app.credentials.configured(), snapshot: &latest })
+    json(&WithSession {
+        authenticated,
+        token_configured: app.credentials.configured(),
+        snapshot: &latest,
+    })
 }
 
 /// `NAME.svg` → NAME.
@@ -233,16 +300,29 @@ fn strip<'a>(file: &'a str, extension: &str) -> Option<&'a str> {
 }
 
 async fn figure(State(app): State<App>, Path(file): Path<String>) -> Response {
-    drawn(&app, strip(&file, ".svg").and_then(|name| figures::find(name, false)), "image/svg+xml").await
+    drawn(
+        &app,
+        strip(&file, ".svg").and_then(|name| figures::find(name, false)),
+        "image/svg+xml",
+    )
+    .await
 }
 
 async fn table(State(app): State<App>, Path(file): Path<String>) -> Response {
-    drawn(&app, strip(&file, ".json").and_then(|name| figures::find(name, true)), "application/json").await
+    drawn(
+        &app,
+        strip(&file, ".json").and_then(|name| figures::find(name, true)),
+        "application/json",
+    )
+    .await
 }
 
 async fn drawn(app: &App, figure: Option<figures::Figure>, content_type: &'static str) -> Response {
     let Some(figure) = figure else {
-        return error(StatusCode::NOT_FOUND, "no such figure (figures: fig2, fig3, fig7 as .svg; tables: table1, table2 as .json)");
+        return error(
+            StatusCode::NOT_FOUND,
+            "no such figure (figures: fig2, fig3, fig7 as .svg; tables: table1, table2 as .json)",
+        );
     };
     let done = app.sampler.latest().done_total;
     let drawn = app.figures.get(figure, done).await;
@@ -252,7 +332,10 @@ async fn drawn(app: &App, figure: Option<figures::Figure>, content_type: &'stati
             .header("x-sweep-done", drawn.done)
             .body(Body::from(body.as_str().to_owned()))
             .unwrap_or_else(|e| error(StatusCode::INTERNAL_SERVER_ERROR, &e.to_string())),
-        Err(why) => error(StatusCode::NOT_FOUND, &format!("{}: nothing to draw yet: {why}", figure.name)),
+        Err(why) => error(
+            StatusCode::NOT_FOUND,
+            &format!("{}: nothing to draw yet: {why}", figure.name),
+        ),
     }
 }
 
@@ -282,12 +365,19 @@ async fn login_form(State(app): State<App>) -> Response {
 }
 
 fn asset_owned(status: StatusCode, html: String) -> Response {
-    (status, [(header::CONTENT_TYPE, "text/html; charset=utf-8")], html).into_response()
+    (
+        status,
+        [(header::CONTENT_TYPE, "text/html; charset=utf-8")],
+        html,
+    )
+        .into_response()
 }
 
 /// The form posts `token=…`; the right token sets the session cookie and goes to the page.
 async fn login(State(app): State<App>, body: Bytes) -> Response {
-    let presented = form_urlencoded::parse(&body).find(|(k, _)| k == "token").map(|(_, v)| v.into_owned());
+    let presented = form_urlencoded::parse(&body)
+        .find(|(k, _)| k == "token")
+        .map(|(_, v)| v.into_owned());
     let session = app.credentials.session_value();
     match (presented, session) {
         (Some(token), Some(session)) if app.credentials.token_matches(token.trim()) => {
@@ -324,7 +414,10 @@ mod tests {
         assert_eq!(super::strip("fig2.svg", ".svg"), Some("fig2"));
         assert_eq!(super::strip("fig2.png", ".svg"), None);
         assert!(super::figures::find("fig2", false).is_some());
-        assert!(super::figures::find("fig2", true).is_none(), "fig2 is not a table");
+        assert!(
+            super::figures::find("fig2", true).is_none(),
+            "fig2 is not a table"
+        );
         assert!(super::figures::find("table1", true).is_some());
         assert!(super::figures::find("fig99", false).is_none());
     }

@@ -96,7 +96,9 @@ pub struct Snapshot {
 }
 
 fn unix_now() -> f64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64())
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// Finished jobs of each campaign at past samples, for the rate.
@@ -130,7 +132,9 @@ pub fn remaining(status: &Status, rate: Option<f64>, live_cores: usize) -> (Opti
     match rate {
         Some(rate) if rate > 0.0 => (
             Some(left as f64 / rate),
-            format!("{left} jobs left (queued + running) ÷ {rate:.3} jobs/s, the rate of the last {RATE_WINDOW_S:.0} s"),
+            format!(
+                "{left} jobs left (queued + running) ÷ {rate:.3} jobs/s, the rate of the last {RATE_WINDOW_S:.0} s"
+            ),
         ),
         _ if live_cores > 0 && status.estimate_s_remaining > 0.0 => (
             Some(status.estimate_s_remaining / live_cores as f64),
@@ -139,7 +143,10 @@ pub fn remaining(status: &Status, rate: Option<f64>, live_cores: usize) -> (Opti
                 status.estimate_s_remaining
             ),
         ),
-        _ => (None, "unknown: no job finished lately and no live worker".into()),
+        _ => (
+            None,
+            "unknown: no job finished lately and no live worker".into(),
+        ),
     }
 }
 
@@ -173,7 +180,11 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> store::Resu
             }
         })
         .collect();
-    let live_cores = workers.iter().filter(|w| !w.stale).map(|w| w.cores.len()).sum();
+    let live_cores = workers
+        .iter()
+        .filter(|w| !w.stale)
+        .map(|w| w.cores.len())
+        .sum();
     let mut campaigns = Vec::new();
     for c in store.campaigns().await? {
         let s = c.status;
@@ -182,7 +193,11 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> store::Resu
         let (remaining_s, remaining_how) = remaining(&s, rate, live_cores);
         campaigns.push(CampaignView {
             timing: store.overlap_quality(Some(&c.id)).await?,
-            progress: if s.total == 0 { 1.0 } else { finished as f64 / s.total as f64 },
+            progress: if s.total == 0 {
+                1.0
+            } else {
+                finished as f64 / s.total as f64
+            },
             jobs_per_s: rate,
             remaining_s,
             remaining_how,
@@ -221,12 +236,17 @@ pub struct Sampler {
 impl Sampler {
     /// Takes a first sample, then keeps sampling in a task until the returned handle is aborted
     /// (or dropped with the runtime).
-    pub async fn start(coordinator: Coordinator) -> store::Result<(Sampler, tokio::task::JoinHandle<()>)> {
+    pub async fn start(
+        coordinator: Coordinator,
+    ) -> store::Result<(Sampler, tokio::task::JoinHandle<()>)> {
         let mut history = History::default();
         let first = sample(&coordinator, &mut history).await?;
         let (tx, rx) = watch::channel(Arc::new(first));
         let poke = Arc::new(Notify::new());
-        let sampler = Sampler { latest: rx, poke: poke.clone() };
+        let sampler = Sampler {
+            latest: rx,
+            poke: poke.clone(),
+        };
         let task = tokio::spawn(async move {
             let mut wait = MIN_PERIOD;
             loop {
@@ -268,7 +288,14 @@ mod tests {
     use super::*;
 
     fn status(queued: u64, running: u64, done: u64, estimate: f64) -> Status {
-        Status { total: queued + running + done, queued, running, done, estimate_s_remaining: estimate, ..Status::default() }
+        Status {
+            total: queued + running + done,
+            queued,
+            running,
+            done,
+            estimate_s_remaining: estimate,
+            ..Status::default()
+        }
     }
 
     #[test]
@@ -295,6 +322,9 @@ mod tests {
         assert_eq!(s, Some(100.0));
         assert!(how.contains("plan's estimate"), "{how}");
         assert_eq!(remaining(&status(10, 0, 5, 300.0), Some(0.0), 0).0, None);
-        assert_eq!(remaining(&status(0, 0, 5, 0.0), None, 0), (Some(0.0), "finished".into()));
+        assert_eq!(
+            remaining(&status(0, 0, 5, 0.0), None, 0),
+            (Some(0.0), "finished".into())
+        );
     }
 }

@@ -87,8 +87,16 @@ impl Store {
         .fetch_all(&self.reader)
         .await?;
         for row in &running {
-            let job = JobInHand { job_id: row.try_get(1)?, kind: row.try_get(2)?, started_at: row.try_get(3)? };
-            activity.entry(row.try_get(0)?).or_default().in_hand.push(job);
+            let job = JobInHand {
+                job_id: row.try_get(1)?,
+                kind: row.try_get(2)?,
+                started_at: row.try_get(3)?,
+            };
+            activity
+                .entry(row.try_get(0)?)
+                .or_default()
+                .in_hand
+                .push(job);
         }
         Ok(activity)
     }
@@ -96,10 +104,11 @@ impl Store {
     /// Whether any job of `kind` is done: which figures have something to draw. Stops at the
     /// first such job.
     pub async fn has_done(&self, kind: &str) -> Result<bool> {
-        let row = sqlx::query("SELECT EXISTS (SELECT 1 FROM jobs WHERE state = 'done' AND kind = ?1)")
-            .bind(kind)
-            .fetch_one(&self.reader)
-            .await?;
+        let row =
+            sqlx::query("SELECT EXISTS (SELECT 1 FROM jobs WHERE state = 'done' AND kind = ?1)")
+                .bind(kind)
+                .fetch_one(&self.reader)
+                .await?;
         Ok(row.try_get::<bool, _>(0)?)
     }
 }
