@@ -5,8 +5,8 @@
 //! per worker read the done jobs through the state index) plus O(running) for the jobs in hand
 //! and O(20) for the failures. The next sample starts [`MIN_PERIOD`] or ten times the last
 //! sample's duration after it, whichever is longer: whatever the campaign's size, sampling keeps
-//! at most a tenth of one core busy, on the read-only connections (never the writer). At 10⁶
-//! jobs a sample takes about a second, so the page then refreshes every ten seconds.
+//! at most a tenth of one core busy, on the read-only connections (never the writer). Each
+//! snapshot says what its sample cost (`sample_s`) and when the next is due.
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
