@@ -509,3 +509,321 @@ fn a_worker_killed_holding_a_large_adaptive_lease_loses_nothing() {
     let re_leased = cluster.count("SELECT count(*) FROM jobs WHERE attempts >= 2");
     assert!(re_leased >= lost, "{lost} leases lost with the worker, {re_leased} jobs leased again");
 }
+
+/// One HTTP/1.1 request on a fresh connection to the status page: (status, head, body).
+fn http(addr: &str, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> (u16, String, String) {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(addr).unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n", body.len());
+    for (k, v) in headers {
+        request.push_str(&format!("{k}: {v}\r\n"));
+    }
+    request.push_str("\r\n");
+    request.push_str(body);
+    stream.write_all(request.as_bytes()).unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).unwrap();
+    let (head, body) = response.split_once("\r\n\r\n").unwrap_or((&response, ""));
+    let status = head.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    (status, head.to_string(), body.to_string())
+}
+
+fn http_json(addr: &str, path: &str) -> serde_json::Value {
+    let (status, _, body) = http(addr, "GET", path, &[], "");
+    assert_eq!(status, 200, "GET {path}: {body}");
+    serde_json::from_str(&body).unwrap_or_else(|e| panic!("GET {path}: {e}: {body}"))
+}
+
+/// A coordinator with `--http`: its gRPC URL and the page's address, both read from its stdout.
+fn coordinator_with_page(cluster: &Cluster, http_listen: &str, token: bool) -> (Proc, String, String) {
+    let mut cmd = Command::new(SWEEP);
+    cmd.args(["coordinator", "--listen", "127.0.0.1:0", "--db", cluster.db.to_str().unwrap()])
+        .args(["--lease-secs", "4", "--max-attempts", "2", "--http", http_listen])
+        .env_remove("SWEEP_TOKEN");
+    if token {
+        cmd.args(["--token-file", cluster.token()]);
+    }
+    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::null()).spawn().unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut next = || lines.next().expect("a line").unwrap();
+    let grpc = next().strip_prefix("listening on ").expect("listening on …").to_string();
+    let page = next();
+    let page = page.strip_prefix("status page on http://").unwrap_or_else(|| panic!("{page:?}")).trim_end_matches('/').to_string();
+    (Proc(child), format!("http://{grpc}"), page)
+}
+
+/// The status page of a coordinator with two workers shows what the store holds: the counts of
+/// `sweep status`, the workers of `sweep workers`, every failed attempt with its worker, and
+/// Table 1 / Fig. 2 exactly as `sweep report` makes them. Unauthenticated, it cancels nothing;
+/// with the token (the login form's cookie) it cancels.
+#[test]
+fn the_status_page_shows_the_campaign_as_the_store_has_it() {
+    let cluster = Cluster::new();
+    let db = cluster.db.to_str().unwrap().to_string();
+    let (_coordinator, url, page) = coordinator_with_page(&cluster, "127.0.0.1:0", true);
+    let (status, head, body) = http(&page, "GET", "/", &[], "");
+    assert_eq!(status, 200, "{head}");
+    assert!(body.contains("<title>sweep: status</title>") && body.contains("src=\"/page.js\""), "{body}");
+    assert!(!body.contains("http://") && !body.contains("https://"), "the page fetches nothing from elsewhere");
+    let (status, _, script) = http(&page, "GET", "/page.js", &[], "");
+    assert_eq!(status, 200);
+    assert!(script.contains("/api/snapshot") && !script.contains("https://"));
+
+    let plan = "name = \"page\"\n\
+        [[noop]]\ncount = 16\nduration_ms = 50\n\
+        [[noop]]\ncount = 2\nduration_ms = 0\nfail_rate = 1.0\n\
+        [[overlap]]\nl_star = [1, 2]\nw_star = 1\nr_star = 0.5\nacceptance = 0.4\nconfigurations = 20_000\nrepeats = 1\nprecision = \"f32\"\n\
+        algorithms = [\"arvo\", \"qri\", \"qrf\", \"sse\", \"ocsi\", \"ocsi_batch\"]\n";
+    let submitted = cluster.submit(&url, &cluster.plan("page.toml", plan));
+    let id = submitted["campaign"].as_str().unwrap().to_string();
+    let total = 20;
+
+    // No workers yet: a cancel without the token, or with a wrong one, changes nothing.
+    let store_status = |campaign: &str| -> serde_json::Value {
+        let out = cluster.sweep(&["status", "--db", &db, "--campaign", campaign, "--format", "json"]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let before = store_status(&id);
+    let cancel = format!("/api/campaigns/{id}/cancel");
+    for headers in [&[][..], &[("Authorization", "Bearer wrong-token")][..], &[("Cookie", "sweep_session=abc")][..]] {
+        let (status, _, body) = http(&page, "POST", &cancel, headers, "");
+        assert_eq!(status, 401, "{headers:?}: {body}");
+    }
+    assert_eq!(http(&page, "GET", &cancel, &[], "").0, 405, "a GET changes nothing either");
+    let after = store_status(&id);
+    assert_eq!(after, before, "nothing changed");
+    assert_eq!(after["status"]["queued"], total);
+
+    let _w0 = cluster.worker(&url, "0", Some(cluster.token()));
+    let _w1 = cluster.worker(&url, "1", Some(cluster.token()));
+    let started = Instant::now();
+    loop {
+        let s = cluster.status(&url);
+        if s["done"].as_u64().unwrap() + s["failed"].as_u64().unwrap() == total {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(120), "not finished: {s}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // The page samples every second or so: wait for it to see the end.
+    let started = Instant::now();
+    let campaigns = loop {
+        let campaigns = http_json(&page, "/api/campaigns");
+        if campaigns[0]["progress"] == 1.0 && campaigns[0]["status"]["running"] == 0 {
+            break campaigns;
+        }
+        assert!(started.elapsed() < Duration::from_secs(20), "the page never reached 100 %: {campaigns}");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let expected = store_status(&id);
+    let shown = &campaigns.as_array().unwrap()[0];
+    assert_eq!(campaigns.as_array().unwrap().len(), 1);
+    assert_eq!(shown["campaign"], expected["campaign"]);
+    assert_eq!(shown["status"], expected["status"], "the counts of `sweep status --format json`");
+    assert_eq!(shown["timing"], expected["timing"]);
+    assert_eq!(shown["status"]["done"], 18);
+    assert_eq!(shown["status"]["failed"], 2);
+    assert_eq!(shown["remaining_s"], 0.0);
+
+    // Workers: the fields of `sweep workers --format json`, and what each did.
+    let listed = cluster.registered_workers(&url);
+    let workers = http_json(&page, "/api/workers");
+    let workers = workers.as_array().unwrap();
+    assert_eq!(workers.len(), 2);
+    for expected in &listed {
+        let shown = workers.iter().find(|w| w["id"] == expected["id"]).expect("every worker is listed");
+        for (key, value) in expected.as_object().unwrap() {
+            if key != "last_seen_at" {
+                assert_eq!(&shown[key], value, "worker field {key}");
+            }
+        }
+        assert!(shown["heartbeat_age_s"].as_f64().unwrap() < 4.0, "{shown}");
+        assert_eq!(shown["stale"], false);
+        assert!(!shown["cpu_model"].as_str().unwrap().is_empty());
+    }
+    let done_by_workers: u64 = workers.iter().map(|w| w["jobs_done"].as_u64().unwrap()).sum();
+    assert_eq!(done_by_workers, 18, "every done job is some worker's");
+
+    // Failures: both attempts of both failing jobs, each with its worker and reason.
+    let failures = http_json(&page, "/api/failures");
+    let failures = failures.as_array().unwrap();
+    assert_eq!(failures.len() as u64, cluster.count("SELECT count(*) FROM job_failures"));
+    assert_eq!(failures.len(), 4, "{failures:?}");
+    for f in failures {
+        assert!(listed.iter().any(|w| w["id"] == f["worker"]), "{f}");
+        assert!(f["reason"].as_str().unwrap().contains("injected failure"), "{f}");
+    }
+
+    // Figures: what `sweep report` writes, byte for byte.
+    let figures = http_json(&page, "/api/figures");
+    let names: Vec<&str> = figures.as_array().unwrap().iter().map(|f| f["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["table1", "fig2"]);
+    let (status, head, svg) = http(&page, "GET", "/api/figures/fig2.svg", &[], "");
+    assert_eq!(status, 200, "{svg}");
+    assert!(head.to_ascii_lowercase().contains("content-type: image/svg+xml"), "{head}");
+    assert!(svg.trim_start().starts_with("<svg"), "{}", &svg[..svg.len().min(200)]);
+    let out_svg = cluster.path("fig2.svg");
+    let out = cluster.sweep(&["report", "fig2", "--db", &db, "--out", out_svg.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&out_svg).unwrap() == svg, "the page's Fig. 2 is `sweep report fig2`'s");
+    let table = http_json(&page, "/api/tables/table1.json");
+    let out = cluster.sweep(&["report", "table1", "--db", &db, "--format", "json"]);
+    assert_eq!(table, serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap());
+    assert_eq!(table.as_array().unwrap().len(), 6, "one row per algorithm at one R*");
+
+    // With the token (the login form's cookie), a cancel works: a second campaign, long jobs.
+    let second = cluster.submit(&url, &cluster.plan("long.toml", "name = \"long\"\n[[noop]]\ncount = 30\nduration_ms = 400\n"));
+    let second = second["campaign"].as_str().unwrap().to_string();
+    let (status, head, _) = http(&page, "POST", "/login", &[("Content-Type", "application/x-www-form-urlencoded")], "token=e2e-secret-token");
+    assert_eq!(status, 303, "{head}");
+    let cookie = head.lines().find_map(|l| l.strip_prefix("set-cookie: ")).expect("a cookie").to_string();
+    assert!(cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"), "{cookie}");
+    let session = cookie.split(';').next().unwrap();
+    let (status, _, body) = http(&page, "POST", &format!("/api/campaigns/{second}/cancel"), &[("Cookie", session)], "");
+    assert_eq!(status, 200, "{body}");
+    let cancelled = serde_json::from_str::<serde_json::Value>(&body).unwrap()["cancelled"].as_u64().unwrap();
+    assert!(cancelled > 0, "{body}");
+    let s = store_status(&second);
+    assert_eq!(s["status"]["cancelled"], cancelled);
+    assert_eq!(s["status"]["queued"], 0);
+    // The bearer header works as well (nothing left to cancel).
+    let (status, _, body) = http(&page, "POST", &format!("/api/campaigns/{second}/cancel"), &[("Authorization", "Bearer e2e-secret-token")], "");
+    assert_eq!((status, body.contains("\"cancelled\":0")), (200, true), "{body}");
+}
+
+/// A non-loopback address of this machine (the one a route to the outside would leave from), if
+/// there is one. No packet is sent: connecting a UDP socket only picks a route.
+fn non_loopback_address() -> Option<std::net::IpAddr> {
+    let socket = std::net::UdpSocket::bind("0.0.0.0:0").ok()?;
+    socket.connect("192.0.2.254:9").ok()?;
+    let ip = socket.local_addr().ok()?.ip();
+    (!ip.is_loopback() && !ip.is_unspecified()).then_some(ip)
+}
+
+/// Off loopback the page is refused without the token (the coordinator does not even start
+/// without one), and served with it.
+#[test]
+fn the_status_page_off_loopback_needs_the_token() {
+    let cluster = Cluster::new();
+    let out = cluster.sweep(&["coordinator", "--listen", "127.0.0.1:0", "--db", cluster.db.to_str().unwrap(), "--http", "0.0.0.0:0"]);
+    assert!(!out.status.success());
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(message.contains("--http 0.0.0.0:0") && message.contains("without a token"), "{message}");
+
+    let Some(ip) = non_loopback_address() else {
+        eprintln!("no non-loopback address on this machine: the remote-client case is covered by crates/dashboard/tests/policy.rs only");
+        return;
+    };
+    let (_coordinator, _url, page) = coordinator_with_page(&cluster, &format!("{ip}:0"), true);
+    for path in ["/api/campaigns", "/api/workers", "/api/failures", "/api/snapshot", "/api/figures/fig2.svg", "/page.js"] {
+        let (status, _, body) = http(&page, "GET", path, &[], "");
+        assert_eq!(status, 401, "GET {path}: {body}");
+    }
+    let (status, head, _) = http(&page, "GET", "/", &[], "");
+    assert_eq!(status, 303, "the page sends a browser to the login form: {head}");
+    assert_eq!(http(&page, "GET", "/login", &[], "").0, 200);
+    let (status, _, body) = http(&page, "GET", "/api/campaigns", &[("Authorization", "Bearer e2e-secret-token")], "");
+    assert_eq!((status, body.as_str()), (200, "[]"));
+}
+
+/// Headless Chromium on the page (`--dump-dom` for the DOM after the script ran, `--screenshot`
+/// for a picture), with a fresh profile each time.
+fn chromium(args: &[&str], profile: &Path) -> Output {
+    let browser = std::env::var("SWEEP_CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
+    let out = Command::new(&browser)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run"])
+        .args(["--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        // Virtual time runs the page's polls and waits for their fetches before the DOM is taken.
+        .args(["--window-size=1400,1700", "--virtual-time-budget=5000"])
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{browser}: {e} (apt-get install chromium, or set SWEEP_CHROMIUM)"));
+    assert!(out.status.success(), "{browser}: {}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+/// The markup of the element carrying `data-figure="NAME"`, up to the next figure.
+fn figure_markup<'a>(dom: &'a str, name: &str) -> &'a str {
+    let start = dom.find(&format!("data-figure=\"{name}\"")).unwrap_or_else(|| panic!("no figure {name} in the page"));
+    let rest = &dom[start..];
+    let end = rest[1..].find("data-figure=").map_or(rest.len(), |i| i + 1);
+    &rest[..end]
+}
+
+/// The page in a real browser during a campaign: at the start it shows partial progress, at the
+/// end 100 % and Fig. 2 drawn as an inline SVG (and Table 1) as of the final done count.
+/// Screenshots of both go to target/tmp/status-page/. Needs Debian's chromium; only with
+/// SWEEP_BROWSER_TEST=1 (`.ci/run` installs it then). About 30 s.
+#[test]
+fn the_status_page_in_a_browser() {
+    if std::env::var("SWEEP_BROWSER_TEST").as_deref() != Ok("1") {
+        eprintln!("skipped: SWEEP_BROWSER_TEST=1 runs it (needs /usr/bin/chromium)");
+        return;
+    }
+    let begun = Instant::now();
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("status-page");
+    std::fs::create_dir_all(&shots).unwrap();
+    let cluster = Cluster::new();
+    let (_coordinator, url, page) = coordinator_with_page(&cluster, "127.0.0.1:0", true);
+    let page_url = format!("http://{page}/");
+    let plan = "name = \"browser\"\n\
+        [[noop]]\ncount = 40\nduration_ms = 400\n\
+        [[noop]]\ncount = 2\nduration_ms = 0\nfail_rate = 1.0\n\
+        [[overlap]]\nl_star = [1, 2, 3]\nw_star = [1, 2, 3]\nr_star = 0.5\nacceptance = 0.4\nconfigurations = 20_000\nrepeats = 1\nprecision = \"f32\"\n\
+        algorithms = [\"arvo\", \"qri\", \"qrf\", \"sse\", \"ocsi\", \"ocsi_batch\"]\n";
+    let total = 51;
+    cluster.submit(&url, &cluster.plan("browser.toml", plan));
+    let _w0 = cluster.worker(&url, "0", Some(cluster.token()));
+    let _w1 = cluster.worker(&url, "1", Some(cluster.token()));
+    let finished = |s: &serde_json::Value| s["done"].as_u64().unwrap() + s["failed"].as_u64().unwrap();
+    let started = Instant::now();
+    while finished(&cluster.status(&url)) < 3 {
+        assert!(started.elapsed() < Duration::from_secs(60), "no job finished");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+
+    let start_png = shots.join("status-page-start.png");
+    let at = Instant::now();
+    chromium(&[&format!("--screenshot={}", start_png.display()), &page_url], &cluster.path("profile-start"));
+    let start_shot_s = at.elapsed().as_secs_f64();
+    let dom = String::from_utf8(chromium(&["--dump-dom", &page_url], &cluster.path("profile-start-dom")).stdout).unwrap();
+    assert!(dom.contains("data-progress=\""), "the page shows the campaign's progress: {dom}");
+    assert!(!dom.contains("data-progress=\"100.0\""), "the campaign is not over yet: the start is seen");
+
+    let started = Instant::now();
+    while finished(&cluster.status(&url)) < total {
+        assert!(started.elapsed() < Duration::from_secs(120), "campaign not finished");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // The page samples the store every second or so; the browser's own polls then catch up.
+    let done_total = loop {
+        let snapshot = http_json(&page, "/api/snapshot");
+        if snapshot["campaigns"][0]["progress"] == 1.0 && snapshot["campaigns"][0]["status"]["running"] == 0 {
+            break snapshot["done_total"].as_u64().unwrap();
+        }
+        assert!(started.elapsed() < Duration::from_secs(140), "the page never reached 100 %");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let dom = String::from_utf8(chromium(&["--dump-dom", &page_url], &cluster.path("profile-end-dom")).stdout).unwrap();
+    assert!(dom.contains("data-progress=\"100.0\""), "the page reached 100 %: {dom}");
+    let fig2 = figure_markup(&dom, "fig2");
+    assert!(fig2.contains("<svg"), "Fig. 2 is drawn inline: {fig2}");
+    assert!(fig2.contains(&format!("data-drawn-at=\"{done_total}\"")), "Fig. 2 as of the last job: {fig2}");
+    assert!(figure_markup(&dom, "table1").contains("ocsi_batch"), "Table 1 is shown");
+    assert!(dom.contains("injected failure"), "the failures are listed");
+    let end_png = shots.join("status-page-end.png");
+    chromium(&[&format!("--screenshot={}", end_png.display()), &page_url], &cluster.path("profile-end"));
+    for png in [&start_png, &end_png] {
+        let bytes = std::fs::read(png).unwrap();
+        assert!(bytes.starts_with(b"\x89PNG") && bytes.len() > 10_000, "{}", png.display());
+    }
+    eprintln!(
+        "browser test: screenshots {} and {}; one Chromium load {start_shot_s:.1} s; whole test {:.1} s",
+        start_png.display(),
+        end_png.display(),
+        begun.elapsed().as_secs_f64()
+    );
+}

@@ -94,7 +94,7 @@ pub struct ReportArgs {
 /// percentile over every set, `overlap::estimate`, with its interval; results measured with the
 /// earlier statistic get this one too), or for points measured before blocks were kept the mean
 /// over repeats the store gave, with Student's interval.
-fn report_row(r: store::OverlapRow) -> OverlapRow {
+pub(crate) fn report_row(r: store::OverlapRow) -> OverlapRow {
     let checks_ms = r.configurations as f64 * 1e-6;
     let (estimate, ns_per_check, mean_ms) = if r.block_ns_per_check.is_empty() {
         (overlap::estimate::mean_interval(&r.repeat_ns_per_check), r.ns_per_check, r.mean_ms)

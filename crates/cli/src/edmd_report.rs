@@ -19,9 +19,14 @@ fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
         let store = open_read_only(db).await?;
         anyhow::Ok(store.edmd_runs().await?)
     })?;
+    Ok(edmd_rows(runs, clock))
+}
+
+/// Stored EDMD runs as the report crate reads them, with τ_c by `clock` where the record has it
+/// (the status page draws with the same conversion).
+pub(crate) fn edmd_rows(runs: Vec<store::EdmdRun>, clock: Clock) -> Vec<EdmdRow> {
     let count = |n: i64| u64::try_from(n).unwrap_or_default();
-    Ok(runs
-        .into_iter()
+    runs.into_iter()
         .map(|r| {
             let (tau_c_us, clock) = match (clock, r.tau_c_cpu_us) {
                 (Clock::Cpu, Some(cpu)) => (cpu, Clock::Cpu),
@@ -59,7 +64,7 @@ fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
                 cpu_s: r.cpu_s,
             }
         })
-        .collect())
+        .collect()
 }
 
 /// `sweep report NAME` for NAME in [`NAMES`].

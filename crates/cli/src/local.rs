@@ -24,6 +24,16 @@ pub struct RunArgs {
     /// Cores to run on, e.g. `0,1` or `0-3` (default: every core available to this process).
     #[arg(long, value_parser = system::parse_core_list)]
     cores: Option<system::CoreList>,
+    #[command(flatten)]
+    http: crate::status_page::HttpArgs,
+    /// The token the status page asks for (off loopback, and to cancel).
+    #[command(flatten)]
+    auth: crate::remote::AuthArgs,
+    /// TLS certificate chain (PEM) of the status page; with --tls-key, serve HTTPS.
+    #[arg(long, requires_all = ["tls_key", "http"])]
+    tls_cert: Option<PathBuf>,
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
 }
 
 /// Local leases are short: after a crash, a resumed run waits at most this long for the jobs
@@ -63,6 +73,13 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         let _guard = runtime.enter();
         coordinator.spawn_reaper(Duration::from_secs(1))
     };
+    let page = runtime.block_on(async {
+        let tls = crate::status_page::read_tls(args.tls_cert.as_deref(), args.tls_key.as_deref())?;
+        crate::status_page::start(&args.http, &coordinator, args.auth.token()?, tls).await
+    })?;
+    if let Some((_, url)) = &page {
+        eprintln!("status page on {url}");
+    }
     let queue = Arc::new(Embedded { coordinator: coordinator.clone(), worker_id });
     let options = WorkerOptions {
         cores,
@@ -103,6 +120,9 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     slots.stop();
     slots.join();
     reaper.abort();
+    if let Some((task, _)) = page {
+        task.abort();
+    }
     bar.finish_and_clear();
     let status = runtime.block_on(coordinator.status(Some(&id)))?;
     let quality = runtime.block_on(coordinator.store().overlap_quality(Some(&id)))?;

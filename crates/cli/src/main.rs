@@ -10,6 +10,7 @@ mod output;
 mod overlap_cmd;
 mod plan_cmd;
 mod remote;
+mod status_page;
 mod system;
 
 use clap::{Parser, Subcommand};

@@ -34,7 +34,7 @@ pub struct AuthArgs {
 }
 
 impl AuthArgs {
-    fn token(&self) -> anyhow::Result<Option<Token>> {
+    pub(crate) fn token(&self) -> anyhow::Result<Option<Token>> {
         let secret = match (&self.token_file, &self.token) {
             (Some(file), _) => std::fs::read_to_string(file).with_context(|| format!("--token-file {}", file.display()))?,
             (None, Some(secret)) => secret.clone(),
@@ -117,17 +117,13 @@ pub struct CoordinatorArgs {
     /// Attempts (failures or lost leases) before a job is failed.
     #[arg(long, default_value_t = 3)]
     max_attempts: u32,
+    #[command(flatten)]
+    http: crate::status_page::HttpArgs,
 }
 
 pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
     let token = args.auth.token()?;
-    let tls = match (&args.tls_cert, &args.tls_key) {
-        (Some(cert), Some(key)) => Some((
-            std::fs::read(cert).with_context(|| format!("--tls-cert {}", cert.display()))?,
-            std::fs::read(key).with_context(|| format!("--tls-key {}", key.display()))?,
-        )),
-        _ => None,
-    };
+    let tls = crate::status_page::read_tls(args.tls_cert.as_deref(), args.tls_key.as_deref())?;
     if token.is_none() && !args.listen.ip().is_loopback() {
         bail!("--listen {}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)", args.listen);
     }
@@ -141,8 +137,16 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
         let listener = tokio::net::TcpListener::bind(args.listen).await.with_context(|| format!("--listen {}", args.listen))?;
         // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.
         println!("listening on {}", listener.local_addr()?);
+        let page = crate::status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
+        if let Some((_, url)) = &page {
+            println!("status page on {url}");
+        }
         let options = ServeOptions { listen: args.listen, token, tls };
-        coordinator::grpc::serve(coordinator.clone(), expand, options, listener, shutdown_signal()).await?;
+        let served = coordinator::grpc::serve(coordinator.clone(), expand, options, listener, shutdown_signal()).await;
+        if let Some((task, _)) = page {
+            task.abort();
+        }
+        served?;
         let writes = coordinator.store().write_groups();
         tracing::info!(
             transactions = writes.transactions,

@@ -13,7 +13,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::render::{DrawResult, Drawing, FONT, render};
+use crate::render::{DrawResult, Drawing, FONT, render, render_svg};
 use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, quantile};
 
 const PANEL_WIDTH: u32 = 330;
@@ -53,6 +53,15 @@ pub fn fig2(
     options: Fig2Options,
 ) -> Result<(), ReportError> {
     render(&Figure::new(rows, precision, options)?, path)
+}
+
+/// Figure 2 as [`fig2`] draws it, as an SVG document in memory.
+pub fn fig2_svg(
+    rows: &[OverlapRow],
+    precision: &str,
+    options: Fig2Options,
+) -> Result<String, ReportError> {
+    render_svg(&Figure::new(rows, precision, options)?)
 }
 
 /// The points of Figure 2 for `precision`, each with its estimate and interval, ordered by
@@ -132,7 +141,10 @@ impl Drawing for Figure {
         if self.cells.values().any(|c| c.disturbed) {
             title.push_str(" · ×: disturbed");
         }
-        let body = root.titled(&title, (FONT, 24))?;
+        // A campaign with one R* makes a figure narrower than its title: shrink the title to fit
+        // (DejaVu Sans averages about 0.56 em per character).
+        let fits = f64::from(self.size().0) / (0.56 * title.chars().count() as f64);
+        let body = root.titled(&title, (FONT, fits.min(24.0)))?;
         let (panels, bars) = body.split_horizontally(self.r_values.len() as u32 * PANEL_WIDTH);
         let panels = panels.split_evenly((self.algorithms.len(), self.r_values.len()));
         let bars = bars.split_evenly((self.algorithms.len(), 1));

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::lines::{LinePlot, Panel, Series, Style};
-use crate::render::render;
+use crate::render::{render, render_svg};
 use crate::selection::{Baseline, mean_by_x, timed};
 use crate::{EdmdRow, ReportError, tau_label};
 
@@ -14,6 +14,15 @@ use crate::{EdmdRow, ReportError, tau_label};
 /// anything but φ (N, Δ_NNL) are separate curves, so a curve never mixes two kinds of run; runs
 /// off the campaign's baseline accuracy knobs and Δ_NNL (the sweeps of Figs. 9–11) are left out.
 pub fn fig7(rows: &[EdmdRow], path: &Path) -> Result<(), ReportError> {
+    render(&plot(rows)?, path)
+}
+
+/// Figure 7 as [`fig7`] draws it, as an SVG document in memory.
+pub fn fig7_svg(rows: &[EdmdRow]) -> Result<String, ReportError> {
+    render_svg(&plot(rows)?)
+}
+
+fn plot(rows: &[EdmdRow]) -> Result<LinePlot, ReportError> {
     let baseline = Baseline::of(rows);
     let mut curves: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     for r in rows.iter().filter(|r| timed(r) && baseline.at_baseline(r)) {
@@ -47,7 +56,7 @@ pub fn fig7(rows: &[EdmdRow], path: &Path) -> Result<(), ReportError> {
         series,
         notes: Vec::new(),
     };
-    render(&LinePlot::single(panel), path)
+    Ok(LinePlot::single(panel))
 }
 
 /// "ellipsoid X0 = 2, NNL (Δ = 0.08), N = 256": what distinguishes one kind of run from another.

@@ -25,10 +25,10 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use fig::{Fig2Options, fig2, fig2_points};
+pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use accuracy::{AccuracyReport, accuracy, accuracy_markdown, accuracy_plot};
 pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
-pub use fig7::fig7;
+pub use fig7::{fig7, fig7_svg};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use units::LengthUnit;
 pub use table::{Table1Row, TableFormat, render_table, table1};

@@ -56,6 +56,23 @@ pub(crate) fn render(figure: &impl Drawing, path: &Path) -> Result<(), ReportErr
     })
 }
 
+/// Draws `figure` as an SVG document in memory (the status page serves it as is).
+pub(crate) fn render_svg(figure: &impl Drawing) -> Result<String, ReportError> {
+    register_bundled_font()?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, figure.size()).into_drawing_area();
+        figure
+            .draw(&root)
+            .and_then(|()| Ok(root.present()?))
+            .map_err(|e| ReportError::Draw {
+                path: "(svg in memory)".into(),
+                message: e.to_string(),
+            })?;
+    }
+    Ok(svg)
+}
+
 /// Registers the bundled font under plotters' `sans-serif` family, once per process.
 fn register_bundled_font() -> Result<(), ReportError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();

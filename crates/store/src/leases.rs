@@ -338,6 +338,17 @@ impl Store {
                     record_late(conn, &job_id, &current, &worker_id, token, "failure", now).await?;
                     return Ok(FailOutcome::Late);
                 }
+                sqlx::query(
+                    "INSERT INTO job_failures (job_id, attempt, worker_id, reason, failed_at)
+                     VALUES (?1, ?2, ?3, ?4, ?5)",
+                )
+                .bind(&job_id)
+                .bind(current.attempts)
+                .bind(&worker_id)
+                .bind(&error)
+                .bind(now)
+                .execute(&mut *conn)
+                .await?;
                 let outcome = if current.attempts >= i64::from(max_attempts) {
                     sqlx::query(
                         "UPDATE jobs SET state = 'failed', last_error = ?2, finished_at = ?3,
@@ -423,6 +434,15 @@ impl Store {
                 // INDEXED BY: without statistics SQLite picks the state index and reads every
                 // running job each second (524,288 of them held by 1,024 paced slots), inside the
                 // write lock; the partial index reads only the expired ones.
+                sqlx::query(
+                    "INSERT INTO job_failures (job_id, attempt, worker_id, reason, failed_at)
+                     SELECT id, attempts, lease_owner, 'lease expired on attempt ' || attempts, ?1
+                     FROM jobs INDEXED BY jobs_running_expiry
+                     WHERE state = 'running' AND lease_expires_at < ?1",
+                )
+                .bind(now)
+                .execute(&mut *conn)
+                .await?;
                 let reaped = sqlx::query(
                     "UPDATE jobs INDEXED BY jobs_running_expiry SET
                  state = CASE WHEN attempts >= ?2 THEN 'failed' ELSE 'queued' END,

@@ -13,6 +13,8 @@
 //! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
 //!   [`Store::export`], [`Store::overlap_rows`], [`Store::overlap_quality`],
 //!   [`Store::query_read_only`].
+//! - `activity`: [`Store::recent_failures`] (the `job_failures` log), [`Store::worker_activity`],
+//!   [`Store::has_done`]: what the live status page samples.
 //! - `writer`: group commit — the task that applies concurrent writes in one transaction.
 //! - [`types`] and [`error`]: the plain data and error types of the API.
 //!
@@ -22,6 +24,7 @@
 //! lease (fencing token) that currently owns it; times are caller-supplied Unix seconds, so the
 //! scheduler's clock can be simulated.
 
+mod activity;
 mod campaigns;
 mod connect;
 pub mod error;
@@ -31,6 +34,7 @@ pub mod types;
 mod workers;
 mod writer;
 
+pub use activity::{FailureRecord, JobInHand, WorkerActivity};
 pub use connect::Store;
 pub use error::{Error, Result};
 pub use types::{

@@ -35,10 +35,17 @@ impl Token {
         Ok(Token { digest: *blake3::hash(secret.as_bytes()).as_bytes(), header })
     }
 
-    fn matches(&self, presented: &str) -> bool {
+    /// Whether `presented` is this token, in constant time.
+    pub fn matches(&self, presented: &str) -> bool {
         let other = blake3::hash(presented.as_bytes());
         // blake3::Hash's PartialEq is constant-time.
         blake3::Hash::from(self.digest) == other
+    }
+
+    /// A secret derived from the token for one `purpose` (e.g. a browser session cookie): whoever
+    /// holds it can prove they were given the token without the token itself travelling again.
+    pub fn derive(&self, purpose: &str) -> blake3::Hash {
+        blake3::Hash::from(blake3::derive_key(purpose, &self.digest))
     }
 }
 
