@@ -47,7 +47,8 @@ pub enum JobError {
 /// [`overlap::PointReport`]; `disturbed` is true when the machine was still disturbed after the
 /// re-runs, `disturbance` says how).
 /// A no-op job: one record `{"index", "duration_ms"}`.
-/// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s` and `cpu_s`.
+/// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s`, `cpu_s` and
+/// `sequence_fingerprint` (the collision sequence's blocks as hex, [`edmd::sequence`]).
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     match spec {
         JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
@@ -61,15 +62,20 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
 /// core was shared).
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
     let (wall, cpu) = (Instant::now(), edmd::clock::thread_cpu_seconds());
-    let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
+    let mut report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
     let (wall_s, cpu_s) = (
         wall.elapsed().as_secs_f64(),
         edmd::clock::thread_cpu_seconds() - cpu,
     );
+    let report_sequence = std::mem::take(&mut report.sequence);
     match serde_json::to_value(report) {
         Ok(Value::Object(mut record)) => {
             record.insert("wall_s".into(), json!(wall_s));
             record.insert("cpu_s".into(), json!(cpu_s));
+            record.insert(
+                "sequence_fingerprint".into(),
+                json!(report_sequence.to_hex()),
+            );
             Ok(vec![record])
         }
         _ => Err(JobError::Edmd("the run report is not a JSON object".into())),
