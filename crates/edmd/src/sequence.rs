@@ -6,7 +6,8 @@
 //! collision mixes its ordered pair into the state), and the state is kept after every
 //! [`BLOCK`] collisions, truncated to 32 bits. Because the hash is chained, two runs' blocks are
 //! equal up to the first collision where they part and (but for a 2⁻³² coincidence per block)
-//! differ from there on: the first differing block bounds where the sequences diverged.
+//! differ from there on: the first differing block bounds where the sequences diverged (the
+//! accuracy report finds it, `crates/report/src/accuracy.rs`).
 //!
 //! The cost is one multiply and a few integer operations per collision, and nothing at all after
 //! the first 65,536 collisions.
@@ -64,38 +65,6 @@ pub fn blocks_from_hex(hex: &str) -> Option<Vec<u32>> {
         .collect()
 }
 
-/// How far two fingerprints agree.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Divergence {
-    /// Identical over the `blocks` both cover (`blocks` × [`BLOCK`] collisions).
-    Identical { blocks: usize },
-    /// Equal up to block `block` (0-based), which differs: the sequences parted within its
-    /// collisions, `block` × [`BLOCK`] + 1 … (`block` + 1) × [`BLOCK`].
-    At { block: usize },
-}
-
-impl Divergence {
-    /// Collisions known to be identical: `block` × [`BLOCK`] before a divergence, all that were
-    /// compared otherwise.
-    pub fn identical_collisions(self) -> u64 {
-        match self {
-            Self::Identical { blocks } | Self::At { block: blocks } => {
-                blocks as u64 * u64::from(BLOCK)
-            }
-        }
-    }
-}
-
-/// Where `run` first differs from `reference`, over the blocks both have.
-pub fn divergence(reference: &[u32], run: &[u32]) -> Divergence {
-    match reference.iter().zip(run).position(|(a, b)| a != b) {
-        Some(block) => Divergence::At { block },
-        None => Divergence::Identical {
-            blocks: reference.len().min(run.len()),
-        },
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -120,10 +89,6 @@ mod tests {
         let b = fingerprint(pairs(1000).into_iter().map(|(i, j)| (j, i)));
         assert_eq!(a.blocks().len(), 1000 / BLOCK as usize);
         assert_eq!(a.blocks(), b.blocks());
-        assert_eq!(
-            divergence(a.blocks(), b.blocks()),
-            Divergence::Identical { blocks: 15 }
-        );
     }
 
     #[test]
@@ -131,9 +96,7 @@ mod tests {
         let mut changed = pairs(4096);
         changed[1000] = (3, 4);
         let (a, b) = (fingerprint(pairs(4096)), fingerprint(changed));
-        let d = divergence(a.blocks(), b.blocks());
-        assert_eq!(d, Divergence::At { block: 1000 / 64 });
-        assert_eq!(d.identical_collisions(), 960);
+        assert_eq!(a.blocks()[..15], b.blocks()[..15]);
         assert!(
             a.blocks()[15..]
                 .iter()
@@ -143,10 +106,9 @@ mod tests {
         // Two collisions swapped are a different sequence too.
         let mut swapped = pairs(4096);
         swapped.swap(130, 131);
-        assert_eq!(
-            divergence(a.blocks(), fingerprint(swapped).blocks()),
-            Divergence::At { block: 2 }
-        );
+        let swapped = fingerprint(swapped);
+        assert_eq!(a.blocks()[..2], swapped.blocks()[..2]);
+        assert_ne!(a.blocks()[2], swapped.blocks()[2]);
     }
 
     #[test]
@@ -158,14 +120,5 @@ mod tests {
         assert_eq!(blocks_from_hex(&hex).as_deref(), Some(f.blocks()));
         assert_eq!(blocks_from_hex("abc"), None);
         assert_eq!(blocks_from_hex("0000000g"), None);
-    }
-
-    #[test]
-    fn a_shorter_run_is_compared_over_what_it_has() {
-        let (long, short) = (fingerprint(pairs(640)), fingerprint(pairs(320)));
-        assert_eq!(
-            divergence(long.blocks(), short.blocks()),
-            Divergence::Identical { blocks: 5 }
-        );
     }
 }
