@@ -115,6 +115,7 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
         seed: args.seed,
         ci_target: args.ci_target,
         time_cap_s: args.time_cap_s,
+        verdict_check: None,
     };
     spec.validate().map_err(flag_error)?;
     system::start_thread_pool()?;

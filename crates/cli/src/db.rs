@@ -9,7 +9,7 @@ use coordinator::Store;
 use report::{OverlapRow, TableFormat};
 
 use crate::local::report_status;
-use crate::output::{Format, print_json, print_table, write_csv};
+use crate::output::{Format, print_json, print_table, print_text, write_csv};
 
 pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     Ok(tokio::runtime::Builder::new_current_thread().enable_all().build()?)
@@ -153,7 +153,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
                     std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
                     eprintln!("wrote {}", out.display());
                 }
-                None => print!("{text}"),
+                None => print_text(&text)?,
             }
             return Ok(());
         }
@@ -180,7 +180,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
                 Format::Csv => TableFormat::Csv,
                 Format::Table => TableFormat::Markdown,
             };
-            print!("{}", report::render_table(&table, format)?);
+            print_text(&report::render_table(&table, format)?)?;
         }
     }
     Ok(())

@@ -4,10 +4,10 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use report::{Clock, EdmdRow, LengthUnit, ReportError};
+use report::{Clock, EdmdRow, LengthUnit, ReportError, VerdictRow};
 
 use crate::db::{ReportArgs, open_read_only, runtime};
-use crate::output::{Format, print_json};
+use crate::output::{Format, print_json, print_text};
 
 /// The reports this module makes.
 pub const NAMES: [&str; 6] = ["fig7", "fig8", "fig9", "fig10", "fig11", "accuracy"];
@@ -62,6 +62,13 @@ pub(crate) fn edmd_rows(runs: Vec<store::EdmdRun>, clock: Clock) -> Vec<EdmdRow>
                 init_s: r.init_s,
                 wall_s: r.wall_s,
                 cpu_s: r.cpu_s,
+                tau_update_us: r.tau_update_us,
+                tau_predict_us: r.tau_predict_us,
+                sequence: r
+                    .sequence_fingerprint
+                    .as_deref()
+                    .and_then(edmd::sequence::blocks_from_hex),
+                sequence_block: r.sequence_block.and_then(|b| u32::try_from(b).ok()),
             }
         })
         .collect()
@@ -87,12 +94,17 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
     }
     let rows = rows(&args.db, clock)?;
+    let verdicts = if name == "accuracy" {
+        verdict_rows(&args.db)?
+    } else {
+        Vec::new()
+    };
     if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
         eprintln!(
             "note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used"
         );
     }
-    if rows.is_empty() {
+    if rows.is_empty() && verdicts.is_empty() {
         bail!("report {name}: no EDMD results in {}", args.db.display());
     }
     let wrote = |path: &Path| eprintln!("wrote {}", path.display());
@@ -106,7 +118,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
-        "accuracy" => accuracy(&rows, json, out)?,
+        "accuracy" => accuracy(&rows, &verdicts, json, out)?,
         other => bail!("report `{other}` is not an EDMD report"),
     }
     Ok(())
@@ -133,14 +145,48 @@ fn finish<F: serde::Serialize>(
     Ok(())
 }
 
-fn accuracy(rows: &[EdmdRow], json: bool, out: Option<&Path>) -> anyhow::Result<()> {
-    let study = report::accuracy(rows)?;
+/// The overlap points run with `verdict_check`, as the report crate reads them.
+fn verdict_rows(db: &Path) -> anyhow::Result<Vec<VerdictRow>> {
+    let rows = runtime()?.block_on(async {
+        let store = open_read_only(db).await?;
+        anyhow::Ok(store.overlap_verdicts().await?)
+    })?;
+    Ok(rows
+        .into_iter()
+        .map(|r| VerdictRow {
+            l_star: r.l_star,
+            w_star: r.w_star,
+            r_star: r.r_star,
+            precision: r.precision,
+            algorithm: r.algorithm,
+            ns_per_check: r.ns_per_check,
+            bulk: r.bulk,
+            shell: r.shell,
+            bulk_wrong: r.bulk_wrong,
+            shell_wrong: r.shell_wrong,
+            shell_max_gap: r.shell_max_gap,
+            shell_by_decade: r.shell_by_decade,
+            shell_wrong_by_decade: r.shell_wrong_by_decade,
+        })
+        .collect())
+}
+
+fn accuracy(
+    rows: &[EdmdRow],
+    verdicts: &[VerdictRow],
+    json: bool,
+    out: Option<&Path>,
+) -> anyhow::Result<()> {
+    let study = report::accuracy_report(rows, verdicts)?;
+    for point in &study.missing {
+        eprintln!("missing: {point}");
+    }
     if json {
         print_json(&study)?;
     }
     let Some(out) = out else {
         if !json {
-            print!("{}", report::accuracy_markdown(&study));
+            print_text(&report::accuracy_markdown(&study))?;
         }
         return Ok(());
     };

@@ -1,5 +1,7 @@
 //! Printing results: aligned tables for people, JSON for programs.
 
+use std::io::{ErrorKind, Write};
+
 use serde::Serialize;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -10,8 +12,17 @@ pub enum Format {
 }
 
 pub fn print_json(value: &impl Serialize) -> anyhow::Result<()> {
-    println!("{}", serde_json::to_string_pretty(value)?);
-    Ok(())
+    print_text(&(serde_json::to_string_pretty(value)? + "\n"))
+}
+
+/// Writes `text` to stdout. A reader that closed the pipe (`sweep report … | head`) has what it
+/// wanted: the process then ends quietly with status 0, where `print!` would panic.
+pub fn print_text(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == ErrorKind::BrokenPipe => std::process::exit(0),
+        other => Ok(other?),
+    }
 }
 
 /// Prints `rows` under `header` with every column as wide as its widest cell.
@@ -23,22 +34,37 @@ pub fn print_table(header: &[&str], rows: &[Vec<String>]) {
         }
     }
     let line = |cells: Vec<&str>| {
-        let padded: Vec<String> = cells.iter().zip(&widths).map(|(c, w)| format!("{c:>w$}")).collect();
-        println!("{}", padded.join("  ").trim_end());
+        let padded: Vec<String> = cells
+            .iter()
+            .zip(&widths)
+            .map(|(c, w)| format!("{c:>w$}"))
+            .collect();
+        padded.join("  ").trim_end().to_owned() + "\n"
     };
-    line(header.to_vec());
+    let mut text = line(header.to_vec());
     for row in rows {
-        line(row.iter().map(String::as_str).collect());
+        text += &line(row.iter().map(String::as_str).collect());
     }
+    // Nothing on stdout is worth an error here but a closed pipe, which ends the process.
+    let _ = print_text(&text);
 }
 
 /// CSV on stdout: a header row, then `rows`.
-pub fn write_csv(columns: &[String], rows: impl Iterator<Item = Vec<String>>) -> anyhow::Result<()> {
+pub fn write_csv(
+    columns: &[String],
+    rows: impl Iterator<Item = Vec<String>>,
+) -> anyhow::Result<()> {
+    let quiet_on_closed_pipe = |e: csv::Error| match e.kind() {
+        csv::ErrorKind::Io(io) if io.kind() == ErrorKind::BrokenPipe => std::process::exit(0),
+        _ => e,
+    };
     let mut writer = csv::Writer::from_writer(std::io::stdout().lock());
-    writer.write_record(columns)?;
+    writer.write_record(columns).map_err(quiet_on_closed_pipe)?;
     for row in rows {
-        writer.write_record(&row)?;
+        writer.write_record(&row).map_err(quiet_on_closed_pipe)?;
     }
-    writer.flush()?;
-    Ok(())
+    match writer.flush() {
+        Err(e) if e.kind() == ErrorKind::BrokenPipe => std::process::exit(0),
+        other => Ok(other?),
+    }
 }

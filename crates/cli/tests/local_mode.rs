@@ -293,6 +293,53 @@ fn edmd_reports_name_missing_points_then_draw_once_the_plan_is_extended() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(std::fs::read_to_string(&md).unwrap().contains("**Recommended: eps_d = "));
 
+    // The EDMD family alone: the overlap one is named missing; every setting is compared with the
+    // tightest run's collision sequence, and Eq. 73 is split in time.
+    let out = sweep(&["report", "accuracy", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing: overlap points with `verdict_check`"));
+    let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let runs = study["knobs"][0]["state_points"][0]["runs"].as_array().unwrap();
+    let reference = &runs[0];
+    assert!(reference["identical_collisions"].as_u64().unwrap() > 0, "{study}");
+    assert_eq!(reference["identical_collisions"], reference["compared_collisions"], "the reference is itself");
+    assert!(runs[1]["identical_collisions"].as_u64().unwrap() <= runs[1]["compared_collisions"].as_u64().unwrap());
+    assert!(runs.iter().all(|r| r["update_share"].as_f64().is_some_and(|s| s > 0.0 && s < 1.0)), "{study}");
+
+    // Then overlap points with a checking set: the report has both families.
+    let overlap = "[[overlap]]\nl_star = 2\nw_star = 3\nr_star = 0.5\nconfigurations = 20000\nrepeats = 1\n\
+                   precision = [\"f32\", \"f64\"]\nalgorithms = [\"ocsi\", \"ocsi_batch\"]\nverdict_check = 4000\n";
+    let extended = run_plan(&write(dir.path(), "c.toml", &format!("name = \"figures\"\n{nnl}\n{ll}\n{overlap}")), db);
+    assert_eq!(extended["new_jobs"], 2, "{extended}");
+    let out = sweep(&["report", "accuracy", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let settings = study["overlap"]["settings"].as_array().unwrap();
+    assert_eq!(settings.len(), 4, "{study}");
+    assert!(settings.iter().all(|s| s["bulk"].as_u64().unwrap() + s["shell"].as_u64().unwrap() == 4000), "{study}");
+    let wrong = |precision: &str| -> u64 {
+        settings.iter().filter(|s| s["precision"] == precision).map(|s| s["shell_wrong"].as_u64().unwrap()).sum()
+    };
+    assert!(wrong("f32") > wrong("f64"), "{study}");
+    assert!(study["overlap"]["recommended"]["algorithm"].is_string(), "{study}");
+    assert!(study["missing"].as_array().unwrap().is_empty(), "{study}");
+    let png = dir.path().join("accuracy.png");
+    let out = sweep(&["report", "accuracy", "--db", db, "--out", png.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+
+    // A reader that closes the pipe at once (`| head`) ends the report quietly, not in a panic.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(["report", "accuracy", "--db", db, "--format", "json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{out:?}");
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"), "{}", String::from_utf8_lossy(&out.stderr));
+
     let out = sweep(&["query", "SELECT count(*) AS runs, min(wall_s > 0 AND cpu_s > 0 AND cpu_s <= wall_s * 1.05) AS timed FROM edmd_runs", "--db", db, "--format", "json"]);
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(rows[0]["runs"], 8, "{rows:?}");

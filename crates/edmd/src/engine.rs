@@ -19,6 +19,7 @@ use crate::nnl::Obp;
 use crate::rigid::{Body, Inertia, collide};
 use crate::rng::Rng;
 use crate::scene::{Neighbours, Scene, ShapeKind};
+use crate::sequence::Fingerprint;
 use crate::sphere::{self, Probe, Trajectory};
 
 /// What one particle kind costs to simulate: the analytic sphere, or the general rigid body.
@@ -186,6 +187,8 @@ struct Engine<M: Model> {
     acc: Accounting,
     /// The first contact search a solver could not resolve; the event loop stops on it.
     unresolved: Option<EdmdError>,
+    /// The collision sequence so far, carried from one engine of a run to the next.
+    sequence: Fingerprint,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -198,6 +201,8 @@ struct Accounting {
     separating: u64,
     crossings: u64,
     rebuilds: u64,
+    /// Wall time spent rebuilding boxes and lists (Eq. 73's list updates), in seconds.
+    rebuild_s: f64,
 }
 
 impl<M: Model> Engine<M> {
@@ -257,6 +262,7 @@ impl<M: Model> Engine<M> {
                 ..Default::default()
             },
             unresolved: None,
+            sequence: Fingerprint::default(),
         };
         if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
             for (i, b) in e.bodies.iter().enumerate() {
@@ -323,8 +329,11 @@ impl<M: Model> Engine<M> {
         else {
             return;
         };
+        // Rebuilds are rare (µs each): two clock reads time them for Eq. 73's split.
+        let started = Instant::now();
         lists.rebuild(&surf, i, &self.bodies[i]);
         escape_at[i] = self.t + lists.region(i).escape_time(&surf, &self.bodies[i], *eps);
+        self.acc.rebuild_s += started.elapsed().as_secs_f64();
         self.acc.rebuilds += 1;
         self.predict_for(i);
     }
@@ -393,6 +402,7 @@ impl<M: Model> Engine<M> {
                 0.5 * (self.bodies[a].v.norm_squared() + bb.v.norm_squared()) - ke_before;
             self.acc.virial += (bb.r - self.bodies[a].r).dot(&j);
             self.acc.collisions += 1;
+            self.sequence.record(ev.a, ev.b);
             true
         } else {
             self.acc.separating += 1;
@@ -641,6 +651,13 @@ pub struct RunReport {
     /// τ_c from this thread's CPU time instead of the wall clock, in µs: the paper's "CPU time"
     /// of Eq. (69); below `tau_c_us` when the core was shared with other work.
     pub tau_c_cpu_us: f64,
+    /// Eq. (73) split in time (wall clock, as `tau_c_us`): Δt_u, the box and list rebuilds per
+    /// collision (timed one by one; the escape-time updates after each collision are too short
+    /// to time and stay in the prediction), and Δt_coll = `tau_c_us` − Δt_u, the prediction.
+    pub tau_update_us: f64,
+    pub tau_predict_us: f64,
+    /// Wall time of the measured run's box and list rebuilds (NNL; 0 with linked cells).
+    pub nnl_rebuild_s: f64,
     /// Z = P/(ρ kT) = 1 + Σ r_ij·Δp_i / (3 N kT T), with the measured kT.
     pub pressure_z: f64,
     /// Standard error of Z from 10 block averages.
@@ -682,6 +699,10 @@ pub struct RunReport {
     /// Wall time of the initial state (s): lattice, melting, compression, first lists and events,
     /// and the [`RELAX_COLLISIONS_PER_PARTICLE`] collisions per particle that relax it.
     pub init_s: f64,
+    /// The collision sequence from the first collision of the run (relaxation included); kept
+    /// out of the report's JSON (a job stores it as hex, `sweep edmd` does not print it).
+    #[serde(skip)]
+    pub sequence: Fingerprint,
 }
 
 /// The final configuration, in the `--dump` format of DESIGN.md.
@@ -782,16 +803,26 @@ fn simulate<M: Model>(
     let mut rng = Rng::new(scene.seed);
     let init = Instant::now();
     let mut slot = Some(model);
+    // The collision sequence starts at the first collision of the first relaxation: the Monte
+    // Carlo state before it depends on the seed alone, not on the accuracy knobs.
+    let mut sequence = Fingerprint::default();
     let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
         let Some(m) = slot.take() else {
             unreachable!("the model is put back after every relaxation")
         };
         let n = bodies.len() as u64;
         let mut eng = Engine::new(m, l, bodies, inertia.inv_i, scene)?;
+        eng.sequence = std::mem::take(&mut sequence);
         eng.advance(per_particle * n, |_| {})?;
         eng.sync_all();
-        let Engine { m, bodies, .. } = eng;
+        let Engine {
+            m,
+            bodies,
+            sequence: so_far,
+            ..
+        } = eng;
         slot = Some(m);
+        sequence = so_far;
         Ok(bodies)
     };
     let mut cfg = initial_configuration(scene.n, scene.phi, &geom, inertia, &mut rng, &mut relax)?;
@@ -799,7 +830,8 @@ fn simulate<M: Model>(
     let Some(m) = slot else {
         unreachable!("the model is put back after every relaxation")
     };
-    let eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene)?;
+    let mut eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene)?;
+    eng.sequence = sequence;
     measure(eng, scene, geom, init, progress)
 }
 
@@ -826,6 +858,7 @@ fn measure<M: Model>(
         separating: eng.acc.separating,
         crossings: eng.acc.crossings,
         rebuilds: eng.acc.rebuilds,
+        rebuild_s: eng.acc.rebuild_s,
         ..Default::default()
     };
     let init_s = init.elapsed().as_secs_f64();
@@ -847,10 +880,12 @@ fn measure<M: Model>(
         ..Default::default()
     };
     let base_collisions = eng.acc.collisions;
-    let (crossings0, rebuilds0) = (eng.acc.crossings, eng.acc.rebuilds);
+    let (crossings0, rebuilds0, rebuild_s0) =
+        (eng.acc.crossings, eng.acc.rebuilds, eng.acc.rebuild_s);
     eng.acc = Accounting {
         crossings: crossings0,
         rebuilds: rebuilds0,
+        rebuild_s: rebuild_s0,
         separating: eng.acc.separating,
         ..start_acc
     };
@@ -888,9 +923,14 @@ fn measure<M: Model>(
         f64::NAN
     };
     let calls = (stats.distance_calls - stats0.distance_calls) as f64;
+    let per_collision_us = |s: f64| s * 1e6 / scene.collisions as f64;
+    let nnl_rebuild_s = eng.acc.rebuild_s - rebuild_s0;
     let report = RunReport {
         collisions: scene.collisions,
-        tau_c_us: elapsed * 1e6 / scene.collisions as f64,
+        tau_c_us: per_collision_us(elapsed),
+        tau_update_us: per_collision_us(nnl_rebuild_s),
+        tau_predict_us: per_collision_us(elapsed - nnl_rebuild_s),
+        nnl_rebuild_s,
         tau_c_cpu_us: cpu_elapsed * 1e6 / scene.collisions as f64,
         pressure_z: z,
         pressure_z_err: z_err,
@@ -917,6 +957,7 @@ fn measure<M: Model>(
         n,
         phi: scene.phi,
         init_s,
+        sequence: std::mem::take(&mut eng.sequence),
     };
     let state = final_state(&eng.bodies, eng.l, &geom);
     Ok((report, state))

@@ -20,6 +20,7 @@
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle.
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
+//! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.
 //! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
 //!
 //! Where this engine departs from the paper, and why:
@@ -68,6 +69,7 @@ pub mod pw;
 pub mod rigid;
 pub mod rng;
 pub mod scene;
+pub mod sequence;
 pub mod sphere;
 pub mod superquadric;
 pub mod support_distance;

@@ -251,6 +251,7 @@ const OVERLAP_KEYS: &[&str] = &[
     "seed",
     "ci_target",
     "time_cap_s",
+    "verdict_check",
 ];
 
 fn positive_length(x: f64) -> Result<(), String> {
@@ -322,6 +323,9 @@ fn expand_overlap(
         }
     })?;
 
+    let verdict_check =
+        sweep.optional_integers("verdict_check", &at_least_one_up_to(MAX_CONFIGURATIONS))?;
+
     let lens = [
         seed.len(),
         precision.len(),
@@ -333,6 +337,7 @@ fn expand_overlap(
         repeats.len(),
         ci_target.len(),
         time_cap_s.len(),
+        verdict_check.len(),
     ];
     check_product(sweep, &lens)?;
     cartesian(&lens)
@@ -350,6 +355,7 @@ fn expand_overlap(
                 algorithms: algorithms.clone(),
                 ci_target: ci_target[i[8]],
                 time_cap_s: time_cap_s[i[9]],
+                verdict_check: verdict_check[i[10]],
             };
             // The kernel crate's own rules, so that a rule added there is enforced here too.
             point

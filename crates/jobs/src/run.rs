@@ -45,9 +45,12 @@ pub enum JobError {
 /// "reference_compute_ns_after", "reference_compute_ns_baseline", "reference_stream_ns_before",
 /// "reference_stream_ns_after", "disturbed", "disturbance", "reruns", "rerun_reasons"}` (see
 /// [`overlap::PointReport`]; `disturbed` is true when the machine was still disturbed after the
-/// re-runs, `disturbance` says how).
+/// re-runs, `disturbance` says how), and with `verdict_check` a `verdicts` object
+/// ([`overlap::verdicts::VerdictCheck`]: the checking set's verdicts against the exact ones).
 /// A no-op job: one record `{"index", "duration_ms"}`.
-/// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s` and `cpu_s`.
+/// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s`, `cpu_s` and
+/// `sequence_fingerprint` (the collision sequence's blocks as hex, [`edmd::sequence`]) with
+/// `sequence_block`, the collisions per block.
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     match spec {
         JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
@@ -61,15 +64,21 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
 /// core was shared).
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
     let (wall, cpu) = (Instant::now(), edmd::clock::thread_cpu_seconds());
-    let report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
+    let mut report = edmd::run(scene, &mut |_| {}).map_err(|e| JobError::Edmd(e.to_string()))?;
     let (wall_s, cpu_s) = (
         wall.elapsed().as_secs_f64(),
         edmd::clock::thread_cpu_seconds() - cpu,
     );
+    let report_sequence = std::mem::take(&mut report.sequence);
     match serde_json::to_value(report) {
         Ok(Value::Object(mut record)) => {
             record.insert("wall_s".into(), json!(wall_s));
             record.insert("cpu_s".into(), json!(cpu_s));
+            record.insert(
+                "sequence_fingerprint".into(),
+                json!(report_sequence.to_hex()),
+            );
+            record.insert("sequence_block".into(), json!(edmd::sequence::BLOCK));
             Ok(vec![record])
         }
         _ => Err(JobError::Edmd("the run report is not a JSON object".into())),
@@ -91,6 +100,9 @@ fn four_digits(x: f64) -> f64 {
     let scale = 10f64.powi(3 - x.abs().log10().floor() as i32);
     (x * scale).round() / scale
 }
+
+/// Mixed into a point's generator seed for its checking set, independent of the timed sets.
+const VERDICT_SEED: u64 = 0x7665_7264_6963_7473;
 
 fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, JobError> {
     let seeded = PointSpec {
@@ -123,6 +135,10 @@ fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, Jo
         })
         .collect();
     let references = report.references;
+    // Outside every timed loop, on a set of its own (from its own seed), once the timing is done.
+    let verdicts = point
+        .verdict_check
+        .map(|n| overlap::verdicts::check_verdicts(&seeded, n, generator_seed ^ VERDICT_SEED));
     records.push(record([
         ("stream_ns_per_config", json!(report.stream_ns_per_config)),
         ("generation_ms", json!(report.generation_ms)),
@@ -158,6 +174,9 @@ fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, Jo
         ("reruns", json!(report.reruns)),
         ("rerun_reasons", json!(report.rerun_reasons)),
     ]));
+    if let (Some(verdicts), Some(point_record)) = (verdicts, records.last_mut()) {
+        point_record.insert("verdicts".into(), json!(verdicts));
+    }
     Ok(records)
 }
 
@@ -258,6 +277,7 @@ mod tests {
             seed: 0,
             ci_target: None,
             time_cap_s: None,
+            verdict_check: None,
         });
         let records = run(&job, 1).expect("a valid point runs");
         assert_eq!(records.len(), 2 * 2 + 1);

@@ -152,6 +152,7 @@ mod tests {
             seed: 0,
             ci_target: None,
             time_cap_s: None,
+            verdict_check: None,
         })
     }
 
@@ -199,8 +200,11 @@ mod tests {
         let precise = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), ..p.clone() });
         assert!(precise.canonical_json().contains(r#""ci_target":0.01"#));
         assert_ne!(precise.id(), plain.id());
-        let capped = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), time_cap_s: Some(30.0), ..p });
+        let capped = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), time_cap_s: Some(30.0), ..p.clone() });
         assert_ne!(capped.id(), precise.id());
+        let checked = JobSpec::Overlap(PointSpec { verdict_check: Some(1000), ..p });
+        assert!(checked.canonical_json().contains(r#""verdict_check":1000"#));
+        assert_ne!(checked.id(), plain.id());
         // A stored spec without the keys still reads.
         let stored: JobSpec = serde_json::from_str(&plain.canonical_json()).expect("old specs parse");
         assert_eq!(stored, plain);

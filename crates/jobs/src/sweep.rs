@@ -126,6 +126,14 @@ impl<'a, 'i> Sweep<'a, 'i> {
         Ok(self.floats(key, None, check)?.into_iter().map(Some).collect())
     }
 
+    /// An expandable integer key without a default, as [`Sweep::optional_floats`].
+    pub fn optional_integers(&self, key: &str, check: Check<'_, u64>) -> Result<Vec<Option<u64>>, Issue> {
+        if self.get(key).is_none() {
+            return Ok(vec![None]);
+        }
+        Ok(self.integers(key, None, check)?.into_iter().map(Some).collect())
+    }
+
     /// An expandable non-negative integer key.
     pub fn integers(
         &self,

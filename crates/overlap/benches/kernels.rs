@@ -32,6 +32,7 @@ fn point() -> PointSpec {
         seed: 1,
         ci_target: None,
         time_cap_s: None,
+        verdict_check: None,
     }
 }
 

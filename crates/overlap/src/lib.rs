@@ -8,6 +8,8 @@
 //! - [`protocol`]: the timed loops (in short blocks) and their report; [`estimate`]: robust
 //!   estimates, confidence intervals and when to stop measuring; [`noise`]: the references that
 //!   tell a disturbed machine.
+//! - [`exact`]: Eq. 2 decided exactly; [`verdicts`]: how often each kernel's verdict differs
+//!   from it, on a checking set apart from the timed ones (bulk and near-boundary shell).
 //!
 //! Every kernel is generic over [`Real`] = `f32` | `f64`.
 
@@ -16,6 +18,7 @@ pub mod batch;
 pub mod config;
 pub mod error;
 pub mod estimate;
+pub mod exact;
 pub mod kernels;
 pub mod noise;
 pub mod protocol;
@@ -23,6 +26,7 @@ pub mod real;
 pub mod rng;
 pub mod range;
 pub mod sampler;
+pub mod verdicts;
 
 pub use algorithm::{Algorithm, Precision};
 pub use batch::{Batch, BatchView};

@@ -57,6 +57,11 @@ pub struct PointSpec {
     /// unset); only with `ci_target`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_cap_s: Option<f64>,
+    /// Configurations of a checking set, drawn and judged outside the timed loops, whose
+    /// verdicts are compared with the exact ones ([`crate::verdicts`]); unset, none, and the
+    /// point's id is the one it had before this key existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict_check: Option<u64>,
 }
 
 fn invalid(key: &'static str, reason: String) -> OverlapError {
@@ -102,6 +107,12 @@ impl PointSpec {
             return Err(invalid(
                 "ci_target",
                 format!("must lie strictly between 0 and 1, got {target}"),
+            ));
+        }
+        if self.verdict_check == Some(0) {
+            return Err(invalid(
+                "verdict_check",
+                "must be at least 1 configuration (leave it out for none)".into(),
             ));
         }
         if let Some(cap) = self.time_cap_s {

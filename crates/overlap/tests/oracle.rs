@@ -1,12 +1,15 @@
 //! Every algorithm, in both precisions, against an exact oracle: Eq. 2 evaluated in rational
 //! arithmetic on the very values the kernel sees (floats are dyadic rationals, so the oracle's
 //! only approximation is none). A kernel may disagree with the oracle only inside the rounding
-//! band of [`rounding_band`], and that is asserted, not assumed.
+//! band of [`rounding_band`] (`overlap::exact`), and that is asserted, not assumed. The library's
+//! own exact evaluation (`overlap::exact`, floating-point expansions) is checked against this
+//! oracle on the same cases.
 
 use num_rational::BigRational;
 use num_traits::{Signed, ToPrimitive, Zero};
 use overlap::batch::{Batch, verdict, verdict_words};
 use overlap::config::axes_from_quaternion;
+use overlap::exact::{ExactError, overlaps_exactly, rounding_band};
 use overlap::kernels::batch::Isa;
 use overlap::{Algorithm, Configuration, Cuboid, Real, min_distance, overlaps};
 use proptest::prelude::*;
@@ -29,34 +32,6 @@ fn exact_margin<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) 
     d2 - &r * &r
 }
 
-fn gamma(n: f64, u: f64) -> f64 {
-    n * u / (1.0 - n * u)
-}
-
-/// A bound on |fl(d²) − d²| + |fl(R²) − R²| for any of the kernels (plain or fused arithmetic,
-/// any summation order). Per axis, the projection a_i = Σ_j r_j e_ij carries at most
-/// γ₃·Σ_j|r_j e_ij|, and |a_i| − c_i one more rounding: δ_i ≤ γ₄·(Σ_j|r_j e_ij| + c_i). Squaring
-/// l_i ± δ_i moves l_i² by at most 2(l_i + δ_i)δ_i, the products and the three-term sum add
-/// γ₄·d², and R·R adds u·R². The quick-rejection tests of QRI/QRF compare l_i with ±R, which
-/// can only flip when |l_i| is within δ_i + u·R of R, a case the same terms cover. The factor 2
-/// is slack for the second-order terms dropped above.
-fn rounding_band<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> f64 {
-    let u = T::UNIT_ROUNDOFF;
-    let mut band = 0.0;
-    let mut d2 = 0.0;
-    for i in 0..3 {
-        let s: f64 = (0..3).map(|j| (cfg.r_sc[j].to_f64() * cfg.axes[i][j].to_f64()).abs()).sum();
-        let a: f64 = (0..3).map(|j| cfg.r_sc[j].to_f64() * cfg.axes[i][j].to_f64()).sum();
-        let c = cuboid.half[i].to_f64();
-        let delta = gamma(4.0, u) * (s + c);
-        let l = (a.abs() - c).max(0.0);
-        band += 2.0 * (l + delta) * delta + delta * delta;
-        d2 += l * l;
-    }
-    let r = radius.to_f64();
-    2.0 * (band + gamma(4.0, u) * d2 + u * r * r)
-}
-
 /// The verdicts of every algorithm for `cfgs`, the batched kernel on all of them at once.
 fn check_all<T: Real>(cfgs: &[Configuration<T>], cuboid: &Cuboid<T>, radius: T) -> Result<(), TestCaseError> {
     let batch = Batch::from_configurations(cfgs);
@@ -70,6 +45,12 @@ fn check_all<T: Real>(cfgs: &[Configuration<T>], cuboid: &Cuboid<T>, radius: T) 
         let truth = !margin.is_positive();
         let band = rounding_band(cfg, cuboid, radius);
         let margin_f = margin.to_f64().unwrap_or(f64::INFINITY);
+        match overlaps_exactly(cfg, cuboid, radius) {
+            Ok(verdict) => prop_assert_eq!(verdict, truth, "overlap::exact at d²−R² = {:e}; {:?}", margin_f, cfg),
+            Err(ExactError::OutOfRange { value }) => {
+                prop_assert!(value.abs() < 2f64.powi(-100) || value.abs() > 2f64.powi(100), "refused {value:e}")
+            }
+        }
         let per_pair = Algorithm::ALL.into_iter().filter(|&a| a != Algorithm::OcsiBatch).map(|a| (a.name(), overlaps(a, cfg, cuboid, radius)));
         let batched = isas.iter().zip(&bits).map(|(isa, bits)| (isa.name(), verdict(bits, i)));
         for (name, got) in per_pair.chain(batched) {

@@ -21,6 +21,7 @@ fn spec(configurations: u64, repeats: u32) -> PointSpec {
         seed: 9,
         ci_target: None,
         time_cap_s: None,
+        verdict_check: None,
     }
 }
 

@@ -1,8 +1,10 @@
 //! What accuracy costs in time, for the EDMD engine: for each accuracy knob (ε_d, ε_d^nnl, the
 //! Newton–Raphson, steepest-descent and Brent tolerances) that a campaign swept, τ_c against
-//! what the looser settings lose — overlaps, solver failures, energy drift, and Z's deviation
-//! from the run at the tightest setting of the same state point — with the Pareto front and the
-//! cheapest setting that loses nothing measurable.
+//! what the looser settings lose — overlaps, solver failures, energy drift, Z's deviation from
+//! the run at the tightest setting of the same state point, and how many collisions the event
+//! sequence stays identical to that run's — with the Pareto front and the cheapest setting that
+//! loses nothing measurable. The overlap kernels' family (f32 against f64) is
+//! [`crate::overlap_accuracy`]; [`accuracy_report`] puts both together.
 //!
 //! A state point is everything but the knob: shape, X0, φ, N, neighbour method, Δ_NNL, seed
 //! and run length; the other knobs are held at the campaign's baseline. Two runs at different
@@ -16,6 +18,9 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::lines::{LinePlot, Panel, Series, Style};
+use crate::overlap_accuracy::{
+    OverlapAccuracy, VerdictRow, overlap_accuracy, overlap_markdown, overlap_panels,
+};
 use crate::render::render;
 use crate::selection::{Baseline, KNOBS, Key, Tighter, knobs, timed};
 use crate::{EdmdRow, ReportError};
@@ -33,6 +38,10 @@ pub const COST_NOISE: f64 = 0.05;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct AccuracyReport {
     pub knobs: Vec<KnobStudy>,
+    /// The overlap kernels' f32 against f64, when the database has points with `verdict_check`.
+    pub overlap: Option<OverlapAccuracy>,
+    /// The points one family lacks while the other is there (the report is drawn anyway).
+    pub missing: Vec<String>,
     /// What the report could not measure, said rather than left out silently.
     pub not_measured: Vec<String>,
 }
@@ -65,6 +74,9 @@ pub struct SettingSummary {
     pub overlaps: u64,
     pub solver_failures: u64,
     pub contact_nr_fallbacks: u64,
+    /// The fewest collisions, over its state points, that its event sequence stayed identical
+    /// to the tightest setting's run; `None` where no run has a fingerprint.
+    pub min_identical_collisions: Option<u64>,
     pub safe: bool,
     /// Not beaten in both cost and Z deviation by a safe setting.
     pub pareto: bool,
@@ -99,6 +111,13 @@ pub struct SettingRun {
     pub solver_failures: u64,
     pub contact_nr_fallbacks: u64,
     pub nr_iterations_mean: f64,
+    /// Collisions from the start of the run (relaxation included) during which the event
+    /// sequence was identical to the reference run's, to the block of `sequence_block`
+    /// collisions, and how many collisions both fingerprints cover; `None` without fingerprints.
+    pub identical_collisions: Option<u64>,
+    pub compared_collisions: Option<u64>,
+    /// Eq. 73: the share of the time per collision spent on list updates.
+    pub update_share: Option<f64>,
 }
 
 impl SettingRun {
@@ -110,29 +129,71 @@ impl SettingRun {
     }
 }
 
-/// The accuracy report over every EDMD run; [`ReportError::MissingPoints`] when no state
-/// point was run at two values of any knob.
+/// The EDMD family of the accuracy report alone (see [`accuracy_report`]).
 pub fn accuracy(rows: &[EdmdRow]) -> Result<AccuracyReport, ReportError> {
+    accuracy_report(rows, &[])
+}
+
+/// The accuracy report over every EDMD run and every overlap point with a checking set;
+/// [`ReportError::MissingPoints`] when neither family has what it needs (no state point run at
+/// two values of a knob, no overlap point with `verdict_check`); when one family has, the other's
+/// missing points are listed in `missing`.
+pub fn accuracy_report(
+    rows: &[EdmdRow],
+    verdicts: &[VerdictRow],
+) -> Result<AccuracyReport, ReportError> {
     let baseline = Baseline::of(rows);
     let studies: Vec<KnobStudy> = (0..KNOBS.len())
         .filter_map(|k| study(rows, &baseline, k))
         .collect();
+    let overlap = overlap_accuracy(verdicts);
+    let mut missing = Vec::new();
     if studies.is_empty() {
+        missing.push(format!(
+            "EDMD runs of one state point at two or more values of an accuracy knob ({}), the others at the campaign's baseline",
+            KNOBS.map(|(name, _)| name).join(", ")
+        ));
+    }
+    if overlap.is_none() {
+        missing.push(
+            "overlap points with `verdict_check` (a checking set judged against the exact verdicts), in f32 and f64".into(),
+        );
+    }
+    if studies.is_empty() && overlap.is_none() {
         return Err(ReportError::MissingPoints {
             figure: "accuracy",
-            missing: vec![format!(
-                "runs of one state point at two or more values of an accuracy knob ({}), the others at the campaign's baseline",
-                KNOBS.map(|(name, _)| name).join(", ")
-            )],
+            missing,
         });
+    }
+    let without_fingerprints = studies
+        .iter()
+        .flat_map(|s| &s.state_points)
+        .flat_map(|p| &p.runs)
+        .filter(|r| r.identical_collisions.is_none())
+        .count();
+    let mut not_measured = Vec::new();
+    if without_fingerprints > 0 {
+        not_measured.push(format!(
+            "how long the event sequence stays identical to the reference run, for {without_fingerprints} run(s) written before the engine recorded its sequence (or whose reference was)"
+        ));
     }
     Ok(AccuracyReport {
         knobs: studies,
-        not_measured: vec![
-            "how long (in collisions) the event sequence stays identical to the reference run: the engine does not record the sequence".into(),
-            "the overlap kernels' f32 against f64 verdicts against the exact answer: not part of the campaign records yet".into(),
-        ],
+        overlap,
+        missing,
+        not_measured,
     })
+}
+
+/// Equal blocks from the start of two fingerprints, and how many blocks both have: the hashes
+/// are chained, so the first block that differs is where the sequences parted.
+pub(crate) fn identical_prefix(reference: &[u32], run: &[u32]) -> (usize, usize) {
+    let same = reference
+        .iter()
+        .zip(run)
+        .take_while(|(a, b)| a == b)
+        .count();
+    (same, reference.len().min(run.len()))
 }
 
 type PointKey = (String, Key, Key, u32, String, Key, u64, u64);
@@ -240,6 +301,10 @@ struct Averaged {
     solver_failures: u64,
     contact_nr_fallbacks: u64,
     nr_iterations_mean: f64,
+    /// The first run's fingerprint and its block length (runs of one setting at one state
+    /// point share a seed, hence a sequence).
+    sequence: Option<(Vec<u32>, u32)>,
+    update_share: Option<f64>,
 }
 
 impl Averaged {
@@ -261,6 +326,13 @@ impl Averaged {
             solver_failures: runs.iter().map(|r| r.solver_failures).sum(),
             contact_nr_fallbacks: runs.iter().map(|r| r.contact_nr_fallbacks).sum(),
             nr_iterations_mean: mean(|r| r.nr_iterations_mean),
+            sequence: runs
+                .first()
+                .and_then(|r| Some((r.sequence.clone()?, r.sequence_block?))),
+            update_share: {
+                let shares: Vec<f64> = runs.iter().filter_map(|r| r.update_share()).collect();
+                (!shares.is_empty()).then(|| shares.iter().sum::<f64>() / shares.len() as f64)
+            },
         }
     }
 
@@ -268,6 +340,18 @@ impl Averaged {
         let deviation = (self.z - reference.z).abs();
         let sigmas = match (self.z_err, reference.z_err) {
             (Some(a), Some(b)) if a * a + b * b > 0.0 => Some(deviation / (a * a + b * b).sqrt()),
+            _ => None,
+        };
+        let sequence = match (&self.sequence, &reference.sequence) {
+            (Some((run, block)), Some((reference, reference_block)))
+                if block == reference_block =>
+            {
+                let (same, compared) = identical_prefix(reference, run);
+                Some((
+                    same as u64 * u64::from(*block),
+                    compared as u64 * u64::from(*block),
+                ))
+            }
             _ => None,
         };
         SettingRun {
@@ -283,6 +367,9 @@ impl Averaged {
             solver_failures: self.solver_failures,
             contact_nr_fallbacks: self.contact_nr_fallbacks,
             nr_iterations_mean: self.nr_iterations_mean,
+            identical_collisions: sequence.map(|s| s.0),
+            compared_collisions: sequence.map(|s| s.1),
+            update_share: self.update_share,
         }
     }
 }
@@ -305,6 +392,7 @@ fn summarise(value: f64, state_points: &[StatePointStudy]) -> SettingSummary {
         overlaps: runs.iter().map(|r| r.overlaps).sum(),
         solver_failures: runs.iter().map(|r| r.solver_failures).sum(),
         contact_nr_fallbacks: runs.iter().map(|r| r.contact_nr_fallbacks).sum(),
+        min_identical_collisions: runs.iter().filter_map(|r| r.identical_collisions).min(),
         safe: runs.iter().all(|r| r.safe()),
         pareto: false,
     }
@@ -329,23 +417,29 @@ fn mark_pareto(settings: &mut [SettingSummary]) {
 /// The report as Markdown: per knob, the summary table and the recommendation, then the runs of
 /// each state point.
 pub fn accuracy_markdown(report: &AccuracyReport) -> String {
-    let mut out = String::from("# What accuracy costs in time (EDMD)\n\n");
+    let mut out = String::from("# What accuracy costs in time\n\n");
+    if let Some(overlap) = &report.overlap {
+        overlap_markdown(overlap, &mut out);
+    }
+    if !report.knobs.is_empty() {
+        out.push_str("## EDMD\n\n");
+    }
     let _ = writeln!(
         out,
-        "A setting is *safe* when its runs found no overlap and no solver failure, drifted in energy by at most {MAX_ENERGY_DRIFT:e} (relative), and kept Z within {MAX_Z_SIGMAS} combined standard errors of the tightest setting's run at the same state point. Cost is τ_c over τ_c at the tightest setting (geometric mean over state points).\n"
+        "A setting is *safe* when its runs found no overlap and no solver failure, drifted in energy by at most {MAX_ENERGY_DRIFT:e} (relative), and kept Z within {MAX_Z_SIGMAS} combined standard errors of the tightest setting's run at the same state point. Cost is τ_c over τ_c at the tightest setting (geometric mean over state points). *Identical for* is how many collisions, from the first of the run, the event sequence stayed the same as the tightest setting's run from the same seed (to a block of 64; the fewest over the state points).\n"
     );
     for study in &report.knobs {
-        let _ = writeln!(out, "## {} ({} is tighter)\n", study.knob, study.tighter);
+        let _ = writeln!(out, "### {} ({} is tighter)\n", study.knob, study.tighter);
         let _ = writeln!(
             out,
-            "| {} | state points | cost (τ_c / τ_c,ref) | max \\|ΔZ\\|/Z | max \\|ΔZ\\|/σ | max energy drift | overlaps | solver failures | NR fallbacks | safe | Pareto |",
+            "| {} | state points | cost (τ_c / τ_c,ref) | max \\|ΔZ\\|/Z | max \\|ΔZ\\|/σ | max energy drift | overlaps | solver failures | NR fallbacks | identical for (collisions) | safe | Pareto |",
             study.knob
         );
-        out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+        out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for s in &study.settings {
             let _ = writeln!(
                 out,
-                "| {:e} | {} | {:.3} | {:.2e} | {} | {:.1e} | {} | {} | {} | {} | {} |",
+                "| {:e} | {} | {:.3} | {:.2e} | {} | {:.1e} | {} | {} | {} | {} | {} | {} |",
                 s.value,
                 s.state_points,
                 s.cost_ratio,
@@ -356,6 +450,8 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
                 s.overlaps,
                 s.solver_failures,
                 s.contact_nr_fallbacks,
+                s.min_identical_collisions
+                    .map_or("–".to_owned(), |c| c.to_string()),
                 if s.safe { "yes" } else { "**no**" },
                 if s.pareto { "●" } else { "" },
             );
@@ -378,9 +474,9 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
                 let _ = writeln!(out, "\nNo setting of {} was safe everywhere.\n", study.knob);
             }
         }
-        let _ = writeln!(out, "### {} by state point\n", study.knob);
-        out.push_str("| state point | value | τ_c (µs) | cost | Z | ΔZ/σ | energy drift | overlaps | failures | NR iterations |\n");
-        out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+        let _ = writeln!(out, "#### {} by state point\n", study.knob);
+        out.push_str("| state point | value | τ_c (µs) | cost | Z | ΔZ/σ | energy drift | overlaps | failures | NR iterations | identical for (of compared) | Δt_u share (Eq. 73) |\n");
+        out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for p in &study.state_points {
             let point = format!(
                 "{} X0 = {}, φ = {}, N = {}, {}{}",
@@ -398,7 +494,7 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
             for r in &p.runs {
                 let _ = writeln!(
                     out,
-                    "| {point} | {:e}{} | {:.2} | {:.3} | {:.4} ± {} | {} | {:.1e} | {} | {} | {:.2} |",
+                    "| {point} | {:e}{} | {:.2} | {:.3} | {:.4} ± {} | {} | {:.1e} | {} | {} | {:.2} | {} | {} |",
                     r.value,
                     if Key(r.value) == Key(p.reference) {
                         " (ref)"
@@ -416,89 +512,107 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
                     r.overlaps,
                     r.solver_failures,
                     r.nr_iterations_mean,
+                    match (r.identical_collisions, r.compared_collisions) {
+                        (Some(same), Some(compared)) => format!("{same} of {compared}"),
+                        _ => "–".to_owned(),
+                    },
+                    r.update_share
+                        .map_or("–".to_owned(), |s| format!("{:.0} %", 100.0 * s)),
                 );
             }
         }
         out.push('\n');
     }
-    out.push_str("## Not measured\n\n");
-    for line in &report.not_measured {
-        let _ = writeln!(out, "- {line}");
+    if !report.missing.is_empty() {
+        out.push_str("## Missing points\n\n");
+        for line in &report.missing {
+            let _ = writeln!(out, "- {line}");
+        }
+        out.push('\n');
+    }
+    if !report.not_measured.is_empty() {
+        out.push_str("## Not measured\n\n");
+        for line in &report.not_measured {
+            let _ = writeln!(out, "- {line}");
+        }
     }
     out
 }
 
-/// Cost against Z deviation, one panel per knob: the Pareto front as a line, other safe
-/// settings as triangles, settings that lost something as red crosses, each point labelled.
+/// The overlap kernels' panels ([`crate::overlap_accuracy`]), then cost against Z deviation,
+/// one panel per knob: the Pareto front as a line, other safe settings as triangles, settings
+/// that lost something as red crosses, each point labelled.
 pub fn accuracy_plot(report: &AccuracyReport, path: &Path) -> Result<(), ReportError> {
-    let panels = report
-        .knobs
-        .iter()
-        .map(|study| {
-            let point = |s: &SettingSummary| (s.cost_ratio, s.max_z_deviation_rel * 100.0);
-            let mut front: Vec<(f64, f64)> = study
-                .settings
-                .iter()
-                .filter(|s| s.pareto)
-                .map(point)
-                .collect();
-            front.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let others: Vec<(f64, f64)> = study
-                .settings
-                .iter()
-                .filter(|s| s.safe && !s.pareto)
-                .map(point)
-                .collect();
-            let lost: Vec<(f64, f64)> = study
-                .settings
-                .iter()
-                .filter(|s| !s.safe)
-                .map(point)
-                .collect();
-            let notes = study
-                .settings
-                .iter()
-                .map(|s| {
-                    let mark = if study.recommended.is_some_and(|v| Key(v) == Key(s.value)) {
-                        " (recommended)"
-                    } else {
-                        ""
-                    };
-                    (point(s), format!(" {:e}{mark}", s.value))
-                })
-                .collect();
-            let series = [
-                ("Pareto front (safe)", front, Style::Measured),
-                ("safe, dominated", others, Style::Located),
-                (
-                    "lost accuracy (overlaps, failures, drift or Z)",
-                    lost,
-                    Style::Flagged,
-                ),
-            ]
-            .into_iter()
-            .filter(|(_, points, _)| !points.is_empty())
-            .map(|(label, points, style)| Series {
-                label: label.into(),
-                points,
-                style,
-                colour: 0,
+    let mut panels: Vec<Panel> = report
+        .overlap
+        .as_ref()
+        .map(overlap_panels)
+        .unwrap_or_default();
+    let knob_panels = report.knobs.iter().map(|study| {
+        let point = |s: &SettingSummary| (s.cost_ratio, s.max_z_deviation_rel * 100.0);
+        let mut front: Vec<(f64, f64)> = study
+            .settings
+            .iter()
+            .filter(|s| s.pareto)
+            .map(point)
+            .collect();
+        front.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let others: Vec<(f64, f64)> = study
+            .settings
+            .iter()
+            .filter(|s| s.safe && !s.pareto)
+            .map(point)
+            .collect();
+        let lost: Vec<(f64, f64)> = study
+            .settings
+            .iter()
+            .filter(|s| !s.safe)
+            .map(point)
+            .collect();
+        let notes = study
+            .settings
+            .iter()
+            .map(|s| {
+                let mark = if study.recommended.is_some_and(|v| Key(v) == Key(s.value)) {
+                    " (recommended)"
+                } else {
+                    ""
+                };
+                (point(s), format!(" {:e}{mark}", s.value))
             })
             .collect();
-            Panel {
-                title: format!("{} ({} is tighter)", study.knob, study.tighter),
-                x_desc: "cost: τ_c / τ_c at the tightest setting".into(),
-                y_desc: "max |ΔZ| / Z (%)".into(),
-                x_log: false,
-                y_log: false,
-                series,
-                notes,
-            }
+        let series = [
+            ("Pareto front (safe)", front, Style::Measured),
+            ("safe, dominated", others, Style::Located),
+            (
+                "lost accuracy (overlaps, failures, drift or Z)",
+                lost,
+                Style::Flagged,
+            ),
+        ]
+        .into_iter()
+        .filter(|(_, points, _)| !points.is_empty())
+        .map(|(label, points, style)| Series {
+            label: label.into(),
+            points,
+            style,
+            colour: 0,
         })
         .collect();
+        Panel {
+            title: format!("EDMD: {} ({} is tighter)", study.knob, study.tighter),
+            x_desc: "cost: τ_c / τ_c at the tightest setting".into(),
+            y_desc: "max |ΔZ| / Z (%)".into(),
+            x_log: false,
+            y_log: false,
+            series,
+            notes,
+        }
+    });
+    panels.extend(knob_panels);
     render(
         &LinePlot {
-            title: "What accuracy costs in time (EDMD)".into(),
+            title: "What accuracy costs in time".into(),
             panels,
             columns: 2,
         },
@@ -577,8 +691,54 @@ mod tests {
             Err(ReportError::MissingPoints { figure, missing }) => {
                 assert_eq!(figure, "accuracy");
                 assert!(missing[0].contains("eps_d"), "{missing:?}");
+                assert!(missing[1].contains("verdict_check"), "{missing:?}");
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn the_identical_prefix_of_synthetic_fingerprints() {
+        assert_eq!(identical_prefix(&[1, 2, 3, 4], &[1, 2, 3, 4]), (4, 4));
+        assert_eq!(identical_prefix(&[1, 2, 3, 4], &[1, 2, 7, 8]), (2, 4));
+        assert_eq!(identical_prefix(&[1, 2, 3, 4], &[9, 2, 3, 4]), (0, 4));
+        // A shorter run is compared over what it has.
+        assert_eq!(identical_prefix(&[1, 2, 3, 4], &[1, 2]), (2, 2));
+        assert_eq!(identical_prefix(&[], &[1]), (0, 0));
+    }
+
+    #[test]
+    fn settings_are_told_how_long_they_followed_the_tightest_run() {
+        let with = |r: EdmdRow, sequence: &[u32]| EdmdRow {
+            sequence: Some(sequence.to_vec()),
+            sequence_block: Some(64),
+            tau_update_us: Some(10.0),
+            tau_predict_us: Some(30.0),
+            ..r
+        };
+        let rows = vec![
+            with(run(1e-7, 50.0, 10.0, 0), &[1, 2, 3, 4, 5]),
+            with(run(1e-5, 45.0, 10.0, 0), &[1, 2, 3, 9, 9]),
+            with(run(1e-3, 40.0, 10.0, 0), &[7, 7, 7, 7, 7]),
+            // Written before fingerprints: not compared, and said so.
+            run(1e-2, 30.0, 10.0, 0),
+        ];
+        let report = accuracy(&rows).expect("an ε_d study");
+        let runs = &report.knobs[0].state_points[0].runs;
+        let identical: Vec<Option<u64>> = runs.iter().map(|r| r.identical_collisions).collect();
+        assert_eq!(identical, vec![Some(320), Some(192), Some(0), None]);
+        assert_eq!(runs[1].compared_collisions, Some(320));
+        assert_eq!(runs[1].update_share, Some(0.25));
+        assert_eq!(
+            report.knobs[0].settings[1].min_identical_collisions,
+            Some(192)
+        );
+        assert!(
+            report.not_measured[0].contains("1 run(s)"),
+            "{:?}",
+            report.not_measured
+        );
+        let text = accuracy_markdown(&report);
+        assert!(text.contains("| 192 of 320 | 25 % |"), "{text}");
     }
 }

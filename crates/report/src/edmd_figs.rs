@@ -425,6 +425,35 @@ pub struct DeltaCurve {
     pub minimum: Option<Minimum>,
     /// Δ*_NNL in σ, the value to put in a plan.
     pub minimum_sigma: Option<f64>,
+    /// Eq. 73 in time at each Δ_NNL of `points` that has it: the list updates' share.
+    pub split: Vec<SplitPoint>,
+}
+
+/// Eq. 73 split in time at one x: Δt_u (box and list rebuilds) and Δt_coll (the rest, the
+/// prediction) per collision, wall clock, averaged over `runs`; `update_share` = Δt_u / τ_c.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SplitPoint {
+    pub x: f64,
+    pub tau_update_us: f64,
+    pub tau_predict_us: f64,
+    pub update_share: f64,
+    pub runs: u32,
+}
+
+fn split_of(raw: &[(f64, f64, f64)]) -> Vec<SplitPoint> {
+    let updates = mean_by_x(raw.iter().map(|&(x, u, _)| (x, u)));
+    let predictions = mean_by_x(raw.iter().map(|&(x, _, p)| (x, p)));
+    updates
+        .into_iter()
+        .zip(predictions)
+        .map(|((x, u, runs), (_, p, _))| SplitPoint {
+            x,
+            tau_update_us: u,
+            tau_predict_us: p,
+            update_share: if u + p > 0.0 { u / (u + p) } else { 0.0 },
+            runs,
+        })
+        .collect()
 }
 
 impl Fig10 {
@@ -514,13 +543,21 @@ impl Fig10 {
 fn delta_curves(rows: &[EdmdRow], unit: LengthUnit) -> Vec<DeltaCurve> {
     let baseline = Baseline::of(rows);
     let mut raw: BTreeMap<State, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut splits: BTreeMap<State, Vec<(f64, f64, f64)>> = BTreeMap::new();
     for r in ellipsoids(rows).filter(|r| r.neighbours == "nnl" && baseline.knobs_match(r, None)) {
-        raw.entry(state(r))
-            .or_default()
-            .push((unit.convert(r.delta_nnl, r.x0), r.tau_c_us));
+        let x = unit.convert(r.delta_nnl, r.x0);
+        raw.entry(state(r)).or_default().push((x, r.tau_c_us));
+        if let (Some(update), Some(predict)) = (r.tau_update_us, r.tau_predict_us) {
+            splits
+                .entry(state(r))
+                .or_default()
+                .push((x, update, predict));
+        }
     }
     raw.into_iter()
-        .map(|((x0, phi, n), points)| {
+        .map(|(key, points)| {
+            let (x0, phi, n) = key;
+            let split = splits.get(&key).map_or_else(Vec::new, |s| split_of(s));
             let points = points_of(points);
             let minimum = locate_minimum(&xy(&points));
             DeltaCurve {
@@ -530,6 +567,7 @@ fn delta_curves(rows: &[EdmdRow], unit: LengthUnit) -> Vec<DeltaCurve> {
                 minimum_sigma: minimum.map(|m| m.x / unit.convert(1.0, x0.0)),
                 minimum,
                 points,
+                split,
             }
         })
         .filter(|c| c.points.len() >= 3)
@@ -583,6 +621,8 @@ pub struct LocatedMinimum {
     pub method: crate::MinimumMethod,
     /// The Δ_NNL grid's ends, in `length_unit`.
     pub grid: [f64; 2],
+    /// Eq. 73 at the grid point nearest Δ*: the share of τ_c spent on list updates.
+    pub update_share: Option<f64>,
 }
 
 impl Fig11 {
@@ -602,6 +642,11 @@ impl Fig11 {
                     bracketed: m.bracketed(),
                     method: m.method,
                     grid: [c.points.first()?.x, c.points.last()?.x],
+                    update_share: c
+                        .split
+                        .iter()
+                        .min_by(|a, b| (a.x / m.x).ln().abs().total_cmp(&(b.x / m.x).ln().abs()))
+                        .map(|s| s.update_share),
                 })
             })
             .collect();

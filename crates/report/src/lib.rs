@@ -18,6 +18,7 @@ mod fig;
 mod fig7;
 mod lines;
 mod minimum;
+mod overlap_accuracy;
 mod render;
 mod selection;
 mod table;
@@ -25,13 +26,14 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
-pub use accuracy::{AccuracyReport, accuracy, accuracy_markdown, accuracy_plot};
+pub use accuracy::{AccuracyReport, accuracy, accuracy_markdown, accuracy_plot, accuracy_report};
 pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
+pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
-pub use units::LengthUnit;
+pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
 pub use table::{Table1Row, TableFormat, render_table, table1};
+pub use units::LengthUnit;
 
 /// One benchmark point's result for one algorithm: its estimate (the 5th percentile of its
 /// timed blocks over every set, or for points measured before blocks were kept the mean over its repeats) with the
@@ -121,6 +123,22 @@ pub struct EdmdRow {
     pub init_s: Option<f64>,
     pub wall_s: Option<f64>,
     pub cpu_s: Option<f64>,
+    /// Eq. 73 in time, wall clock: list updates (box and list rebuilds) and prediction per
+    /// collision, in µs; `None` for records written before they were kept.
+    pub tau_update_us: Option<f64>,
+    pub tau_predict_us: Option<f64>,
+    /// The collision sequence's fingerprint: one hash per block of `sequence_block` collisions,
+    /// chained, from the run's first collision (`crates/edmd/src/sequence.rs`).
+    pub sequence: Option<Vec<u32>>,
+    pub sequence_block: Option<u32>,
+}
+
+impl EdmdRow {
+    /// Δt_u / (Δt_u + Δt_coll) of Eq. 73, where the record has the split.
+    pub fn update_share(&self) -> Option<f64> {
+        let (update, predict) = (self.tau_update_us?, self.tau_predict_us?);
+        (update + predict > 0.0).then(|| update / (update + predict))
+    }
 }
 
 /// Which clock measured a τ_c: the thread's CPU time (the paper's "CPU time", unaffected by other

@@ -215,7 +215,8 @@ mod fig7 {
 /// `deploy/plans/edmd-figures.toml`, with laws whose answers are known.
 mod edmd_figures {
     use report::{
-        EdmdRow, LengthUnit, ReportError, accuracy, accuracy_plot, fig8, fig9, fig10, fig11,
+        EdmdRow, LengthUnit, ReportError, VerdictRow, accuracy, accuracy_markdown, accuracy_plot,
+        accuracy_report, fig8, fig9, fig10, fig11,
     };
 
     const DELTAS: [f64; 8] = [0.01, 0.02, 0.035, 0.06, 0.1, 0.16, 0.25, 0.4];
@@ -275,9 +276,14 @@ mod edmd_figures {
                     });
                 }
                 for delta in DELTAS.into_iter().filter(|&d| d != 0.06) {
+                    // Eq. 73 in time: list updates take 1/(1 + 10 Δ/σ) of τ_c.
+                    let tau = 30.0 + law(delta) - law(0.06);
+                    let share = 1.0 / (1.0 + 10.0 * delta);
                     rows.push(EdmdRow {
                         delta_nnl: delta,
-                        tau_c_us: 30.0 + law(delta) - law(0.06),
+                        tau_c_us: tau,
+                        tau_update_us: Some(share * tau),
+                        tau_predict_us: Some((1.0 - share) * tau),
                         ..run(x0, phi, "nnl")
                     });
                 }
@@ -348,6 +354,73 @@ mod edmd_figures {
         let svg = dir.path().join("accuracy.svg");
         accuracy_plot(&study, &svg).expect("the accuracy plot renders");
         assert!(svg_text(&svg).contains("Pareto front"));
+
+        // With the overlap family: its two panels come first, both families in one figure.
+        let study = accuracy_report(&rows, &verdicts()).expect("both families");
+        assert!(study.missing.is_empty(), "{:?}", study.missing);
+        for extension in ["png", "svg"] {
+            let path = dir.path().join(format!("accuracy-both.{extension}"));
+            accuracy_plot(&study, &path).expect("renders");
+            if extension == "svg" {
+                let text = svg_text(&path);
+                for label in ["cost against wrong verdicts near contact", "by distance from contact", "EDMD: eps_d", "OCSI batch f32"] {
+                    assert!(text.contains(label), "accuracy.svg lacks {label:?}");
+                }
+            } else {
+                image::open(&path).expect("the PNG decodes");
+            }
+        }
+        let text = accuracy_markdown(&study);
+        assert!(text.contains("## Overlap kernels: f32 against f64") && text.contains("### eps_d"), "{text}");
+    }
+
+    /// Two algorithms in f32 and f64 at two points; f32 is wrong near contact, OCSI batch f32
+    /// once in the bulk too.
+    fn verdicts() -> Vec<VerdictRow> {
+        let mut rows = Vec::new();
+        for r_star in [0.05, 5.0] {
+            for (algorithm, ns) in [("ocsi", 10.0), ("ocsi_batch", 2.0)] {
+                for (precision, scale, wrong) in [("f32", 1.0, [0, 0, 0, 5, 40, 50]), ("f64", 1.6, [0, 0, 0, 0, 0, 3])] {
+                    rows.push(VerdictRow {
+                        l_star: 2.0,
+                        w_star: 3.0,
+                        r_star,
+                        precision: precision.into(),
+                        algorithm: algorithm.into(),
+                        ns_per_check: ns * scale,
+                        bulk: 10_000,
+                        shell: 600,
+                        bulk_wrong: u64::from(algorithm == "ocsi_batch" && precision == "f32"),
+                        shell_wrong: wrong.iter().sum(),
+                        shell_max_gap: 1e-3,
+                        shell_by_decade: vec![100; 6],
+                        shell_wrong_by_decade: wrong.to_vec(),
+                    });
+                }
+            }
+        }
+        rows
+    }
+
+    #[test]
+    fn the_overlap_family_alone_recommends_and_the_edmd_one_is_named_missing() {
+        let study = accuracy_report(&[], &verdicts()).expect("the overlap family");
+        assert!(study.knobs.is_empty());
+        assert!(study.missing[0].contains("EDMD runs of one state point"), "{:?}", study.missing);
+        let overlap = study.overlap.as_ref().expect("overlap settings");
+        assert_eq!(overlap.settings.len(), 4);
+        let recommended = overlap.recommended.as_ref().expect("a safe setting");
+        // OCSI batch f32 is the cheapest but was wrong once in the bulk: its f64 is next.
+        assert_eq!((recommended.algorithm.as_str(), recommended.precision.as_str()), ("ocsi_batch", "f64"));
+        let gap = recommended.trusted_above_gap.expect("f64 was wrong in the last decade");
+        assert!((gap / 1e-8 - 1.0).abs() < 1e-9, "{gap}");
+        match accuracy_report(&[], &[]) {
+            Err(ReportError::MissingPoints { figure, missing }) => {
+                assert_eq!(figure, "accuracy");
+                assert_eq!(missing.len(), 2, "{missing:?}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
@@ -389,6 +462,22 @@ mod edmd_figures {
         );
         let f10 = fig10(&rows, LengthUnit::Sigma, None).expect("fig10");
         assert!(f10.missing.is_empty(), "{:?}", f10.missing);
+        for curve in &f10.curves {
+            // Every Δ but the baseline's 0.06 (run without the split) has it.
+            assert_eq!(curve.split.len(), DELTAS.len() - 1, "{curve:?}");
+            for s in &curve.split {
+                assert!((s.update_share - 1.0 / (1.0 + 10.0 * s.x)).abs() < 1e-12, "{s:?}");
+            }
+        }
+        for m in &f11.minima {
+            let share = m.update_share.expect("a split near Δ*");
+            let nearest = DELTAS
+                .into_iter()
+                .filter(|&d| d != 0.06)
+                .min_by(|a, b| (a / m.delta_star_sigma).ln().abs().total_cmp(&(b / m.delta_star_sigma).ln().abs()))
+                .unwrap();
+            assert!((share - 1.0 / (1.0 + 10.0 * nearest)).abs() < 1e-12, "{m:?}");
+        }
 
         let study = accuracy(&rows).expect("accuracy");
         let eps = study

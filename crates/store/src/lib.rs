@@ -39,7 +39,7 @@ pub use connect::Store;
 pub use error::{Error, Result};
 pub use types::{
     CampaignInfo, CompleteOutcome, Completion, EdmdRun, ExportRow, FailOutcome, JobInfo, JobState,
-    Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, QueryResult, Status, SubmitOutcome,
+    Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, OverlapVerdictRow, QueryResult, Status, SubmitOutcome,
     WorkerInfo, WorkerRecord,
 };
 pub use writer::WriteGroups;

@@ -11,8 +11,8 @@ use sqlx::{
 use crate::Store;
 use crate::error::{Error, Result};
 use crate::types::{
-    CampaignInfo, EdmdRun, ExportRow, JobInfo, JobState, OverlapQuality, OverlapRow, QueryResult,
-    Status, WorkerInfo, WorkerRecord,
+    CampaignInfo, EdmdRun, ExportRow, JobInfo, JobState, OverlapQuality, OverlapRow,
+    OverlapVerdictRow, QueryResult, Status, WorkerInfo, WorkerRecord,
 };
 
 impl Store {
@@ -354,13 +354,75 @@ impl Store {
             .collect::<Vec<_>>()
             .join(", ");
         let sql = format!(
-            "SELECT job_id, shape, neighbours, {reals} FROM edmd_runs
+            "SELECT job_id, shape, neighbours, sequence_fingerprint, {reals} FROM edmd_runs
              ORDER BY shape, x0, neighbours, n, delta_nnl, phi, eps_d, nr_tol, seed"
         );
         let rows = sqlx::query(AssertSqlSafe(sql).into_sql_str())
             .fetch_all(&self.reader)
             .await?;
         rows.iter().map(edmd_run).collect()
+    }
+
+    /// Every (point, algorithm) of the overlap points run with `verdict_check`, ordered by
+    /// precision, algorithm and point. A row lacking a count is [`Error::Corrupt`].
+    pub async fn overlap_verdicts(&self) -> Result<Vec<OverlapVerdictRow>> {
+        let rows = sqlx::query(
+            "SELECT v.job_id, CAST(v.l_star AS REAL), CAST(v.w_star AS REAL), CAST(v.r_star AS REAL),
+                    v.precision, v.algorithm, CAST(v.ns_per_check AS REAL), v.bulk, v.shell,
+                    v.undecided, v.bulk_wrong, v.shell_wrong,
+                    CAST(json_extract(r.fields, '$.verdicts.shell_max_gap') AS REAL),
+                    v.shell_by_decade, v.shell_wrong_by_decade
+             FROM overlap_verdicts AS v
+             JOIN results AS r ON r.job_id = v.job_id AND json_type(r.fields, '$.verdicts') = 'object'
+             ORDER BY v.precision, v.algorithm, v.l_star, v.w_star, v.r_star",
+        )
+        .fetch_all(&self.reader)
+        .await?;
+        rows.iter()
+            .map(|row| {
+                let job_id: String = row.try_get(0)?;
+                let missing = |what: &str| {
+                    Error::Corrupt(format!("overlap job {job_id:?}: verdicts lack {what}"))
+                };
+                let real = |i: usize, name: &str| -> Result<f64> {
+                    row.try_get::<Option<f64>, _>(i)?
+                        .ok_or_else(|| missing(name))
+                };
+                let count = |i: usize, name: &str| -> Result<u64> {
+                    let n = row
+                        .try_get::<Option<i64>, _>(i)?
+                        .ok_or_else(|| missing(name))?;
+                    u64::try_from(n).map_err(|_| missing(name))
+                };
+                let counts = |i: usize, name: &str| -> Result<Vec<u64>> {
+                    let text = row
+                        .try_get::<Option<String>, _>(i)?
+                        .ok_or_else(|| missing(name))?;
+                    serde_json::from_str(&text).map_err(|_| missing(name))
+                };
+                Ok(OverlapVerdictRow {
+                    l_star: real(1, "l_star")?,
+                    w_star: real(2, "w_star")?,
+                    r_star: real(3, "r_star")?,
+                    precision: row
+                        .try_get::<Option<String>, _>(4)?
+                        .ok_or_else(|| missing("precision"))?,
+                    algorithm: row
+                        .try_get::<Option<String>, _>(5)?
+                        .ok_or_else(|| missing("algorithm"))?,
+                    ns_per_check: real(6, "ns_per_check (no timing record)")?,
+                    bulk: count(7, "bulk")?,
+                    shell: count(8, "shell")?,
+                    undecided: count(9, "undecided")?,
+                    bulk_wrong: count(10, "bulk_wrong")?,
+                    shell_wrong: count(11, "shell_wrong")?,
+                    shell_max_gap: real(12, "shell_max_gap")?,
+                    shell_by_decade: counts(13, "shell_by_decade")?,
+                    shell_wrong_by_decade: counts(14, "shell_wrong_by_decade")?,
+                    job_id,
+                })
+            })
+            .collect()
     }
 
     /// Runs one ad-hoc query on a read-only connection (`sweep query`).
@@ -412,7 +474,7 @@ fn add_state_count(status: &mut Status, state: &str, count: i64, estimate_s: f64
 }
 
 /// Real-valued columns of `edmd_runs` that [`Store::edmd_runs`] reads.
-const EDMD_REALS: [&str; 20] = [
+const EDMD_REALS: [&str; 22] = [
     "phi",
     "x0",
     "delta_nnl",
@@ -433,9 +495,11 @@ const EDMD_REALS: [&str; 20] = [
     "wall_s",
     "cpu_s",
     "tau_c_cpu_us",
+    "tau_update_us",
+    "tau_predict_us",
 ];
 /// Integer columns of `edmd_runs` that [`Store::edmd_runs`] reads.
-const EDMD_INTEGERS: [&str; 10] = [
+const EDMD_INTEGERS: [&str; 11] = [
     "n",
     "nr_max_iter",
     "sd_max_iter",
@@ -446,6 +510,7 @@ const EDMD_INTEGERS: [&str; 10] = [
     "contact_nr_fallbacks",
     "nnl_rebuilds",
     "cell_crossings",
+    "sequence_block",
 ];
 
 fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
@@ -495,6 +560,10 @@ fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
         init_s: optional("init_s")?,
         wall_s: optional("wall_s")?,
         cpu_s: optional("cpu_s")?,
+        tau_update_us: optional("tau_update_us")?,
+        tau_predict_us: optional("tau_predict_us")?,
+        sequence_fingerprint: row.try_get("sequence_fingerprint")?,
+        sequence_block: row.try_get("sequence_block")?,
         job_id,
     })
 }

@@ -172,6 +172,34 @@ pub struct EdmdRun {
     /// Wall and CPU time of the whole job; `None` for records written before they were kept.
     pub wall_s: Option<f64>,
     pub cpu_s: Option<f64>,
+    /// Eq. 73 in time (wall clock): list updates and prediction per collision, in µs.
+    pub tau_update_us: Option<f64>,
+    pub tau_predict_us: Option<f64>,
+    /// The collision sequence's fingerprint (hex, 8 digits per block of `sequence_block`
+    /// collisions); `None` for records written before it was kept.
+    pub sequence_fingerprint: Option<String>,
+    pub sequence_block: Option<i64>,
+}
+
+/// One algorithm at one overlap point run with `verdict_check` (the `overlap_verdicts` view):
+/// its checking set's verdicts against the exact ones, and its mean ns/check at that point.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct OverlapVerdictRow {
+    pub job_id: String,
+    pub l_star: f64,
+    pub w_star: f64,
+    pub r_star: f64,
+    pub precision: String,
+    pub algorithm: String,
+    pub ns_per_check: f64,
+    pub bulk: u64,
+    pub shell: u64,
+    pub undecided: u64,
+    pub bulk_wrong: u64,
+    pub shell_wrong: u64,
+    pub shell_max_gap: f64,
+    pub shell_by_decade: Vec<u64>,
+    pub shell_wrong_by_decade: Vec<u64>,
 }
 
 /// Result of an ad-hoc read-only query: column names and rows of JSON values
