@@ -67,6 +67,7 @@ pub mod nnl;
 pub mod pw;
 pub mod rigid;
 pub mod rng;
+pub mod scale;
 pub mod scene;
 pub mod sphere;
 pub mod superquadric;
