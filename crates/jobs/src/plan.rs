@@ -309,9 +309,7 @@ fn expand_overlap(
         if x > 0.0 && x < 1.0 {
             Ok(())
         } else {
-            Err(format!(
-                "must lie strictly between 0 and 1 (a fraction of the estimate), got {x}"
-            ))
+            Err(format!("must lie strictly between 0 and 1 (a fraction of the estimate), got {x}"))
         }
     })?;
     let time_cap_s = sweep.optional_floats("time_cap_s", &|x| {

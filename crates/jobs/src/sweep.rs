@@ -119,19 +119,11 @@ impl<'a, 'i> Sweep<'a, 'i> {
 
     /// An expandable real-valued key without a default: `[None]` when absent, so that a point
     /// that does not set it keeps the identity it had before the key existed.
-    pub fn optional_floats(
-        &self,
-        key: &str,
-        check: Check<'_, f64>,
-    ) -> Result<Vec<Option<f64>>, Issue> {
+    pub fn optional_floats(&self, key: &str, check: Check<'_, f64>) -> Result<Vec<Option<f64>>, Issue> {
         if self.get(key).is_none() {
             return Ok(vec![None]);
         }
-        Ok(self
-            .floats(key, None, check)?
-            .into_iter()
-            .map(Some)
-            .collect())
+        Ok(self.floats(key, None, check)?.into_iter().map(Some).collect())
     }
 
     /// An expandable non-negative integer key.

@@ -299,9 +299,7 @@ fn deploy_plans_expand_to_the_papers_campaigns() {
 /// to unset, and unset they leave a point's id as it was before they existed.
 #[test]
 fn precision_keys_expand_and_default_to_unset() {
-    let plan = parse(&format!(
-        "[[overlap]]\n{GOOD}ci_target = [0.01, 0.003]\ntime_cap_s = 30\n"
-    ));
+    let plan = parse(&format!("[[overlap]]\n{GOOD}ci_target = [0.01, 0.003]\ntime_cap_s = 30\n"));
     let targets: Vec<(Option<f64>, Option<f64>)> = plan
         .jobs
         .iter()
@@ -310,14 +308,9 @@ fn precision_keys_expand_and_default_to_unset() {
             _ => panic!("overlap only"),
         })
         .collect();
-    assert_eq!(
-        targets,
-        [(Some(0.01), Some(30.0)), (Some(0.003), Some(30.0))]
-    );
+    assert_eq!(targets, [(Some(0.01), Some(30.0)), (Some(0.003), Some(30.0))]);
     let plain = parse(&format!("[[overlap]]\n{GOOD}"));
-    let JobSpec::Overlap(p) = &plain.jobs[0] else {
-        panic!()
-    };
+    let JobSpec::Overlap(p) = &plain.jobs[0] else { panic!() };
     assert_eq!((p.ci_target, p.time_cap_s), (None, None));
     assert!(!plain.jobs[0].canonical_json().contains("ci_target"));
 }
