@@ -220,7 +220,9 @@ pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Axis
     // Worked in A's body frame: B's axes seen from A, and the line of centres.
     let b_to_a = pa.rot * pb.rot.transpose();
     let r = pa.rot * (pb.r - pa.r);
-    let damping = 1.0 / (sa.max_curvature_radius() + sb.max_curvature_radius());
+    // Only the step length of the search: any damping leaves every gap a rigorous lower bound.
+    // A flat face has no largest radius of curvature; its bounding radius stands in.
+    let damping = 1.0 / (search_radius(sa) + search_radius(sb));
     let mut n = r.normalize();
     let mut best = (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros());
     for _ in 0..STEPS {
@@ -239,6 +241,16 @@ pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Axis
         n: to_lab * best.1,
         offset_a: to_lab * best.2,
         offset_b: to_lab * best.3,
+    }
+}
+
+/// The largest radius of curvature, or the bounding radius where a flat face has none.
+fn search_radius<S: Surface>(s: &S) -> f64 {
+    let rho = s.max_curvature_radius();
+    if rho.is_finite() {
+        rho
+    } else {
+        s.bounding_radius()
     }
 }
 

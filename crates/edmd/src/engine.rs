@@ -12,7 +12,7 @@ use crate::cells::{Cells, Near};
 use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_axis};
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
-use crate::geometry::{V3, image_offset};
+use crate::geometry::{Surface, V3, image_offset};
 use crate::init::{Geom, initial_configuration, min_image, sort_along_z_curve};
 use crate::lists::{Lists, Region};
 use crate::nnl::Obp;
@@ -28,7 +28,9 @@ trait Model {
     type Extra: Copy + Default;
     /// The region a body's neighbour list is built for.
     type Region: Region;
-    fn surface(&self) -> Ellipsoid;
+    /// The shape every body has.
+    type Shape: Surface + Copy;
+    fn surface(&self) -> Self::Shape;
     /// The model's own copy of what it predicts from: all bodies at the start of a run, then each
     /// body whose trajectory a collision changed.
     fn track(&mut self, _bodies: &[Body]) {}
@@ -72,6 +74,7 @@ impl SphereModel {
 impl Model for SphereModel {
     type Extra = ();
     type Region = Ball;
+    type Shape = Ellipsoid;
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
@@ -102,18 +105,20 @@ impl Model for SphereModel {
     }
 }
 
-/// Hard ellipsoids through the general algorithm of Sec. 2 (works for any X0, including 1).
-struct EllipsoidModel {
-    e: Ellipsoid,
+/// Hard rigid bodies of any [`Surface`] through the general algorithm of Sec. 2: ellipsoids (any
+/// X0, including 1) and superquadrics, each monomorphised on its own shape.
+struct RigidModel<S> {
+    e: S,
     params: ContactParams,
     inertia: Inertia,
     stats: SolverStats,
 }
 
-impl Model for EllipsoidModel {
+impl<S: Surface + Copy> Model for RigidModel<S> {
     type Extra = (V3, V3);
     type Region = Obp;
-    fn surface(&self) -> Ellipsoid {
+    type Shape = S;
+    fn surface(&self) -> S {
         self.e
     }
     fn first_collision(
@@ -132,7 +137,16 @@ impl Model for EllipsoidModel {
     }
 }
 
-impl EllipsoidModel {
+impl<S: Surface + Copy> RigidModel<S> {
+    fn new(e: S, params: ContactParams, inertia: Inertia) -> Self {
+        RigidModel {
+            e,
+            params,
+            inertia,
+            stats: SolverStats::default(),
+        }
+    }
+
     /// The first contact before `horizon`.
     fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
         predict(
@@ -215,7 +229,7 @@ impl<M: Model> Engine<M> {
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         m.track(&bodies);
-        let lb = m.surface().s.max();
+        let lb = m.surface().bounding_radius();
         let nb = match scene.neighbours {
             Neighbours::Ll => {
                 let cells = Cells::new(l, 2.0 * lb).ok_or(EdmdError::BoxTooSmall {
@@ -537,7 +551,7 @@ impl Engine<SphereModel> {
     }
 }
 
-impl Engine<EllipsoidModel> {
+impl<S: Surface + Copy> Engine<RigidModel<S>> {
     /// Rigid bodies: partners are searched in the order in which their bounding spheres meet (or,
     /// where they already overlap, of a separating-axis estimate), so that the search stops as
     /// soon as a lower bound cannot beat the best event so far.
@@ -569,7 +583,7 @@ impl Engine<EllipsoidModel> {
                 cand.extend(lists.of(i).iter().map(|n| (n.j, n.shift)))
             }
         }
-        let lb = self.m.surface().s.max();
+        let lb = self.m.surface().bounding_radius();
         let mut order = std::mem::take(&mut self.order);
         order.clear();
         for &(j, shift) in &cand {
@@ -739,25 +753,41 @@ pub fn run_with_state(
 ) -> Result<(RunReport, FinalState), EdmdError> {
     scene.validate()?;
     let [a, b, c] = scene.semi_axes();
-    let e = Ellipsoid::new(a, b, c);
-    // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4.
+    // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4 (and,
+    // for superquadrics, of the sphere inscribed in the ellipsoid inscribed in them).
     let rmin = a.min(b);
     let inertia_rot = Inertia {
         inv_m: 1.0,
         inv_i: 1.0 / (0.4 * rmin * rmin),
     };
+    let quadric = scene.superquadric();
+    let bounding = match quadric {
+        Some(q) => q.bounding_radius(),
+        None => a.max(b),
+    };
     let vp = std::f64::consts::PI / 6.0;
     let l = (scene.n as f64 * vp / scene.phi).cbrt();
     // A body must not reach its own periodic image, nor a neighbour through two images.
-    if l <= 4.0 * e.s.max() {
+    if l <= 4.0 * bounding {
         return Err(EdmdError::BoxTooSmall {
             l,
-            needed: 4.0 * e.s.max(),
+            needed: 4.0 * bounding,
             why: "the box must exceed twice the bounding-sphere diameter",
         });
     }
-    match scene.shape {
-        ShapeKind::Sphere => simulate(
+    let params = ContactParams {
+        eps_d: scene.eps_d,
+        brent_tol: scene.brent_tol,
+        tol: Tolerances {
+            nr_tol: scene.nr_tol,
+            nr_max_iter: scene.nr_max_iter,
+            nr_relax: scene.nr_relax,
+            sd_max_iter: scene.sd_max_iter,
+            sd_tol: scene.sd_tol,
+        },
+    };
+    match (scene.shape, quadric) {
+        (ShapeKind::Sphere, _) => simulate(
             SphereModel::new(1.0),
             Geom::Sphere { sigma: 1.0 },
             Inertia {
@@ -767,27 +797,28 @@ pub fn run_with_state(
             scene,
             progress,
         ),
-        ShapeKind::Ellipsoid => {
-            let params = ContactParams {
-                eps_d: scene.eps_d,
-                brent_tol: scene.brent_tol,
-                tol: Tolerances {
-                    nr_tol: scene.nr_tol,
-                    nr_max_iter: scene.nr_max_iter,
-                    nr_relax: scene.nr_relax,
-                    sd_max_iter: scene.sd_max_iter,
-                    sd_tol: scene.sd_tol,
-                },
-            };
-            let model = EllipsoidModel {
-                e,
-                params,
-                inertia: inertia_rot,
-                stats: SolverStats::default(),
-            };
-            simulate(model, Geom::Ellipsoid(e), inertia_rot, scene, progress)
+        (ShapeKind::Superquadric, Some(q)) => simulate(
+            RigidModel::new(q, params, inertia_rot),
+            Geom::Superquadric(q),
+            inertia_rot,
+            scene,
+            progress,
+        ),
+        (ShapeKind::Ellipsoid, _) => {
+            let e = Ellipsoid::new(a, b, c);
+            simulate(
+                RigidModel::new(e, params, inertia_rot),
+                Geom::Ellipsoid(e),
+                inertia_rot,
+                scene,
+                progress,
+            )
         }
-        ShapeKind::Superquadric => Err(EdmdError::Scene(crate::SceneError::Unsupported)),
+        (ShapeKind::Superquadric, None) => Err(EdmdError::Scene(crate::SceneError::Invalid {
+            key: "exponents",
+            line: None,
+            reason: "a superquadric needs valid `exponents` and `x0`".into(),
+        })),
     }
 }
 
@@ -963,7 +994,7 @@ fn measure<M: Model>(
     Ok((report, state))
 }
 
-/// Overlap audit of every pair with the independent test of [`Geom::contact_scale`], at the
+/// Overlap audit of every pair with the independent test of [`Geom::overlaps`], at the
 /// nearest image; pairs are found through cells, O(N). (The box exceeds twice the bounding
 /// diameter, so no other image can touch.)
 pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
@@ -978,7 +1009,7 @@ pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
         near.all_around(&pos[i], |j| {
             if j > i {
                 let r = min_image(pos[j] - pos[i], l);
-                if r.norm() < reach && geom.contact_scale(&a.rot, &bodies[j].rot, &r) < 1.0 - tol {
+                if r.norm() < reach && geom.overlaps(&a.rot, &bodies[j].rot, &r, tol) {
                     overlaps += 1;
                 }
             }
@@ -989,9 +1020,10 @@ pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
 }
 
 fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
-    let (shape, semi) = match geom {
-        Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3]),
-        Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z]),
+    let (shape, semi, exponents) = match geom {
+        Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
+        Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z], [2.0; 3]),
+        Geom::Superquadric(q) => ("superquadric", q.s.into(), q.e.into()),
     };
     let arr = |v: V3| [v.x, v.y, v.z];
     FinalState {
@@ -1001,7 +1033,7 @@ fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
             .map(|b| ParticleDump {
                 shape,
                 semi_axes: semi,
-                exponents: [2.0; 3],
+                exponents,
                 position: arr(b.r.map(|x| x.rem_euclid(l))),
                 orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
                 velocity: arr(b.v),
@@ -1026,7 +1058,7 @@ mod tests {
             for i in 0..bodies.len() {
                 for j in (i + 1)..bodies.len() {
                     let r = min_image(bodies[j].r - bodies[i].r, l);
-                    if geom.contact_scale(&bodies[i].rot, &bodies[j].rot, &r) < 1.0 - tol {
+                    if geom.overlaps(&bodies[i].rot, &bodies[j].rot, &r, tol) {
                         overlaps += 1;
                     }
                 }

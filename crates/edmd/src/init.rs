@@ -14,17 +14,21 @@
 use crate::EdmdError;
 use crate::cells::Near;
 use crate::ellipsoid::Ellipsoid;
-use crate::geometry::{M3, V3, round_nearest};
+use crate::geometry::{M3, Surface, V3, round_nearest};
 use crate::nnl::{Obp, overlap};
 use crate::pw::contact_scale;
 use crate::rigid::{Body, Inertia, orthonormalize, rotate};
 use crate::rng::Rng;
+use crate::scale;
+use crate::superquadric::Superquadric;
+use crate::support_distance::overlap_certified;
 
 /// The shape as the initialiser and the audit see it.
 #[derive(Clone, Copy, Debug)]
 pub enum Geom {
     Sphere { sigma: f64 },
     Ellipsoid(Ellipsoid),
+    Superquadric(Superquadric),
 }
 
 impl Geom {
@@ -32,15 +36,30 @@ impl Geom {
         match self {
             Geom::Sphere { sigma } => 0.5 * sigma,
             Geom::Ellipsoid(e) => e.s.max(),
+            Geom::Superquadric(q) => q.bounding_radius(),
         }
     }
 
     /// Factor by which both bodies must be scaled about their centres to touch (< 1: overlap).
-    /// For spheres |r|/σ; for ellipsoids the Perram–Wertheim function, independent of the NR solver.
+    /// For spheres |r|/σ; for ellipsoids the Perram–Wertheim function, independent of the NR
+    /// solver; for superquadrics [`scale::contact_scale`] on the engine's own distance, exact up
+    /// to 1 + [`scale::EXACT_BELOW`] and a lower bound above (all the Monte Carlo needs).
     pub fn contact_scale(&self, rot_a: &M3, rot_b: &M3, r: &V3) -> f64 {
         match self {
             Geom::Sphere { sigma } => r.norm() / sigma,
             Geom::Ellipsoid(e) => contact_scale(e, rot_a, e, rot_b, r),
+            Geom::Superquadric(q) => scale::contact_scale(q, rot_a, q, rot_b, r),
+        }
+    }
+
+    /// The audit's verdict: the bodies, both scaled by 1 − `tol` about their centres, overlap.
+    /// Independent of the engine's Newton–Raphson solvers: Perram–Wertheim for ellipsoids,
+    /// Gilbert's algorithm on support functions for superquadrics ([`overlap_certified`], which
+    /// counts a pair it cannot decide as overlapping).
+    pub fn overlaps(&self, rot_a: &M3, rot_b: &M3, r: &V3, tol: f64) -> bool {
+        match self {
+            Geom::Superquadric(q) => overlap_certified(q, rot_a, q, rot_b, r, tol),
+            _ => self.contact_scale(rot_a, rot_b, r) < 1.0 - tol,
         }
     }
 
@@ -50,27 +69,28 @@ impl Geom {
         if r.norm_squared() >= (2.0 * self.bounding_radius() * k).powi(2) {
             return true;
         }
-        match self {
-            Geom::Sphere { .. } => false,
-            Geom::Ellipsoid(e) => {
-                let half = e.s * k;
-                let a = Obp {
-                    c: V3::zeros(),
-                    rot: *rot_a,
-                    half,
-                };
-                let b = Obp {
-                    c: *r,
-                    rot: *rot_b,
-                    half,
-                };
-                !overlap(&a, &b, &V3::zeros())
-            }
-        }
+        let semi_axes = match self {
+            Geom::Sphere { .. } => return false,
+            Geom::Ellipsoid(e) => e.s,
+            // |x_k| ≤ s_k on a superquadric too: its semi-axes bound it as tightly.
+            Geom::Superquadric(q) => q.s,
+        };
+        let half = semi_axes * k;
+        let a = Obp {
+            c: V3::zeros(),
+            rot: *rot_a,
+            half,
+        };
+        let b = Obp {
+            c: *r,
+            rot: *rot_b,
+            half,
+        };
+        !overlap(&a, &b, &V3::zeros())
     }
 
     fn rotates(&self) -> bool {
-        matches!(self, Geom::Ellipsoid(_))
+        !matches!(self, Geom::Sphere { .. })
     }
 }
 

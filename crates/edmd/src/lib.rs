@@ -1,11 +1,12 @@
-//! Event-driven molecular dynamics of hard spheres and hard uniaxial ellipsoids, after
+//! Event-driven molecular dynamics of hard spheres, hard uniaxial ellipsoids and superquadrics, after
 //! C. De Michele, "Simulating hard rigid bodies" (equation numbers in the docs refer to it).
 //! Pure computation: no files, no printing, no threads.
 //!
 //! Map of the modules, from geometry up to the event loop:
 //! - [`scene`]: the TOML scene, its defaults and validation ([`Scene`], [`SceneError`]).
 //! - [`geometry`]: implicit surfaces f(x) = 0, poses, lab-frame gradients and Hessians;
-//!   [`sphere`] (analytic path) and [`ellipsoid`] (Eqs. 42–44), one shape per file.
+//!   [`sphere`] (analytic path), [`ellipsoid`] (Eqs. 42–44) and [`superquadric`] (Eq. 77), one
+//!   shape per file; the engine's rigid-body model is generic over the [`geometry::Surface`] trait.
 //! - [`rigid`]: free motion (Eqs. 3–6), ḋ_max (Eq. 32), the elastic collision (Eqs. 40–41).
 //! - [`distance`]: Newton–Raphson on Eqs. (23) with the relaxed step (26–29), the guess of
 //!   Sec. 3.2 and steepest descent (Sec. 2.3.2); negative distances for slight overlaps.
@@ -18,7 +19,9 @@
 //! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
-//! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle.
+//! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
+//!   superquadrics are audited by [`support_distance::overlap_certified`] (Gilbert's algorithm)
+//!   and compressed with the contact scale of [`scale`].
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
 //! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.
 //! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
@@ -68,6 +71,7 @@ pub mod nnl;
 pub mod pw;
 pub mod rigid;
 pub mod rng;
+pub mod scale;
 pub mod scene;
 pub mod sequence;
 pub mod sphere;

@@ -148,7 +148,13 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
                 if gap < eps_nnl {
                     return tau;
                 }
-                dt = dt.min(positive_for(gap, rate, accel[k]));
+                dt = dt.min(if accel[k].is_infinite() {
+                    // A flat face has no curvature bound (Surface::max_curvature_radius = +∞):
+                    // the gap changes at most at |v·u| + L|w × u| (Eq. 60 along one axis).
+                    gap / (vu.abs() + l * body.w.cross(u).norm())
+                } else {
+                    positive_for(gap, rate, accel[k])
+                });
             }
         }
         tau += dt;

@@ -104,8 +104,13 @@ pub fn gap_closing_rates(a: &Body, b: &Body, la: f64, lb: f64, n: &V3) -> (f64, 
 /// direction `n`, with `l` and `rho_max` the bounding radius and the largest radius of curvature.
 /// In the body frame the direction u turns uniformly about w: |u̇| = |w × n|, |ü| = |w|·|w × n|, and
 /// ḧ = u̇ᵀ∇²h u̇ + ∇h·ü with ‖∇²h‖ ≤ ρ_max and |∇h| ≤ L (∇h is the support point).
+/// A flat face (ρ_max = +∞, superquadrics with an exponent above 2) gives +∞ while the direction
+/// turns, and 0, not NaN, while it does not.
 pub fn support_acceleration_bound(w: &V3, n: &V3, l: f64, rho_max: f64) -> f64 {
     let turn = w.cross(n).norm();
+    if turn == 0.0 {
+        return 0.0;
+    }
     turn * (turn * rho_max + w.norm() * l)
 }
 
@@ -145,7 +150,10 @@ pub fn gap_safe_time(a: &GapSide, b: &GapSide, n: &V3, gap: f64) -> f64 {
     let rate = n.dot(&((bb.v + bb.w.cross(&b.offset)) - (ba.v + ba.w.cross(&a.offset))));
     let m = support_acceleration_bound(&ba.w, n, a.l, a.rho_max)
         + support_acceleration_bound(&bb.w, n, b.l, b.rho_max);
-    let quadratic = if m > 0.0 {
+    let quadratic = if m.is_infinite() {
+        // No curvature bound (flat faces): the linear bound alone is rigorous.
+        0.0
+    } else if m > 0.0 {
         (rate + (rate * rate + 2.0 * m * gap).sqrt()) / m
     } else if rate < 0.0 {
         gap / -rate

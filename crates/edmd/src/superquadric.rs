@@ -8,8 +8,8 @@
 //! support is never underestimated, so contact-free intervals built on it stay rigorous. At a flat face the radius of curvature is infinite ([`Surface::max_curvature_radius`]
 //! returns +∞ for exponents above 2): only the linear (Lipschitz) contact-free bounds apply.
 //!
-//! Not yet wired into the scene and the engine (see the module's issue): the shape, its support
-//! function, bounding radius and volume are here and tested.
+//! Scenes ask for it with `shape = "superquadric"` and `exponents`; the engine runs it through the
+//! same rigid-body model as the ellipsoid, and the overlap audit tests it with Gilbert's algorithm.
 
 use crate::geometry::{LabEval, M3, Placed, Pose, Surface, V3};
 
@@ -19,6 +19,8 @@ pub struct Superquadric {
     pub s: V3,
     /// Exponents (n, m, p) on those axes, each ≥ 2.
     pub e: V3,
+    /// [`Surface::bounding_radius`], computed once: the contact-free bounds ask for it often.
+    radius: f64,
 }
 
 impl Superquadric {
@@ -26,9 +28,12 @@ impl Superquadric {
     pub fn new(s: [f64; 3], e: [f64; 3]) -> Option<Self> {
         let ok = s.iter().all(|x| x.is_finite() && *x > 0.0)
             && e.iter().all(|x| x.is_finite() && *x >= 2.0);
-        ok.then(|| Superquadric {
-            s: V3::from(s),
-            e: V3::from(e),
+        ok.then(|| {
+            let (s, e) = (V3::from(s), V3::from(e));
+            // s_max · 3^(1/2 − 1/e_max): with u_k = |x_k/s_k| ≤ 1, Σ u_k^(e_max) ≤ Σ u_k^(e_k) ≤ 1,
+            // and Σ u_k² under that constraint is largest at equal u_k. Exact for an ellipsoid.
+            let radius = (s.max() * 3f64.powf(0.5 - 1.0 / e.max())).min(s.norm());
+            Superquadric { s, e, radius }
         })
     }
 
@@ -170,11 +175,8 @@ impl Surface for Superquadric {
     fn hessian(&self, x: &V3) -> M3 {
         M3::from_diagonal(&self.eval_body(x).2)
     }
-    /// s_max · 3^(1/2 − 1/e_max): with u_k = |x_k/s_k| ≤ 1, Σ u_k^(e_max) ≤ Σ u_k^(e_k) ≤ 1, and
-    /// Σ u_k² under that constraint is largest at equal u_k. Exact for an ellipsoid.
     fn bounding_radius(&self) -> f64 {
-        let e_max = self.e.max();
-        (self.s.max() * 3f64.powf(0.5 - 1.0 / e_max)).min(self.s.norm())
+        self.radius
     }
     fn ray_point(&self, dir: &V3) -> V3 {
         let c = V3::from_fn(|k, _| (dir[k] / self.s[k]).abs().powf(self.e[k]));

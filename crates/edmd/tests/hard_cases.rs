@@ -481,19 +481,31 @@ fn bodies_starting_in_contact_collide_only_when_approaching() {
 fn run_clean(x0: f64, n: usize, phi: f64, neighbours: Neighbours, collisions: u64) {
     let mut scene = Scene::new(ShapeKind::Ellipsoid, n, phi);
     scene.x0 = x0;
+    run_scene_clean(scene, neighbours, collisions);
+}
+
+/// Superquadrics of Sec. 5: n = m = 2, the exponent `p` on a short axis.
+fn run_superquadric_clean(x0: f64, p: f64, n: usize, neighbours: Neighbours, collisions: u64) {
+    let mut scene = Scene::new(ShapeKind::Superquadric, n, 0.256);
+    scene.x0 = x0;
+    scene.exponents = Some([2.0, 2.0, p]);
+    run_scene_clean(scene, neighbours, collisions);
+}
+
+fn run_scene_clean(mut scene: Scene, neighbours: Neighbours, collisions: u64) {
     scene.neighbours = neighbours;
     scene.collisions = collisions;
     scene.equilibrate = collisions / 5;
-    let r = edmd::run(&scene, &mut |_| {}).unwrap_or_else(|e| panic!("x0 {x0}: {e}"));
-    assert_eq!(r.overlaps, 0, "x0 {x0} {neighbours:?}");
-    assert_eq!(r.solver_failures, 0, "x0 {x0} {neighbours:?}");
-    assert!(
-        r.energy_drift_rel < 1e-10,
-        "x0 {x0}: {}",
-        r.energy_drift_rel
+    let case = format!(
+        "{:?} x0 {} exponents {:?} N {} phi {} {neighbours:?}",
+        scene.shape, scene.x0, scene.exponents, scene.n, scene.phi
     );
+    let r = edmd::run(&scene, &mut |_| {}).unwrap_or_else(|e| panic!("{case}: {e}"));
+    assert_eq!(r.overlaps, 0, "{case}");
+    assert_eq!(r.solver_failures, 0, "{case}");
+    assert!(r.energy_drift_rel < 1e-10, "{case}: {}", r.energy_drift_rel);
     eprintln!(
-        "x0 {x0} N {n} phi {phi} {neighbours:?}: NR iterations/call {:.2}, distance fallbacks {}, contact fallbacks {}, tau_c {:.1} us, Z {:.3}",
+        "{case}: NR iterations/call {:.2}, distance fallbacks {}, contact fallbacks {}, tau_c {:.1} us, Z {:.3}",
         r.nr_iterations_mean,
         r.distance_fallbacks,
         r.contact_nr_fallbacks,
@@ -509,11 +521,31 @@ fn short_runs_of_flat_and_long_ellipsoids() {
 }
 
 #[test]
+fn short_runs_of_superquadrics_at_p_2() {
+    run_superquadric_clean(2.0, 2.0, 128, Neighbours::Ll, 1_000);
+    run_superquadric_clean(0.5, 2.0, 128, Neighbours::Nnl, 1_000);
+}
+
+#[test]
 #[ignore = "hours on a shared machine: run with --ignored"]
 fn long_runs_of_extreme_ellipsoids() {
     for (x0, n) in [(0.1, 128), (0.2, 128), (5.0, 256), (10.0, 512)] {
         for nb in [Neighbours::Nnl, Neighbours::Ll] {
             run_clean(x0, n, 0.3, nb, 100_000);
+        }
+    }
+}
+
+#[test]
+#[ignore = "hours on a shared machine: run with --ignored"]
+fn long_runs_of_superquadrics() {
+    // The p ∈ {2, 3, 4, 6, 8, 10} once scenes accept exponents above 2 (see the scene's
+    // check of `exponents`: a contact was missed at p = 4).
+    for p in [2.0] {
+        for x0 in [0.5, 2.0] {
+            for nb in [Neighbours::Ll, Neighbours::Nnl] {
+                run_superquadric_clean(x0, p, 512, nb, 100_000);
+            }
         }
     }
 }

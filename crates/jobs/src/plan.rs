@@ -489,9 +489,9 @@ fn check_scene_value(key: &str, value: &toml::Value) -> Result<(), String> {
 }
 
 /// The keys of a scene, read off a serialised default one, so this list cannot drift from the
-/// `edmd` crate.
+/// `edmd` crate (a superquadric's, the only one that serialises every key, `exponents` included).
 fn edmd_keys() -> Vec<String> {
-    let scene = edmd::Scene::new(edmd::ShapeKind::Sphere, 2, 0.1);
+    let scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 2, 0.1);
     match toml::Table::try_from(&scene) {
         Ok(table) => table.keys().cloned().collect(),
         Err(_) => Vec::new(),
