@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use report::{Clock, EdmdRow, LengthUnit, ReportError, VerdictRow};
+use report::{Clock, EdmdRow, FailedRun, LengthUnit, ReportError, VerdictRow};
 
 use crate::db::{ReportArgs, open_read_only, runtime};
 use crate::output::{Format, print_json, print_text};
@@ -20,6 +20,74 @@ fn rows(db: &Path, clock: Clock) -> anyhow::Result<Vec<EdmdRow>> {
         anyhow::Ok(store.edmd_runs().await?)
     })?;
     Ok(edmd_rows(runs, clock))
+}
+
+/// The EDMD points that failed for good, with the parameters the `edmd_runs` view would have
+/// given them: the accuracy report counts them against their setting.
+fn failed_runs(db: &Path) -> anyhow::Result<Vec<FailedRun>> {
+    let jobs = runtime()?.block_on(async {
+        let store = open_read_only(db).await?;
+        anyhow::Ok(store.failed_jobs("edmd").await?)
+    })?;
+    jobs.into_iter().map(failed_run).collect()
+}
+
+/// A failed job's parameters as the `edmd_runs` view would have read them (the same keys).
+fn failed_run(job: store::FailedJob) -> anyhow::Result<FailedRun> {
+    let params: serde_json::Value = serde_json::from_str(&job.params_json)
+        .with_context(|| format!("failed job {}: its parameters are not JSON", job.id))?;
+    let field = |key: &str| {
+        params
+            .get(key)
+            .with_context(|| format!("failed job {}: its parameters have no `{key}`", job.id))
+    };
+    let real = |key: &str| {
+        field(key)?
+            .as_f64()
+            .with_context(|| format!("failed job {}: `{key}` is not a number", job.id))
+    };
+    let integer = |key: &str| {
+        field(key)?.as_u64().with_context(|| {
+            format!(
+                "failed job {}: `{key}` is not a non-negative integer",
+                job.id
+            )
+        })
+    };
+    let text = |key: &str| {
+        field(key)?
+            .as_str()
+            .map(str::to_owned)
+            .with_context(|| format!("failed job {}: `{key}` is not a string", job.id))
+    };
+    let small = |key: &str| {
+        u32::try_from(integer(key)?)
+            .with_context(|| format!("failed job {}: `{key}` is out of range", job.id))
+    };
+    let run = EdmdRow {
+        shape: text("shape")?,
+        x0: real("x0")?,
+        neighbours: text("neighbours")?,
+        delta_nnl: real("delta_nnl")?,
+        n: small("n")?,
+        phi: real("phi")?,
+        tau_c_us: f64::NAN,
+        eps_d: real("eps_d")?,
+        eps_nnl: real("eps_nnl")?,
+        nr_tol: real("nr_tol")?,
+        nr_max_iter: small("nr_max_iter")?,
+        nr_relax: real("nr_relax")?,
+        sd_max_iter: small("sd_max_iter")?,
+        sd_tol: real("sd_tol")?,
+        brent_tol: real("brent_tol")?,
+        seed: integer("seed")?,
+        collisions: integer("collisions")?,
+        ..EdmdRow::default()
+    };
+    Ok(FailedRun {
+        run,
+        reason: job.reason,
+    })
 }
 
 /// Stored EDMD runs as the report crate reads them, with τ_c by `clock` where the record has it
@@ -94,10 +162,10 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
     }
     let rows = rows(&args.db, clock)?;
-    let verdicts = if name == "accuracy" {
-        verdict_rows(&args.db)?
+    let (verdicts, failed) = if name == "accuracy" {
+        (verdict_rows(&args.db)?, failed_runs(&args.db)?)
     } else {
-        Vec::new()
+        (Vec::new(), Vec::new())
     };
     if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
         eprintln!(
@@ -118,7 +186,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
-        "accuracy" => accuracy(&rows, &verdicts, json, out)?,
+        "accuracy" => accuracy(&rows, &failed, &verdicts, json, out)?,
         other => bail!("report `{other}` is not an EDMD report"),
     }
     Ok(())
@@ -173,11 +241,12 @@ fn verdict_rows(db: &Path) -> anyhow::Result<Vec<VerdictRow>> {
 
 fn accuracy(
     rows: &[EdmdRow],
+    failed: &[FailedRun],
     verdicts: &[VerdictRow],
     json: bool,
     out: Option<&Path>,
 ) -> anyhow::Result<()> {
-    let study = report::accuracy_report(rows, verdicts)?;
+    let study = report::accuracy_report(rows, failed, verdicts)?;
     for point in &study.missing {
         eprintln!("missing: {point}");
     }
@@ -197,4 +266,60 @@ fn accuracy(
     }
     eprintln!("wrote {}", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_job_is_read_with_the_keys_a_finished_one_has() {
+        let scene = edmd::Scene::from_toml_str(
+            "shape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 0.5\nneighbours = \"nnl\"\n\
+             delta_nnl = 0.06\nnr_tol = 1e-14\ncollisions = 20000\nseed = 3\n",
+        )
+        .expect("a valid scene");
+        let spec = jobs::JobSpec::Edmd(scene.clone());
+        let job = store::FailedJob {
+            id: spec.id(),
+            params_json: spec.canonical_json(),
+            reason: "edmd: unresolved distance".into(),
+        };
+        let failed = failed_run(job).expect("readable parameters");
+        let run = &failed.run;
+        assert_eq!(
+            (run.shape.as_str(), run.neighbours.as_str()),
+            ("ellipsoid", "nnl")
+        );
+        assert_eq!(
+            (run.n, run.phi, run.x0, run.delta_nnl),
+            (256, 0.3, 0.5, 0.06)
+        );
+        assert_eq!(
+            (run.nr_tol, run.eps_d, run.eps_nnl),
+            (1e-14, scene.eps_d, scene.eps_nnl)
+        );
+        assert_eq!(
+            (run.nr_max_iter, run.sd_max_iter),
+            (scene.nr_max_iter, scene.sd_max_iter)
+        );
+        assert_eq!(
+            (run.nr_relax, run.sd_tol, run.brent_tol),
+            (scene.nr_relax, scene.sd_tol, scene.brent_tol)
+        );
+        assert_eq!((run.seed, run.collisions), (3, 20000));
+        assert!(run.tau_c_us.is_nan(), "a failed run has no τ_c");
+        assert_eq!(failed.reason, "edmd: unresolved distance");
+
+        let broken = store::FailedJob {
+            id: "j1".into(),
+            params_json: r#"{"kind":"edmd","shape":"ellipsoid"}"#.into(),
+            reason: String::new(),
+        };
+        let err = format!("{:#}", failed_run(broken).expect_err("no x0"));
+        assert!(
+            err.contains("failed job j1") && err.contains("`x0`"),
+            "{err}"
+        );
+    }
 }

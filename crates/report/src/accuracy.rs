@@ -3,7 +3,9 @@
 //! what the looser settings lose — overlaps, solver failures, energy drift, Z's deviation from
 //! the run at the tightest setting of the same state point, and how many collisions the event
 //! sequence stays identical to that run's — with the Pareto front and the cheapest setting that
-//! loses nothing measurable. The overlap kernels' family (f32 against f64) is
+//! loses nothing measurable. A run that failed (the engine stopped on an unresolved distance or
+//! contact, say) has no result but counts against its setting: a setting is safe only where
+//! every run of it finished clean. The overlap kernels' family (f32 against f64) is
 //! [`crate::overlap_accuracy`]; [`accuracy_report`] puts both together.
 //!
 //! A state point is everything but the knob: shape, X0, φ, N, neighbour method, Δ_NNL, seed
@@ -46,6 +48,14 @@ pub struct AccuracyReport {
     pub not_measured: Vec<String>,
 }
 
+/// A point that failed for good: its parameters (in `run`; what it would have measured is
+/// unset, its τ_c NaN) and the reason its last attempt gave.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FailedRun {
+    pub run: EdmdRow,
+    pub reason: String,
+}
+
 /// One knob swept at one or more state points.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct KnobStudy {
@@ -64,8 +74,9 @@ pub struct KnobStudy {
 pub struct SettingSummary {
     pub value: f64,
     pub state_points: usize,
-    /// Geometric mean over state points of τ_c / τ_c at the tightest setting.
-    pub cost_ratio: f64,
+    /// Geometric mean over state points of τ_c / τ_c at the tightest setting; `None` when
+    /// every run of the setting failed.
+    pub cost_ratio: Option<f64>,
     /// Largest |Z − Z_ref| / Z_ref.
     pub max_z_deviation_rel: f64,
     /// Largest |Z − Z_ref| / √(err² + err_ref²); `None` where no error was measured.
@@ -73,6 +84,8 @@ pub struct SettingSummary {
     pub max_energy_drift_rel: f64,
     pub overlaps: u64,
     pub solver_failures: u64,
+    /// Runs of this setting that failed for good and left no result.
+    pub failed_runs: u64,
     pub contact_nr_fallbacks: u64,
     /// The fewest collisions, over its state points, that its event sequence stayed identical
     /// to the tightest setting's run; `None` where no run has a fingerprint.
@@ -92,9 +105,17 @@ pub struct StatePointStudy {
     pub delta_nnl: f64,
     pub seed: u64,
     pub collisions: u64,
-    /// The tightest value, the reference of this state point.
+    /// The tightest value that finished, the reference of this state point.
     pub reference: f64,
     pub runs: Vec<SettingRun>,
+    /// The runs of this state point that failed, with their setting and reason.
+    pub failed: Vec<FailedSetting>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FailedSetting {
+    pub value: f64,
+    pub reason: String,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -131,20 +152,22 @@ impl SettingRun {
 
 /// The EDMD family of the accuracy report alone (see [`accuracy_report`]).
 pub fn accuracy(rows: &[EdmdRow]) -> Result<AccuracyReport, ReportError> {
-    accuracy_report(rows, &[])
+    accuracy_report(rows, &[], &[])
 }
 
-/// The accuracy report over every EDMD run and every overlap point with a checking set;
+/// The accuracy report over every EDMD run (`failed`: the points that left no result) and every
+/// overlap point with a checking set;
 /// [`ReportError::MissingPoints`] when neither family has what it needs (no state point run at
 /// two values of a knob, no overlap point with `verdict_check`); when one family has, the other's
 /// missing points are listed in `missing`.
 pub fn accuracy_report(
     rows: &[EdmdRow],
+    failed: &[FailedRun],
     verdicts: &[VerdictRow],
 ) -> Result<AccuracyReport, ReportError> {
     let baseline = Baseline::of(rows);
     let studies: Vec<KnobStudy> = (0..KNOBS.len())
-        .filter_map(|k| study(rows, &baseline, k))
+        .filter_map(|k| study(rows, failed, &baseline, k))
         .collect();
     let overlap = overlap_accuracy(verdicts);
     let mut missing = Vec::new();
@@ -198,40 +221,75 @@ pub(crate) fn identical_prefix(reference: &[u32], run: &[u32]) -> (usize, usize)
 
 type PointKey = (String, Key, Key, u32, String, Key, u64, u64);
 
-fn study(rows: &[EdmdRow], baseline: &Baseline, k: usize) -> Option<KnobStudy> {
+fn point_key(r: &EdmdRow) -> PointKey {
+    (
+        r.shape.clone(),
+        Key(r.x0),
+        Key(r.phi),
+        r.n,
+        r.neighbours.clone(),
+        Key(r.delta_nnl),
+        r.seed,
+        r.collisions,
+    )
+}
+
+/// The runs of one state point: those that finished, by value, and those that failed.
+#[derive(Default)]
+struct PointRuns<'a> {
+    done: BTreeMap<Key, Vec<&'a EdmdRow>>,
+    failed: Vec<FailedSetting>,
+}
+
+fn study(
+    rows: &[EdmdRow],
+    failed: &[FailedRun],
+    baseline: &Baseline,
+    k: usize,
+) -> Option<KnobStudy> {
     let (name, tighter) = KNOBS[k];
-    let mut points: BTreeMap<PointKey, BTreeMap<Key, Vec<&EdmdRow>>> = BTreeMap::new();
+    let mut points: BTreeMap<PointKey, PointRuns> = BTreeMap::new();
     for r in rows
         .iter()
         .filter(|r| timed(r) && baseline.knobs_match(r, Some(k)))
     {
-        let key = (
-            r.shape.clone(),
-            Key(r.x0),
-            Key(r.phi),
-            r.n,
-            r.neighbours.clone(),
-            Key(r.delta_nnl),
-            r.seed,
-            r.collisions,
-        );
         points
-            .entry(key)
+            .entry(point_key(r))
             .or_default()
+            .done
             .entry(Key(knobs(r)[k]))
             .or_default()
             .push(r);
+    }
+    for f in failed
+        .iter()
+        .filter(|f| baseline.knobs_match(&f.run, Some(k)))
+    {
+        points
+            .entry(point_key(&f.run))
+            .or_default()
+            .failed
+            .push(FailedSetting {
+                value: knobs(&f.run)[k],
+                reason: f.reason.clone(),
+            });
     }
     let tightest_first = |a: &f64, b: &f64| match tighter {
         Tighter::Smaller => a.total_cmp(b),
         Tighter::Larger => b.total_cmp(a),
     };
     let mut state_points = Vec::new();
-    for ((shape, x0, phi, n, neighbours, delta_nnl, seed, collisions), by_value) in points {
-        if by_value.len() < 2 {
+    for ((shape, x0, phi, n, neighbours, delta_nnl, seed, collisions), point) in points {
+        let mut values: Vec<Key> = point.done.keys().copied().collect();
+        values.extend(point.failed.iter().map(|f| Key(f.value)));
+        values.sort();
+        values.dedup();
+        // A knob study needs two values at the state point and one finished run to compare with.
+        if values.len() < 2 || point.done.is_empty() {
             continue;
         }
-        let mut settings: Vec<(f64, Averaged)> = by_value
+        let mut settings: Vec<(f64, Averaged)> = point
+            .done
             .into_iter()
             .map(|(value, runs)| (value.0, Averaged::of(&runs)))
             .collect();
@@ -252,6 +310,7 @@ fn study(rows: &[EdmdRow], baseline: &Baseline, k: usize) -> Option<KnobStudy> {
             collisions,
             reference: reference.0,
             runs,
+            failed: point.failed,
         });
     }
     if state_points.is_empty() {
@@ -259,7 +318,12 @@ fn study(rows: &[EdmdRow], baseline: &Baseline, k: usize) -> Option<KnobStudy> {
     }
     let mut values: Vec<f64> = state_points
         .iter()
-        .flat_map(|p| p.runs.iter().map(|r| r.value))
+        .flat_map(|p| {
+            p.runs
+                .iter()
+                .map(|r| r.value)
+                .chain(p.failed.iter().map(|f| f.value))
+        })
         .collect();
     values.sort_by(tightest_first);
     values.dedup_by(|a, b| Key(*a) == Key(*b));
@@ -271,12 +335,16 @@ fn study(rows: &[EdmdRow], baseline: &Baseline, k: usize) -> Option<KnobStudy> {
     let cheapest = settings
         .iter()
         .filter(|s| s.safe)
-        .map(|s| s.cost_ratio)
+        .filter_map(|s| s.cost_ratio)
         .fold(f64::INFINITY, f64::min);
     // Settings are tightest first: the first safe one within the noise of the cheapest.
     let recommended = settings
         .iter()
-        .find(|s| s.safe && s.cost_ratio <= cheapest * (1.0 + COST_NOISE))
+        .find(|s| {
+            s.safe
+                && s.cost_ratio
+                    .is_some_and(|c| c <= cheapest * (1.0 + COST_NOISE))
+        })
         .map(|s| s.value);
     Some(KnobStudy {
         knob: name.to_owned(),
@@ -379,31 +447,44 @@ fn summarise(value: f64, state_points: &[StatePointStudy]) -> SettingSummary {
         .iter()
         .flat_map(|p| p.runs.iter().filter(|r| Key(r.value) == Key(value)))
         .collect();
-    let count = runs.len().max(1) as f64;
+    let failed_runs = state_points
+        .iter()
+        .flat_map(|p| p.failed.iter().filter(|f| Key(f.value) == Key(value)))
+        .count() as u64;
+    let count = runs.len() as f64;
     let sigmas: Vec<f64> = runs.iter().filter_map(|r| r.z_deviation_sigmas).collect();
     SettingSummary {
         value,
         state_points: runs.len(),
-        cost_ratio: (runs.iter().map(|r| r.cost_ratio.ln()).sum::<f64>() / count).exp(),
+        cost_ratio: (!runs.is_empty())
+            .then(|| (runs.iter().map(|r| r.cost_ratio.ln()).sum::<f64>() / count).exp()),
         max_z_deviation_rel: runs.iter().map(|r| r.z_deviation_rel).fold(0.0, f64::max),
         max_z_deviation_sigmas: (!sigmas.is_empty())
             .then(|| sigmas.iter().copied().fold(0.0, f64::max)),
         max_energy_drift_rel: runs.iter().map(|r| r.energy_drift_rel).fold(0.0, f64::max),
         overlaps: runs.iter().map(|r| r.overlaps).sum(),
         solver_failures: runs.iter().map(|r| r.solver_failures).sum(),
+        failed_runs,
         contact_nr_fallbacks: runs.iter().map(|r| r.contact_nr_fallbacks).sum(),
         min_identical_collisions: runs.iter().filter_map(|r| r.identical_collisions).min(),
-        safe: runs.iter().all(|r| r.safe()),
+        safe: failed_runs == 0 && !runs.is_empty() && runs.iter().all(|r| r.safe()),
         pareto: false,
     }
 }
 
 /// A safe setting is on the front when no other safe setting is at least as cheap and as
-/// accurate, and strictly better in one of the two.
+/// accurate, and strictly better in one of the two. (A safe setting has finished runs, hence a
+/// cost.)
 fn mark_pareto(settings: &mut [SettingSummary]) {
     let objectives: Vec<(f64, f64, bool)> = settings
         .iter()
-        .map(|s| (s.cost_ratio, s.max_z_deviation_rel, s.safe))
+        .map(|s| {
+            (
+                s.cost_ratio.unwrap_or(f64::INFINITY),
+                s.max_z_deviation_rel,
+                s.safe,
+            )
+        })
         .collect();
     for (i, s) in settings.iter_mut().enumerate() {
         let (cost, error, safe) = objectives[i];
@@ -426,29 +507,30 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
     }
     let _ = writeln!(
         out,
-        "A setting is *safe* when its runs found no overlap and no solver failure, drifted in energy by at most {MAX_ENERGY_DRIFT:e} (relative), and kept Z within {MAX_Z_SIGMAS} combined standard errors of the tightest setting's run at the same state point. Cost is τ_c over τ_c at the tightest setting (geometric mean over state points). *Identical for* is how many collisions, from the first of the run, the event sequence stayed the same as the tightest setting's run from the same seed (to a block of 64; the fewest over the state points).\n"
+        "A setting is *safe* when every run of it finished (none failed for good) and its runs found no overlap and no solver failure, drifted in energy by at most {MAX_ENERGY_DRIFT:e} (relative), and kept Z within {MAX_Z_SIGMAS} combined standard errors of the tightest setting's run at the same state point. Cost is τ_c over τ_c at the tightest setting (geometric mean over state points). *Identical for* is how many collisions, from the first of the run, the event sequence stayed the same as the tightest setting's run from the same seed (to a block of 64; the fewest over the state points).\n"
     );
     for study in &report.knobs {
         let _ = writeln!(out, "### {} ({} is tighter)\n", study.knob, study.tighter);
         let _ = writeln!(
             out,
-            "| {} | state points | cost (τ_c / τ_c,ref) | max \\|ΔZ\\|/Z | max \\|ΔZ\\|/σ | max energy drift | overlaps | solver failures | NR fallbacks | identical for (collisions) | safe | Pareto |",
+            "| {} | state points | cost (τ_c / τ_c,ref) | max \\|ΔZ\\|/Z | max \\|ΔZ\\|/σ | max energy drift | overlaps | solver failures | failed runs | NR fallbacks | identical for (collisions) | safe | Pareto |",
             study.knob
         );
-        out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for s in &study.settings {
             let _ = writeln!(
                 out,
-                "| {:e} | {} | {:.3} | {:.2e} | {} | {:.1e} | {} | {} | {} | {} | {} | {} |",
+                "| {:e} | {} | {} | {:.2e} | {} | {:.1e} | {} | {} | {} | {} | {} | {} | {} |",
                 s.value,
                 s.state_points,
-                s.cost_ratio,
+                s.cost_ratio.map_or("–".to_owned(), |c| format!("{c:.3}")),
                 s.max_z_deviation_rel,
                 s.max_z_deviation_sigmas
                     .map_or("–".to_owned(), |v| format!("{v:.2}")),
                 s.max_energy_drift_rel,
                 s.overlaps,
                 s.solver_failures,
+                s.failed_runs,
                 s.contact_nr_fallbacks,
                 s.min_identical_collisions
                     .map_or("–".to_owned(), |c| c.to_string()),
@@ -520,6 +602,14 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
                         .map_or("–".to_owned(), |s| format!("{:.0} %", 100.0 * s)),
                 );
             }
+            for f in &p.failed {
+                let _ = writeln!(
+                    out,
+                    "| {point} | {:e} | **failed**: {} | | | | | | | | | |",
+                    f.value,
+                    table_cell(&f.reason),
+                );
+            }
         }
         out.push('\n');
     }
@@ -539,6 +629,22 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
     out
 }
 
+/// `text` on one line of a Markdown table cell, at most 200 characters.
+fn table_cell(text: &str) -> String {
+    let line: String = text
+        .chars()
+        .map(|c| match c {
+            '|' => '/',
+            '\n' | '\r' => ' ',
+            c => c,
+        })
+        .collect();
+    match line.char_indices().nth(200) {
+        Some((cut, _)) => format!("{}…", &line[..cut]),
+        None => line,
+    }
+}
+
 /// The overlap kernels' panels ([`crate::overlap_accuracy`]), then cost against Z deviation,
 /// one panel per knob: the Pareto front as a line, other safe settings as triangles, settings
 /// that lost something as red crosses, each point labelled.
@@ -549,43 +655,44 @@ pub fn accuracy_plot(report: &AccuracyReport, path: &Path) -> Result<(), ReportE
         .map(overlap_panels)
         .unwrap_or_default();
     let knob_panels = report.knobs.iter().map(|study| {
-        let point = |s: &SettingSummary| (s.cost_ratio, s.max_z_deviation_rel * 100.0);
+        // A setting whose every run failed has no cost to place; the table lists it.
+        let point = |s: &SettingSummary| Some((s.cost_ratio?, s.max_z_deviation_rel * 100.0));
         let mut front: Vec<(f64, f64)> = study
             .settings
             .iter()
             .filter(|s| s.pareto)
-            .map(point)
+            .filter_map(point)
             .collect();
         front.sort_by(|a, b| a.0.total_cmp(&b.0));
         let others: Vec<(f64, f64)> = study
             .settings
             .iter()
             .filter(|s| s.safe && !s.pareto)
-            .map(point)
+            .filter_map(point)
             .collect();
         let lost: Vec<(f64, f64)> = study
             .settings
             .iter()
             .filter(|s| !s.safe)
-            .map(point)
+            .filter_map(point)
             .collect();
         let notes = study
             .settings
             .iter()
-            .map(|s| {
+            .filter_map(|s| {
                 let mark = if study.recommended.is_some_and(|v| Key(v) == Key(s.value)) {
                     " (recommended)"
                 } else {
                     ""
                 };
-                (point(s), format!(" {:e}{mark}", s.value))
+                Some((point(s)?, format!(" {:e}{mark}", s.value)))
             })
             .collect();
         let series = [
             ("Pareto front (safe)", front, Style::Measured),
             ("safe, dominated", others, Style::Located),
             (
-                "lost accuracy (overlaps, failures, drift or Z)",
+                "lost accuracy (failed runs, overlaps, solver failures, drift or Z)",
                 lost,
                 Style::Flagged,
             ),
@@ -673,9 +780,76 @@ mod tests {
         assert!(!study.settings[1].safe && !study.settings[3].safe);
         assert_eq!(study.recommended, Some(1e-3));
         assert!(study.settings[2].pareto && study.settings[0].pareto);
-        assert!((study.settings[2].cost_ratio - 0.8).abs() < 1e-12);
+        assert!((study.settings[2].cost_ratio.expect("finished runs") - 0.8).abs() < 1e-12);
         let text = accuracy_markdown(&report);
         assert!(text.contains("**Recommended: eps_d = 1e-3**"), "{text}");
+    }
+
+    #[test]
+    fn a_failed_run_makes_its_setting_unsafe() {
+        // nr_tol swept at two state points; the tightest and cheapest value, 1e-14, finished at
+        // φ = 0.5 but failed at φ = 0.3, where it is also the tightest value (so 1e-12 is that
+        // state point's reference); 1e-8 only ever failed.
+        let at = |phi: f64, nr_tol: f64, tau_c_us: f64| EdmdRow {
+            phi,
+            nr_tol,
+            ..run(1e-5, tau_c_us, 10.0, 0)
+        };
+        let rows = vec![
+            at(0.5, 1e-14, 40.0),
+            at(0.5, 1e-12, 44.0),
+            at(0.5, 1e-10, 46.0),
+            at(0.3, 1e-12, 30.0),
+            at(0.3, 1e-10, 30.5),
+        ];
+        let failed = vec![
+            FailedRun {
+                run: EdmdRow {
+                    tau_c_us: f64::NAN,
+                    ..at(0.3, 1e-14, 0.0)
+                },
+                reason: "edmd: unresolved distance | for bodies 248 and 57".into(),
+            },
+            FailedRun {
+                run: EdmdRow {
+                    tau_c_us: f64::NAN,
+                    ..at(0.3, 1e-8, 0.0)
+                },
+                reason: "edmd: unresolved contact".into(),
+            },
+        ];
+        let without = accuracy(&rows).expect("an nr_tol study");
+        assert_eq!(without.knobs[0].recommended, Some(1e-14));
+        let report = accuracy_report(&rows, &failed, &[]).expect("an nr_tol study");
+        let study = &report.knobs[0];
+        assert_eq!(study.knob, "nr_tol");
+        let values: Vec<f64> = study.settings.iter().map(|s| s.value).collect();
+        assert_eq!(values, vec![1e-14, 1e-12, 1e-10, 1e-8]);
+        let failed_runs: Vec<u64> = study.settings.iter().map(|s| s.failed_runs).collect();
+        assert_eq!(failed_runs, vec![1, 0, 0, 1]);
+        let safe: Vec<bool> = study.settings.iter().map(|s| s.safe).collect();
+        assert_eq!(safe, vec![false, true, true, false]);
+        assert_eq!(study.settings[3].cost_ratio, None);
+        assert!(!study.settings[0].pareto && !study.settings[3].pareto);
+        let phi_03 = study
+            .state_points
+            .iter()
+            .find(|p| p.phi == 0.3)
+            .expect("φ = 0.3");
+        assert_eq!(phi_03.reference, 1e-12);
+        assert_eq!(phi_03.failed.len(), 2);
+        assert_eq!(study.recommended, Some(1e-12));
+        let text = accuracy_markdown(&report);
+        assert!(text.contains("**Recommended: nr_tol = 1e-12**"), "{text}");
+        assert!(
+            text.contains(
+                "| 1e-14 | **failed**: edmd: unresolved distance / for bodies 248 and 57 |"
+            ),
+            "{text}"
+        );
+        let svg = std::env::temp_dir().join(format!("accuracy-failed-{}.svg", std::process::id()));
+        accuracy_plot(&report, &svg).expect("drawn without the setting that has no cost");
+        let _ = std::fs::remove_file(svg);
     }
 
     #[test]

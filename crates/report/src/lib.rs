@@ -26,7 +26,9 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use accuracy::{AccuracyReport, accuracy, accuracy_markdown, accuracy_plot, accuracy_report};
+pub use accuracy::{
+    AccuracyReport, FailedRun, accuracy, accuracy_markdown, accuracy_plot, accuracy_report,
+};
 pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
 pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};

@@ -356,7 +356,7 @@ mod edmd_figures {
         assert!(svg_text(&svg).contains("Pareto front"));
 
         // With the overlap family: its two panels come first, both families in one figure.
-        let study = accuracy_report(&rows, &verdicts()).expect("both families");
+        let study = accuracy_report(&rows, &[], &verdicts()).expect("both families");
         assert!(study.missing.is_empty(), "{:?}", study.missing);
         for extension in ["png", "svg"] {
             let path = dir.path().join(format!("accuracy-both.{extension}"));
@@ -404,7 +404,7 @@ mod edmd_figures {
 
     #[test]
     fn the_overlap_family_alone_recommends_and_the_edmd_one_is_named_missing() {
-        let study = accuracy_report(&[], &verdicts()).expect("the overlap family");
+        let study = accuracy_report(&[], &[], &verdicts()).expect("the overlap family");
         assert!(study.knobs.is_empty());
         assert!(study.missing[0].contains("EDMD runs of one state point"), "{:?}", study.missing);
         let overlap = study.overlap.as_ref().expect("overlap settings");
@@ -414,7 +414,7 @@ mod edmd_figures {
         assert_eq!((recommended.algorithm.as_str(), recommended.precision.as_str()), ("ocsi_batch", "f64"));
         let gap = recommended.trusted_above_gap.expect("f64 was wrong in the last decade");
         assert!((gap / 1e-8 - 1.0).abs() < 1e-9, "{gap}");
-        match accuracy_report(&[], &[]) {
+        match accuracy_report(&[], &[], &[]) {
             Err(ReportError::MissingPoints { figure, missing }) => {
                 assert_eq!(figure, "accuracy");
                 assert_eq!(missing.len(), 2, "{missing:?}");

@@ -11,7 +11,7 @@ use sqlx::{
 use crate::Store;
 use crate::error::{Error, Result};
 use crate::types::{
-    CampaignInfo, EdmdRun, ExportRow, JobInfo, JobState, OverlapQuality, OverlapRow,
+    CampaignInfo, EdmdRun, ExportRow, FailedJob, JobInfo, JobState, OverlapQuality, OverlapRow,
     OverlapVerdictRow, QueryResult, Status, WorkerInfo, WorkerRecord,
 };
 
@@ -173,6 +173,28 @@ impl Store {
             finished_at: row.try_get(11)?,
             created_at: row.try_get(12)?,
         })
+    }
+
+    /// The jobs of `kind` whose last attempt failed for good (state `failed`), in submission
+    /// order, with their parameters and the last reason: a report that judges settings by their
+    /// results must also see the points that never produced one. O(failed) by the state index.
+    pub async fn failed_jobs(&self, kind: &str) -> Result<Vec<FailedJob>> {
+        let rows = sqlx::query(
+            "SELECT id, params, coalesce(last_error, '') FROM jobs
+             WHERE state = 'failed' AND kind = ?1 ORDER BY created_at, rowid",
+        )
+        .bind(kind)
+        .fetch_all(&self.reader)
+        .await?;
+        rows.iter()
+            .map(|row| {
+                Ok(FailedJob {
+                    id: row.try_get(0)?,
+                    params_json: row.try_get(1)?,
+                    reason: row.try_get(2)?,
+                })
+            })
+            .collect()
     }
 
     /// Every results row with its job's identity, in submission order of the jobs.

@@ -247,6 +247,15 @@ impl JobState {
     }
 }
 
+/// A job that failed for good: its parameters (the JSON it was submitted with) and the reason
+/// its last attempt gave (empty when none was recorded).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FailedJob {
+    pub id: String,
+    pub params_json: String,
+    pub reason: String,
+}
+
 /// One job as stored, for diagnosis (`sweep status` of a single job, tests).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JobInfo {

@@ -87,6 +87,13 @@ async fn resubmission_keeps_done_jobs_and_requeues_failed_ones() {
         .await
         .unwrap();
     assert_eq!(failed, FailOutcome::Failed);
+    let failed_jobs = store.failed_jobs("noop").await.unwrap();
+    assert_eq!(failed_jobs.len(), 1, "{failed_jobs:?}");
+    assert_eq!(failed_jobs[0].id, leases[1].job_id);
+    assert_eq!(failed_jobs[0].reason, "boom");
+    let params: serde_json::Value = serde_json::from_str(&failed_jobs[0].params_json).unwrap();
+    assert!(params.is_object(), "{params}");
+    assert!(store.failed_jobs("edmd").await.unwrap().is_empty());
 
     let again = store
         .submit(&campaign("c1"), &noop_jobs(0, 2), T0 + 1.0)
@@ -105,6 +112,8 @@ async fn resubmission_keeps_done_jobs_and_requeues_failed_ones() {
         store.job(&leases[0].job_id).await.unwrap().state,
         JobState::Done
     );
+    // Requeued, it is no longer failed.
+    assert!(store.failed_jobs("noop").await.unwrap().is_empty());
 }
 
 #[tokio::test]
