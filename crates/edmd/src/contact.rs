@@ -147,6 +147,11 @@ pub fn predict<S: Surface>(
         if far {
             k = (k * 1.5).min(4.0);
         }
+        // Every step is either proved contact-free or no longer than ε_d/ḋ_max, so the first
+        // sign change brackets the first contact. No step may jump ahead on an extrapolation: a
+        // sign change over a long uncertified step proves a contact but not the first one (the
+        // bodies may touch, pass through each other and part within it). A secant jump did so
+        // once, and refining its bracket found the parting of a p = 4 pair, not the contact.
         match (last, next) {
             (Some((tl, l)), Some(n)) if l.d >= 0.0 && n.d < 0.0 => {
                 return search.refine(tl, &l, tn, &n);
@@ -156,23 +161,6 @@ pub fn predict<S: Surface>(
             {
                 if let Some(h) = search.grazing(t, &l, tn, &n) {
                     return Some(h);
-                }
-            }
-            (Some((tl, l)), Some(n)) if tl == t && n.d > p.eps_d && n.d < l.d => {
-                // Speculative secant step (not in the paper): the Eq. (39) steps approach a contact
-                // geometrically at the rate ḋ/ḋ_max, slow when rotation inflates ḋ_max. Aim 50 %
-                // past the secant estimate of the crossing; only a sign change found there is used,
-                // and a bracket of d > 0 at `tn` and d < 0 beyond cannot hide an earlier contact
-                // unless the bodies pass through each other within it.
-                let ts = tn + 1.5 * n.d * (tn - t) / (l.d - n.d);
-                if ts <= t2 {
-                    let failures_before = search.stats.failures;
-                    match search.dist(ts, Some(&n)) {
-                        Some(sd) if sd.d < 0.0 => return search.refine(tn, &n, ts, &sd),
-                        // Overshooting into a deep overlap is expected, not a solver failure.
-                        None => search.stats.failures = failures_before,
-                        _ => {}
-                    }
                 }
             }
             (_, None) => {
