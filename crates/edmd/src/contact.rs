@@ -136,7 +136,7 @@ pub fn predict<S: Surface>(
             // bound from t and the backward bound from tn leave no common zero. Uncertified: redo it
             // with the plain step.
             let certified =
-                matches!((cur, next), (Some(c), Some(n)) if search.no_zero_between(&c, &n, dt));
+                matches!((cur, next), (Some(c), Some(n)) if search.no_zero_between(t, &c, &n, dt));
             if !certified {
                 // A long step may land deep in an overlap, where no distance exists: not a failure.
                 search.stats.failures = failures_before;
@@ -351,14 +351,17 @@ impl<S: Surface> Search<'_, S> {
     }
 
     /// Whether d > 0 throughout [t0, t0 + dt] follows from d at both ends (`lo`, `hi`) and
-    /// [`gap_closing_rates`]: the forward bound from t0 and the backward bound from t0 + dt.
-    fn no_zero_between(&self, lo: &Distance, hi: &Distance, dt: f64) -> bool {
+    /// [`gap_closing_rates`]: the forward bound from t0 and the backward bound from t0 + dt, each
+    /// along the contact normal at its end (where the support gap is d).
+    fn no_zero_between(&self, t0: f64, lo: &Distance, hi: &Distance, dt: f64) -> bool {
         if lo.d <= 0.0 || hi.d <= 0.0 {
             return false;
         }
         let (la, lb) = (self.sa.bounding_radius(), self.sb.bounding_radius());
-        let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &((lo.xb - lo.xa) / lo.d));
-        let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &((hi.xb - hi.xa) / hi.d));
+        let normal =
+            |t: f64, d: &Distance| self.sa.place(&self.a.pose_after(t)).grad(&d.xa).normalize();
+        let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &normal(t0, lo));
+        let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &normal(t0 + dt, hi));
         forward <= 0.0 || backward <= 0.0 || lo.d / forward + hi.d / backward >= dt
     }
 

@@ -358,6 +358,13 @@ fn newton<S: Surface>(
         if dgap > tol.nr_relax * l {
             xi = xi.min(tol.nr_relax * l / dgap);
         }
+        // Not in the paper: nor may x_A move by more than l in one step. Along the flat sides of
+        // a high exponent the Jacobian is nearly singular, and an undamped step there leaves the
+        // body by orders of magnitude (f, a power 10 of the coordinates, then overflows).
+        let dx = step.fixed_rows::<3>(0).norm();
+        if dx > l {
+            xi = xi.min(l / dx);
+        }
         xa += step.fixed_rows::<3>(0) * xi;
         alpha = (alpha + xi * dalpha).abs();
         beta += xi * dbeta;

@@ -709,6 +709,47 @@ proptest! {
     }
 }
 
+/// Two superquadrics side by side with parallel axes (p up to 10), offset along the p axis: near
+/// its equator the surface is flat along that axis to order p (the Hessian entry
+/// p(p−1)|z/c|^(p−2)/c² vanishes), so the closest points are nearly a segment and the Jacobians
+/// of Eqs. (24) and (31) are nearly singular. The distance is the gap along the first axis (to
+/// within a(dz/2c)^p < 1e-7), certified by the support gap, and the contact comes when it closes.
+#[test]
+fn parallel_flat_sides_of_high_exponents() {
+    for x0 in [0.5, 2.0] {
+        for p in [4.0, 6.0, 10.0] {
+            let q = superquadric(x0, p);
+            let s = q.semi_axes();
+            for tilt in [0.0, 1e-7] {
+                let rot = rotate(&M3::identity(), &V3::new(0.0, 1.0, 1.0), tilt);
+                let gap = 0.05;
+                let r = V3::new(2.0 * s.x + gap, 0.0, 0.02);
+                let (pa, pb) = (at_origin(), Pose { r, rot });
+                let mut stats = SolverStats::default();
+                let d = distance(&q, &pa, &q, &pb, None, &Tolerances::default(), &mut stats)
+                    .unwrap_or_else(|| panic!("x0 {x0} p {p}: no distance"));
+                assert!(
+                    (d.d - gap).abs() < 1e-6,
+                    "x0 {x0} p {p} tilt {tilt}: d {}",
+                    d.d
+                );
+                assert_certified(&q, &pa, &pb, d.d, &d.xa, &d.xb);
+                let a = still(V3::zeros(), V3::zeros(), M3::identity(), V3::zeros());
+                let b = still(r, V3::new(-0.5, 0.0, 0.0), rot, V3::zeros());
+                let hit = predict(&q, &a, &q, &b, 10.0, &params(), &mut stats)
+                    .unwrap_or_else(|| panic!("x0 {x0} p {p} tilt {tilt}: never met ({stats:?})"));
+                assert!(
+                    (hit.t - d.d / 0.5).abs() < 1e-6,
+                    "x0 {x0} p {p}: hit at {}",
+                    hit.t
+                );
+                assert!(hit.n.x > 1.0 - 1e-6, "normal {:?}", hit.n);
+                assert_eq!(stats.failures, 0, "x0 {x0} p {p}");
+            }
+        }
+    }
+}
+
 /// High-exponent superquadrics exactly face to face: a contact at once if they approach, none if
 /// they part; and a pass along the faces with the gap 1e-10 open never collides.
 #[test]
