@@ -511,11 +511,15 @@ fn run_scene_clean(mut scene: Scene, neighbours: Neighbours, collisions: u64) {
     assert_eq!(r.solver_failures, 0, "{case}");
     assert!(r.energy_drift_rel < 1e-10, "{case}: {}", r.energy_drift_rel);
     eprintln!(
-        "{case}: NR iterations/call {:.2}, distance fallbacks {}, contact fallbacks {}, tau_c {:.1} us, Z {:.3}",
+        "{case}: NR iterations/call {:.2} (max {}), distance fallbacks {}, contact fallbacks {}, \
+         distance calls/collision {:.1}, tau_c {:.1} us (cpu {:.1}), Z {:.3}",
         r.nr_iterations_mean,
+        r.nr_iterations_max,
         r.distance_fallbacks,
         r.contact_nr_fallbacks,
+        r.distance_calls_per_collision,
         r.tau_c_us,
+        r.tau_c_cpu_us,
         r.pressure_z
     );
 }
