@@ -754,10 +754,11 @@ fn parallel_flat_sides_of_high_exponents() {
     }
 }
 
-/// High-exponent superquadrics exactly face to face: a contact at once if they approach, none if
-/// they part; and a pass along the faces with the gap 1e-10 open never collides.
+/// High-exponent superquadrics exactly pole to pole: a contact at once if they approach, none if
+/// they part; and grazing passes, one pole sliding over the other 1e-10 clear (no contact) and
+/// 1e-10 too low (a contact where the caps first touch).
 #[test]
-fn superquadrics_in_contact_and_sliding_along_their_faces() {
+fn superquadrics_in_contact_and_grazing_pole_over_pole() {
     for x0 in [0.5, 2.0] {
         for p in [3.0, 8.0, 10.0] {
             let q = superquadric(x0, p);
@@ -782,6 +783,24 @@ fn superquadrics_in_contact_and_sliding_along_their_faces() {
             );
             let hit = predict(&q, &a, &q, &slide, 10.0, &params(), &mut stats);
             assert_eq!(hit, None, "x0 {x0} p {p}: a slide 1e-10 clear collided");
+            // 1e-10 too low: the poles, caps z ≈ c(1 − (x/a)²/p), touch at the lateral offset
+            // X = 2a·√(pδ/2c) (≈ 1e-5) before they are aligned at t = `side`.
+            let low = still(
+                slide.r - V3::new(0.0, 0.0, 2e-10),
+                slide.v,
+                M3::identity(),
+                V3::zeros(),
+            );
+            let s = q.semi_axes();
+            let offset = 2.0 * s.x * (p * 1e-10 / (2.0 * s.z)).sqrt();
+            let hit = predict(&q, &a, &q, &low, 10.0, &params(), &mut stats)
+                .unwrap_or_else(|| panic!("x0 {x0} p {p}: a slide 1e-10 low never collided"));
+            assert!(
+                (hit.t - (side - offset)).abs() < 0.2 * offset,
+                "x0 {x0} p {p}: hit at {}, expected {}",
+                hit.t,
+                side - offset
+            );
             assert_eq!(stats.failures, 0, "x0 {x0} p {p}");
         }
     }
