@@ -667,15 +667,16 @@ fn the_p4_pair_that_passed_through_each_other_collides_at_its_first_contact() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(32))]
+    #![proptest_config(ProptestConfig::with_cases(40))]
 
-    /// Fast-spinning superquadrics up to p = 10: the predicted contact is the first, i.e. no
-    /// sampled time before it (or before the horizon, if none is predicted) has the bodies
-    /// overlapping by Gilbert's algorithm, and a predicted contact is entered right after.
+    /// Fast-spinning superquadrics up to p = 10, half of them at p = 2 exactly (ellipsoids, where
+    /// the contact search may take a secant jump and must prove its contact the first): no
+    /// sampled time before the predicted contact (or before the horizon, if none is predicted)
+    /// has the bodies overlapping by Gilbert's algorithm.
     #[test]
     fn the_predicted_contact_of_spinning_superquadrics_is_the_first(
         x0 in prop::sample::select(vec![0.5, 2.0]),
-        p in 2.0f64..10.0,
+        p in prop_oneof![Just(2.0), 2.0f64..10.0],
         dir in prop::array::uniform3(-1.0f64..1.0),
         axes in prop::array::uniform3(-1.0f64..1.0),
         angles in prop::array::uniform2(0.0f64..3.2),
