@@ -8,7 +8,9 @@ use crate::distance::{
     Distance, Guess, SolverStats, Tolerances, distance, multipliers_guess, solve5,
 };
 use crate::geometry::{Placed, Pose, Surface, V3};
-use crate::rigid::{Body, GapSide, ddot_max, gap_closing_rates, gap_safe_time};
+use crate::rigid::{
+    Body, GapSide, ddot_max, gap_closing_rates, gap_safe_time, support_acceleration_bound,
+};
 
 /// Everything the contact search needs besides the solver tolerances.
 #[derive(Clone, Copy, Debug)]
@@ -107,6 +109,9 @@ pub fn predict<S: Surface>(
     let mut failures = 0;
     // Step multiplier for the far regime (see below); 1 is the plain step of Eq. (39).
     let mut k: f64 = 1.0;
+    // The secant jump needs a curvature bound to prove its contact the first (flat faces have
+    // none), and is tried once per search.
+    let mut secant = sa.max_curvature_radius().is_finite() && sb.max_curvature_radius().is_finite();
     for _ in 0..MAX_STEPS {
         if t > t2 {
             return None;
@@ -136,7 +141,7 @@ pub fn predict<S: Surface>(
             // bound from t and the backward bound from tn leave no common zero. Uncertified: redo it
             // with the plain step.
             let certified =
-                matches!((cur, next), (Some(c), Some(n)) if search.no_zero_between(&c, &n, dt));
+                matches!((cur, next), (Some(c), Some(n)) if search.no_zero_between(t, &c, &n, dt));
             if !certified {
                 // A long step may land deep in an overlap, where no distance exists: not a failure.
                 search.stats.failures = failures_before;
@@ -147,6 +152,12 @@ pub fn predict<S: Surface>(
         if far {
             k = (k * 1.5).min(4.0);
         }
+        // Every step is either proved contact-free or no longer than ε_d/ḋ_max, so the first
+        // sign change brackets the first contact. A sign change over a longer, uncertified step
+        // proves a contact but not the first one (the bodies may touch, pass through each other
+        // and part within it): a secant jump once refined such a bracket to the parting of a
+        // p = 4 pair and missed the contact. The secant below is used only when what it found
+        // is proved to be the first contact.
         match (last, next) {
             (Some((tl, l)), Some(n)) if l.d >= 0.0 && n.d < 0.0 => {
                 return search.refine(tl, &l, tn, &n);
@@ -158,17 +169,25 @@ pub fn predict<S: Surface>(
                     return Some(h);
                 }
             }
-            (Some((tl, l)), Some(n)) if tl == t && n.d > p.eps_d && n.d < l.d => {
+            (Some((tl, l)), Some(n)) if tl == t && n.d > p.eps_d && n.d < l.d && secant => {
                 // Speculative secant step (not in the paper): the Eq. (39) steps approach a contact
                 // geometrically at the rate ḋ/ḋ_max, slow when rotation inflates ḋ_max. Aim 50 %
-                // past the secant estimate of the crossing; only a sign change found there is used,
-                // and a bracket of d > 0 at `tn` and d < 0 beyond cannot hide an earlier contact
-                // unless the bodies pass through each other within it.
+                // past the secant estimate of the crossing; a contact refined from there is
+                // returned only if [`Search::first_contact_after`] proves nothing comes before
+                // it, else the stepping goes on as if the jump had not been tried (once a search).
                 let ts = tn + 1.5 * n.d * (tn - t) / (l.d - n.d);
                 if ts <= t2 {
                     let failures_before = search.stats.failures;
                     match search.dist(ts, Some(&n)) {
-                        Some(sd) if sd.d < 0.0 => return search.refine(tn, &n, ts, &sd),
+                        Some(sd) if sd.d < 0.0 => {
+                            secant = false;
+                            if let Some(h) = search.refine(tn, &n, ts, &sd)
+                                && search.first_contact_after(tn, &n, &h)
+                            {
+                                return Some(h);
+                            }
+                            search.stats.failures = failures_before;
+                        }
                         // Overshooting into a deep overlap is expected, not a solver failure.
                         None => search.stats.failures = failures_before,
                         _ => {}
@@ -363,15 +382,53 @@ impl<S: Surface> Search<'_, S> {
     }
 
     /// Whether d > 0 throughout [t0, t0 + dt] follows from d at both ends (`lo`, `hi`) and
-    /// [`gap_closing_rates`]: the forward bound from t0 and the backward bound from t0 + dt.
-    fn no_zero_between(&self, lo: &Distance, hi: &Distance, dt: f64) -> bool {
+    /// [`gap_closing_rates`]: the forward bound from t0 and the backward bound from t0 + dt, each
+    /// along the contact normal at its end (where the support gap is d).
+    fn no_zero_between(&self, t0: f64, lo: &Distance, hi: &Distance, dt: f64) -> bool {
         if lo.d <= 0.0 || hi.d <= 0.0 {
             return false;
         }
         let (la, lb) = (self.sa.bounding_radius(), self.sb.bounding_radius());
-        let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &((lo.xb - lo.xa) / lo.d));
-        let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &((hi.xb - hi.xa) / hi.d));
+        let normal =
+            |t: f64, d: &Distance| self.sa.place(&self.a.pose_after(t)).grad(&d.xa).normalize();
+        let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &normal(t0, lo));
+        let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &normal(t0 + dt, hi));
         forward <= 0.0 || backward <= 0.0 || lo.d / forward + hi.d / backward >= dt
+    }
+
+    /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart), is the first
+    /// after t0. The support gap g along the contact normal n bounds d from below at every time
+    /// and is zero at the contact, where it closes at the rate ġ < 0; with |g̈| ≤ M
+    /// ([`support_acceleration_bound`]), g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M. The
+    /// rest of [t0, t_c], if any, must pass the two-sided test of [`Search::no_zero_between`]
+    /// with one more distance (at 90 % of that window before the contact).
+    fn first_contact_after(&mut self, t0: f64, d0: &Distance, h: &Hit) -> bool {
+        let (a, b) = (self.a, self.b);
+        let (pa, pb) = (a.pose_after(h.t), b.pose_after(h.t));
+        let rate =
+            h.n.dot(&((b.v + b.w.cross(&(h.xc - pb.r))) - (a.v + a.w.cross(&(h.xc - pa.r)))));
+        let m = support_acceleration_bound(
+            &a.w,
+            &h.n,
+            self.sa.bounding_radius(),
+            self.sa.max_curvature_radius(),
+        ) + support_acceleration_bound(
+            &b.w,
+            &h.n,
+            self.sb.bounding_radius(),
+            self.sb.max_curvature_radius(),
+        );
+        if !(rate < 0.0 && m.is_finite() && h.t > t0) {
+            return false;
+        }
+        let tv = h.t - 0.9 * 2.0 * -rate / m;
+        if tv <= t0 {
+            return true;
+        }
+        match self.dist(tv, Some(d0)) {
+            Some(dv) => dv.d > 0.0 && self.no_zero_between(t0, d0, &dv, tv - t0),
+            None => false,
+        }
     }
 
     fn dist_value(&mut self, t: f64, warm: &mut Distance) -> f64 {

@@ -38,6 +38,9 @@ pub struct SolverStats {
     pub searches: u64,
     pub distance_calls: u64,
     pub nr_iterations: u64,
+    /// The most Newton–Raphson iterations one distance evaluation took, all its attempts
+    /// (warm start, guess, after steepest descent, inside the fallback) together.
+    pub nr_iterations_max: u64,
     pub sd_calls: u64,
     /// Solves that failed with no fallback left.
     pub failures: u64,
@@ -194,6 +197,24 @@ pub fn distance<S: Surface>(
     stats: &mut SolverStats,
 ) -> Option<Distance> {
     stats.distance_calls += 1;
+    let iterations = stats.nr_iterations;
+    let d = solve_distance(sa, pa, sb, pb, warm, tol, stats);
+    stats.nr_iterations_max = stats
+        .nr_iterations_max
+        .max(stats.nr_iterations - iterations);
+    d
+}
+
+/// [`distance`] without the counting of calls and iterations per call.
+fn solve_distance<S: Surface>(
+    sa: &S,
+    pa: &Pose,
+    sb: &S,
+    pb: &Pose,
+    warm: Option<&Guess>,
+    tol: &Tolerances,
+    stats: &mut SolverStats,
+) -> Option<Distance> {
     let l = sa.semi_axes().min().min(sb.semi_axes().min());
     if let Some(g) = warm {
         let xa = pa.to_lab(&g.xa_body);
@@ -357,6 +378,13 @@ fn newton<S: Surface>(
         let dgap = dbeta.abs() * fxn;
         if dgap > tol.nr_relax * l {
             xi = xi.min(tol.nr_relax * l / dgap);
+        }
+        // Not in the paper: nor may x_A move by more than l in one step. Along the flat sides of
+        // a high exponent the Jacobian is nearly singular, and an undamped step there leaves the
+        // body by orders of magnitude (f, a power 10 of the coordinates, then overflows).
+        let dx = step.fixed_rows::<3>(0).norm();
+        if dx > l {
+            xi = xi.min(l / dx);
         }
         xa += step.fixed_rows::<3>(0) * xi;
         alpha = (alpha + xi * dalpha).abs();

@@ -693,6 +693,8 @@ pub struct RunReport {
     pub distance_fallbacks: u64,
     /// Newton–Raphson iterations per distance evaluation in the measured run (0 on the sphere path).
     pub nr_iterations_mean: f64,
+    /// The most Newton–Raphson iterations one distance evaluation took (whole run).
+    pub nr_iterations_max: u64,
     /// Distance evaluations per collision in the measured run.
     pub distance_calls_per_collision: f64,
     /// Pair contact-time searches per collision in the measured run (0 on the sphere path).
@@ -977,6 +979,7 @@ fn measure<M: Model>(
         } else {
             0.0
         },
+        nr_iterations_max: stats.nr_iterations_max,
         distance_calls_per_collision: calls / scene.collisions as f64,
         searches_per_collision: (stats.searches - stats0.searches) as f64 / scene.collisions as f64,
         mean_free_time: n as f64 * sim_time / (2.0 * scene.collisions as f64),

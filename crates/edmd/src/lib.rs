@@ -43,8 +43,6 @@
 //!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`]).
 //!   They prune partners before any Newton–Raphson, and they let the search of Eq. (39) step over
 //!   intervals that are provably free of contact, e.g. just after two bodies collided.
-//! - The contact search adds a speculative secant step to the ε_d stepping of Eq. (39); only a
-//!   sign change found by it is used (see [`contact::predict`]).
 //! - The escape time from a bounding parallelepiped uses the ellipsoid's support function, exact
 //!   and closed-form, instead of Newton–Raphson on the planes (Eqs. 56–58); the stepping of Eq. (61)
 //!   with ε_d^nnl is kept for rotating bodies.

@@ -305,16 +305,6 @@ impl Scene {
                         format!("each exponent must lie in [2, {MAX_EXPONENT}], got {x}"),
                     );
                 }
-                if let Some(x) = e.iter().find(|x| **x != 2.0) {
-                    return bad(
-                        "exponents",
-                        format!(
-                            "exponents above 2 are refused for now (got {x}): a run at p = 4 \
-                             (X0 = 2, N = 128, LL) missed a contact after ~6,000 collisions and \
-                             stopped on the overlap; until that is found, only p = 2 is trusted"
-                        ),
-                    );
-                }
             }
             (_, Some(_)) => {
                 return bad(

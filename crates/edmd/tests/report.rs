@@ -29,6 +29,7 @@ fn report_and_dump_have_the_documented_fields() {
         "overlaps",
         "solver_failures",
         "nr_iterations_mean",
+        "nr_iterations_max",
     ] {
         assert!(r.get(key).is_some(), "report lacks `{key}`");
     }
