@@ -1,4 +1,4 @@
-//! `sweep report` for the EDMD paper's figures (7–11) and the cost of accuracy: rows from the
+//! `sweep report` for the EDMD paper's figures (7–11, 13) and the cost of accuracy: rows from the
 //! store's `edmd_runs` view, drawn or printed by the `report` crate.
 
 use std::path::Path;
@@ -10,7 +10,7 @@ use crate::db::{ReportArgs, open_read_only, runtime};
 use crate::output::{Format, print_json, print_text};
 
 /// The reports this module makes.
-pub const NAMES: [&str; 6] = ["fig7", "fig8", "fig9", "fig10", "fig11", "accuracy"];
+pub const NAMES: [&str; 7] = ["fig7", "fig8", "fig9", "fig10", "fig11", "fig13", "accuracy"];
 
 /// Every EDMD run of the database, as the report crate reads them, with τ_c by `clock` where
 /// the record has it.
@@ -35,6 +35,7 @@ pub(crate) fn edmd_rows(runs: Vec<store::EdmdRun>, clock: Clock) -> Vec<EdmdRow>
             EdmdRow {
                 shape: r.shape,
                 x0: r.x0,
+                exponents: r.exponents,
                 neighbours: r.neighbours,
                 delta_nnl: r.delta_nnl,
                 n: u32::try_from(r.n).unwrap_or(u32::MAX),
@@ -118,6 +119,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig13" => finish(report::fig13(&rows, out), json, out, |f| &f.missing)?,
         "accuracy" => accuracy(&rows, &verdicts, json, out)?,
         other => bail!("report `{other}` is not an EDMD report"),
     }

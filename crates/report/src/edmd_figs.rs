@@ -26,7 +26,7 @@ const PAPER_X0: [f64; 2] = [0.5, 2.0];
 const FIG10_PHI: [f64; 2] = [0.45, 0.57];
 const FIG11_PHI: [f64; 2] = [0.40, 0.55];
 
-fn same(a: f64, b: f64) -> bool {
+pub(crate) fn same(a: f64, b: f64) -> bool {
     (a - b).abs() < 1e-9
 }
 
@@ -42,14 +42,14 @@ pub struct CurvePoint {
     pub runs: u32,
 }
 
-fn points_of(raw: Vec<(f64, f64)>) -> Vec<CurvePoint> {
+pub(crate) fn points_of(raw: Vec<(f64, f64)>) -> Vec<CurvePoint> {
     mean_by_x(raw.into_iter())
         .into_iter()
         .map(|(x, tau_c_us, runs)| CurvePoint { x, tau_c_us, runs })
         .collect()
 }
 
-fn xy(points: &[CurvePoint]) -> Vec<(f64, f64)> {
+pub(crate) fn xy(points: &[CurvePoint]) -> Vec<(f64, f64)> {
     points.iter().map(|p| (p.x, p.tau_c_us)).collect()
 }
 
@@ -766,7 +766,7 @@ impl Fig11 {
 }
 
 /// `figure`, drawn into `path` when one is given.
-fn drawn<F>(
+pub(crate) fn drawn<F>(
     figure: F,
     path: Option<&Path>,
     draw: fn(&F, &Path) -> Result<(), ReportError>,
