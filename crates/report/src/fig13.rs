@@ -234,6 +234,15 @@ impl Fig13 {
                 });
             }
         }
+        // The p axis spans the plan's grid even where only part of it is measured.
+        if let Some(&(_, y)) = series.first().and_then(|s| s.points.first()) {
+            series.push(Series {
+                label: String::new(),
+                points: vec![(P_GRID[0], y), (P_GRID[P_GRID.len() - 1], y)],
+                style: Style::Frame,
+                colour: 0,
+            });
+        }
         Panel {
             title: title.to_owned(),
             x_desc: "p, the exponent of |z/c|^p in Eq. 77 (n = m = 2)".into(),
