@@ -13,7 +13,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::edmd_figs::{CurvePoint, drawn, points_of, same, xy};
+use crate::edmd_figs::{CurvePoint, curve_series, drawn, points_of, same};
 use crate::lines::{LinePlot, Panel, Series, Style};
 use crate::render::render;
 use crate::selection::{Baseline, Key, knobs, timed};
@@ -199,26 +199,15 @@ impl Fig13 {
                 .delta_nnl_sigma
                 .map(|d| format!(", Δ = {d} σ"))
                 .unwrap_or_default();
-            series.push(Series {
-                label: format!("X0 = {}, φ = {}, N = {}{delta}", c.x0, c.phi, c.n),
-                points: xy(&c.points),
-                style: Style::Measured,
+            series.extend(curve_series(
+                format!("X0 = {}, φ = {}, N = {}{delta}", c.x0, c.phi, c.n),
+                &c.points,
+                (
+                    &c.flagged,
+                    format!("overlaps or solver failures (X0 = {})", c.x0),
+                ),
                 colour,
-            });
-            let flagged: Vec<(f64, f64)> = c
-                .points
-                .iter()
-                .filter(|p| c.flagged.iter().any(|&f| same(f, p.x)))
-                .map(|p| (p.x, p.tau_c_us))
-                .collect();
-            if !flagged.is_empty() {
-                series.push(Series {
-                    label: format!("overlaps or solver failures (X0 = {})", c.x0),
-                    points: flagged,
-                    style: Style::Flagged,
-                    colour,
-                });
-            }
+            ));
             let reference = self.ellipsoid_ratios.iter().find(|r| {
                 r.neighbours == method && same(r.x0, c.x0) && same(r.phi, c.phi) && r.n == c.n
             });
