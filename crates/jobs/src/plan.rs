@@ -40,7 +40,7 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 use crate::spec::{JobSpec, NoopSpec};
-use crate::sweep::{Issue, Sweep, cartesian};
+use crate::sweep::{Issue, Sweep, Written, cartesian};
 
 /// A plan may not expand to more jobs than this: a campaign that large is a typo.
 pub const MAX_JOBS: usize = 1_000_000;
@@ -435,7 +435,7 @@ fn expand_edmd(
     let known: Vec<&str> = keys.iter().map(|(key, _)| key.as_str()).collect();
     let sweep = &Sweep::new("[[edmd]]", header.clone(), table, &known)?;
     // Each key's values, each with where it was written.
-    let mut columns: Vec<(&str, Vec<(Range<usize>, toml::Value)>)> = Vec::new();
+    let mut columns: Vec<(&str, Vec<Written>)> = Vec::new();
     for (key, list_valued) in &keys {
         let key = key.as_str();
         let values = if *list_valued {
@@ -468,7 +468,7 @@ fn expand_edmd(
     check_product(sweep, &lens)?;
     cartesian(&lens)
         .map(|i| {
-            let point: Vec<(&str, &(Range<usize>, toml::Value))> = columns
+            let point: Vec<(&str, &Written)> = columns
                 .iter()
                 .zip(&i)
                 .map(|((key, values), &k)| (*key, &values[k]))

@@ -30,6 +30,9 @@ impl Issue {
     }
 }
 
+/// A value as TOML, with the span it was written at.
+pub(crate) type Written = (Range<usize>, toml::Value);
+
 /// A check on one value: `Err` holds the reason, e.g. "must be positive, got -1".
 pub(crate) type Check<'c, T> = &'c dyn Fn(T) -> Result<(), String>;
 
@@ -184,7 +187,7 @@ impl<'a, 'i> Sweep<'a, 'i> {
     /// at: for kinds whose keys and checks are defined elsewhere (the `edmd` crate's scenes). A
     /// range gives integers when `from`, `to` and `step` are all integers, else reals (all at the
     /// range's span). `None` when the key is absent.
-    pub fn values(&self, key: &str) -> Result<Option<Vec<(Range<usize>, toml::Value)>>, Issue> {
+    pub fn values(&self, key: &str) -> Result<Option<Vec<Written>>, Issue> {
         let Some(value) = self.get(key) else {
             return Ok(None);
         };
@@ -221,7 +224,7 @@ impl<'a, 'i> Sweep<'a, 'i> {
     /// over them, each with the span it was written at. Ranges and deeper nesting are refused;
     /// the element types and the list's length are the defining crate's to check. `None` when
     /// the key is absent.
-    pub fn lists(&self, key: &str) -> Result<Option<Vec<(Range<usize>, toml::Value)>>, Issue> {
+    pub fn lists(&self, key: &str) -> Result<Option<Vec<Written>>, Issue> {
         let Some(value) = self.get(key) else {
             return Ok(None);
         };

@@ -102,7 +102,9 @@ impl Fig13 {
             .filter(|r| timed(r) && baseline.at_baseline(r))
             .filter_map(|r| Some((r, paper_exponent(r)?)))
             .collect();
-        let mut raw: BTreeMap<StatePoint, (Vec<(f64, f64)>, Vec<f64>)> = BTreeMap::new();
+        // Per curve: (p, τ_c) of every run, and the p of runs with overlaps or solver failures.
+        type Runs = (Vec<(f64, f64)>, Vec<f64>);
+        let mut raw: BTreeMap<StatePoint, Runs> = BTreeMap::new();
         for &(r, p) in &superquadrics {
             let entry = raw.entry(state_point(r)).or_default();
             entry.0.push((p, r.tau_c_us));
