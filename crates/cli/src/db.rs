@@ -69,7 +69,8 @@ pub fn status(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
 #[derive(Args)]
 pub struct ReportArgs {
     /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64); EDMD: fig7 (τ_c against φ), fig8 (against X0, LL/NNL),
-    /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), accuracy (cost of each accuracy knob).
+    /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), fig13 (superquadrics against p),
+    /// accuracy (cost of each accuracy knob).
     pub(crate) name: String,
     #[arg(long)]
     pub(crate) db: PathBuf,
@@ -141,7 +142,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "table2" => ("table", "f64"),
         "fig2" => ("figure", "f32"),
         "fig3" => ("figure", "f64"),
-        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, accuracy)"),
+        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy)"),
     };
     if kind == "figure" {
         let json_out = args.out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")));

@@ -1,4 +1,4 @@
-//! `sweep report` for the EDMD paper's figures (7–11) and the cost of accuracy: rows from the
+//! `sweep report` for the EDMD paper's figures (7–11, 13) and the cost of accuracy: rows from the
 //! store's `edmd_runs` view, drawn or printed by the `report` crate.
 
 use std::path::Path;
@@ -10,7 +10,7 @@ use crate::db::{ReportArgs, open_read_only, runtime};
 use crate::output::{Format, print_json, print_text};
 
 /// The reports this module makes.
-pub const NAMES: [&str; 6] = ["fig7", "fig8", "fig9", "fig10", "fig11", "accuracy"];
+pub const NAMES: [&str; 7] = ["fig7", "fig8", "fig9", "fig10", "fig11", "fig13", "accuracy"];
 
 /// Every EDMD run of the database, as the report crate reads them, with τ_c by `clock` where
 /// the record has it.
@@ -82,6 +82,12 @@ fn failed_run(job: store::FailedJob) -> anyhow::Result<FailedRun> {
         brent_tol: real("brent_tol")?,
         seed: integer("seed")?,
         collisions: integer("collisions")?,
+        exponents: match params.get("exponents") {
+            None => None,
+            Some(value) => Some(serde_json::from_value(value.clone()).with_context(|| {
+                format!("failed job {}: `exponents` is not three numbers", job.id)
+            })?),
+        },
         ..EdmdRow::default()
     };
     Ok(FailedRun {
@@ -103,6 +109,7 @@ pub(crate) fn edmd_rows(runs: Vec<store::EdmdRun>, clock: Clock) -> Vec<EdmdRow>
             EdmdRow {
                 shape: r.shape,
                 x0: r.x0,
+                exponents: r.exponents,
                 neighbours: r.neighbours,
                 delta_nnl: r.delta_nnl,
                 n: u32::try_from(r.n).unwrap_or(u32::MAX),
@@ -186,6 +193,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig13" => finish(report::fig13(&rows, out), json, out, |f| &f.missing)?,
         "accuracy" => accuracy(&rows, &failed, &verdicts, json, out)?,
         other => bail!("report `{other}` is not an EDMD report"),
     }
@@ -309,7 +317,21 @@ mod tests {
         );
         assert_eq!((run.seed, run.collisions), (3, 20000));
         assert!(run.tau_c_us.is_nan(), "a failed run has no τ_c");
+        assert_eq!(run.exponents, None);
         assert_eq!(failed.reason, "edmd: unresolved distance");
+
+        let superquadric = edmd::Scene::from_toml_str(
+            "shape = \"superquadric\"\nexponents = [2.0, 2.0, 4.0]\nn = 64\nphi = 0.256\nx0 = 2.0\n",
+        )
+        .expect("a valid superquadric scene");
+        let spec = jobs::JobSpec::Edmd(superquadric);
+        let job = store::FailedJob {
+            id: spec.id(),
+            params_json: spec.canonical_json(),
+            reason: String::new(),
+        };
+        let run = failed_run(job).expect("readable parameters").run;
+        assert_eq!((run.shape.as_str(), run.exponents), ("superquadric", Some([2.0, 2.0, 4.0])));
 
         let broken = store::FailedJob {
             id: "j1".into(),

@@ -115,6 +115,7 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
     };
     let before = snapshot(&db);
     let overlap = |line: &str| format!("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 1000\n{line}\n");
+    let superquadric = |exponents: &str| format!("[[edmd]]\nshape = \"superquadric\"\nn = 8\nphi = 0.2\nx0 = 2\nexponents = {exponents}\n");
     let cases: Vec<(String, &str)> = vec![
         (overlap("acceptance = 1.5"), "acceptance"),
         (overlap("acceptance = 0"), "acceptance"),
@@ -136,6 +137,10 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         ("[[noop]]\ncount = -3\n".into(), "count"),
         ("[[noop]]\ncount = 3\nfail_rate = 2\n".into(), "fail_rate"),
         ("[[noop]]\ncount = 3\nduration_ms = \"slow\"\n".into(), "duration_ms"),
+        (superquadric("[[2, 2, 2], [2, 2]]"), "exponents"),
+        (superquadric("[[2, 2, 2],\n [2, 1.5, 2]]"), "exponents"),
+        (superquadric("[2, 2, \"p\"]"), "exponents"),
+        (superquadric("[2, [2, 2, 2]]"), "exponents"),
     ];
     assert!(cases.len() >= 15);
     for (i, (plan, key)) in cases.iter().enumerate() {
@@ -146,6 +151,10 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         assert!(err.contains(&format!("bad{i}.toml:")) && err.contains(key), "case {i}: `{key}` not named: {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "case {i}: not one line: {err}");
         assert!(snapshot(&db) == before, "case {i} changed the database");
+        // An exponents list is named at its own line: the second list of a sweep on line 7.
+        if plan.contains("[2, 1.5, 2]") {
+            assert!(err.contains(&format!("bad{i}.toml:7:2: key `exponents`: each exponent must lie in")), "{err}");
+        }
     }
 }
 
@@ -347,4 +356,133 @@ fn edmd_reports_name_missing_points_then_draw_once_the_plan_is_extended() {
     let out = sweep(&["report", "fig10", "--db", db, "--format", "json"]);
     assert!(!out.status.success(), "fig10 without a sweep over Δ_NNL");
     assert!(String::from_utf8_lossy(&out.stderr).contains("over three or more Δ_NNL"));
+}
+
+/// A result database holding Fig. 13's campaign, written through the store as a worker would:
+/// superquadrics p ∈ {2, 3, 4, 6, 8, 10} at X0 = 0.5 and 2, φ = 0.256, N = 512, LL and NNL, with
+/// τ_c = base·p/2 (CPU clock), and (if `with_ellipsoids`) the hard ellipsoids of the same state
+/// points at a fifth of the p = 2 time. The points are the plan's (`jobs` specs, canonical ids),
+/// so the report reads them as it reads a real campaign's.
+fn fig13_database(path: &Path, with_ellipsoids: bool) {
+    let mut points: Vec<(edmd::Scene, f64)> = Vec::new();
+    for x0 in [0.5, 2.0] {
+        for (neighbours, base) in [(edmd::Neighbours::Ll, 100.0), (edmd::Neighbours::Nnl, 60.0)] {
+            let scene = |shape| edmd::Scene {
+                x0,
+                neighbours,
+                delta_nnl: 0.06,
+                collisions: 20_000,
+                ..edmd::Scene::new(shape, 512, 0.256)
+            };
+            for p in [2.0, 3.0, 4.0, 6.0, 8.0, 10.0] {
+                let superquadric = edmd::Scene { exponents: Some([2.0, 2.0, p]), ..scene(edmd::ShapeKind::Superquadric) };
+                points.push((superquadric, base * p / 2.0));
+            }
+            if with_ellipsoids {
+                points.push((scene(edmd::ShapeKind::Ellipsoid), base / 5.0));
+            }
+        }
+    }
+    let jobs: Vec<store::NewJob> = points
+        .iter()
+        .map(|(scene, _)| {
+            let spec = jobs::JobSpec::Edmd(scene.clone());
+            store::NewJob { id: spec.id(), kind: spec.kind().into(), params_json: spec.canonical_json(), estimate_s: 1.0, exclusive: false }
+        })
+        .collect();
+    let tau: std::collections::HashMap<String, f64> = jobs.iter().zip(&points).map(|(job, (_, tau))| (job.id.clone(), *tau)).collect();
+    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    runtime.block_on(async {
+        let store = store::Store::open(path).await.unwrap();
+        let worker = store::WorkerInfo {
+            id: "w".into(),
+            hostname: "fixture".into(),
+            cores: vec![0],
+            cpu_model: "fixture".into(),
+            cpu_flags: String::new(),
+            rustc: "rustc".into(),
+            git_commit: "fixture".into(),
+            profile: "release".into(),
+        };
+        store.register_worker(&worker, 1.0).await.unwrap();
+        let campaign = store::NewCampaign { id: "fig13".into(), name: "fig13".into(), plan_text: String::new() };
+        store.submit(&campaign, &jobs, 1.0).await.unwrap();
+        loop {
+            let leases = store.lease("w", 64, Duration::from_secs(60), 2.0, true).await.unwrap();
+            if leases.is_empty() {
+                break;
+            }
+            for lease in leases {
+                let tau_c = tau[&lease.job_id];
+                let record = serde_json::json!({
+                    "collisions": 20_000, "tau_c_us": tau_c * 1.1, "tau_c_cpu_us": tau_c, "pressure_z": 3.0,
+                    "pressure_z_err": 0.05, "temperature": 1.0, "energy_drift_rel": 1e-13, "momentum_drift": 1e-14,
+                    "overlaps": 0, "solver_failures": 0, "contact_nr_fallbacks": 0, "nr_iterations_mean": 4.0,
+                    "distance_calls_per_collision": 3.0, "searches_per_collision": 2.0, "nnl_rebuilds": 10,
+                    "cell_crossings": 100, "init_s": 0.5, "wall_s": 2.0, "cpu_s": 1.9,
+                });
+                store.complete("w", &lease.job_id, lease.token, Some(0), &[record.to_string()], 3.0).await.unwrap();
+            }
+        }
+        store.close().await;
+    });
+}
+
+/// `sweep report fig13` from a database: the figure and its data (τ_c against p per X0 and
+/// method, the superquadric/ellipsoid ratio against the paper's 5–6); without the ellipsoids it
+/// still draws and names them; without superquadrics it fails naming every curve, writing nothing.
+#[test]
+fn fig13_is_drawn_from_the_database_and_names_what_it_lacks() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("fig13.db");
+    fig13_database(&db, true);
+    let db = db.to_str().unwrap();
+    let png = dir.path().join("fig13.png");
+    let out = sweep(&["report", "fig13", "--db", db, "--out", png.to_str().unwrap(), "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+    let figure: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(figure["tau_c"], "τ_c (µs, CPU time)", "{figure}");
+    assert_eq!(figure["missing"].as_array().unwrap().len(), 0, "{figure}");
+    assert_eq!(figure["paper_ratio"], serde_json::json!([5.0, 6.0]));
+    let curves = figure["curves"].as_array().unwrap();
+    assert_eq!(curves.len(), 4, "{figure}");
+    for curve in curves {
+        let base = if curve["neighbours"] == "ll" { 100.0 } else { 60.0 };
+        let points = curve["points"].as_array().unwrap();
+        assert_eq!(points.len(), 6, "{curve}");
+        for point in points {
+            let p = point["x"].as_f64().unwrap();
+            assert!((point["tau_c_us"].as_f64().unwrap() - base * p / 2.0).abs() < 1e-9, "{curve}");
+        }
+    }
+    let ratios = figure["ellipsoid_ratios"].as_array().unwrap();
+    assert_eq!(ratios.len(), 4, "{figure}");
+    assert!(ratios.iter().all(|r| (r["ratio"].as_f64().unwrap() - 5.0).abs() < 1e-9), "{figure}");
+
+    let svg = dir.path().join("fig13.svg");
+    let out = sweep(&["report", "fig13", "--db", db, "--out", svg.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("τ_c(p = 2)/τ_c(HE) = 5.00"));
+
+    // Superquadrics without their reference ellipsoids: drawn, the four references named.
+    let partial = dir.path().join("partial.db");
+    fig13_database(&partial, false);
+    let out = sweep(&["report", "fig13", "--db", partial.to_str().unwrap(), "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("missing: ellipsoid ").count(), 4, "{err}");
+
+    // Ellipsoids only (Fig. 8's database): nothing to draw, one line naming the four curves.
+    let ellipsoids = dir.path().join("ellipsoids.db");
+    let plan = "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = 2.0\ncollisions = 200\nequilibrate = 20\n";
+    run_plan(&write(dir.path(), "e.toml", plan), ellipsoids.to_str().unwrap());
+    let nothing = dir.path().join("nothing.png");
+    let out = sweep(&["report", "fig13", "--db", ellipsoids.to_str().unwrap(), "--out", nothing.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "fig13 drew without superquadrics");
+    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
+    assert!(err.contains("fig13: nothing to draw"), "{err}");
+    assert_eq!(err.matches("with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10").count(), 4, "{err}");
+    assert!(!nothing.exists(), "an empty figure was written");
 }

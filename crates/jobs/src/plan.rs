@@ -14,10 +14,20 @@
 //!
 //! [[noop]]
 //! count = 1000
+//!
+//! [[edmd]]                 # every key of a scene (crates/edmd/src/scene.rs)
+//! shape = "superquadric"
+//! n = 512
+//! phi = 0.256
+//! x0 = [0.5, 2.0]
+//! exponents = [[2, 2, 2], [2, 2, 4]]   # a list-valued key: one list is one value,
+//!                                      #   a list of lists sweeps it
 //! ```
 //!
 //! A sweep is the cartesian product of its keys' values; `algorithms` is one set per point,
-//! never expanded. A plan is parsed and validated completely before any job exists, and the
+//! never expanded. A scene key whose value is itself a list (`exponents = [n, m, p]`) is
+//! swept by a list of such lists; lists nested deeper, ranges and a mix of lists and numbers
+//! are refused, and so is any list inside the sweep of a single-valued key. A plan is parsed and validated completely before any job exists, and the
 //! first problem (in file order within a sweep) is reported as `FILE:LINE:COL: key `k`: reason`.
 //! Points that come out identical (same id) are kept once, at their first position.
 
@@ -30,7 +40,7 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 use crate::spec::{JobSpec, NoopSpec};
-use crate::sweep::{Issue, Sweep, cartesian};
+use crate::sweep::{Issue, Sweep, Written, cartesian};
 
 /// A plan may not expand to more jobs than this: a campaign that large is a typo.
 pub const MAX_JOBS: usize = 1_000_000;
@@ -310,7 +320,9 @@ fn expand_overlap(
         if x > 0.0 && x < 1.0 {
             Ok(())
         } else {
-            Err(format!("must lie strictly between 0 and 1 (a fraction of the estimate), got {x}"))
+            Err(format!(
+                "must lie strictly between 0 and 1 (a fraction of the estimate), got {x}"
+            ))
         }
     })?;
     let time_cap_s = sweep.optional_floats("time_cap_s", &|x| {
@@ -412,21 +424,29 @@ fn expand_noop(
 }
 
 /// EDMD points: every key of a scene (the `edmd` crate defines them, their defaults and their
-/// checks); each may be a list or a range, and the sweep is their cartesian product.
+/// checks); each may be a list or a range, and the sweep is their cartesian product. A key whose
+/// value is itself a list (`exponents = [n, m, p]`) takes one list, or a list of lists to sweep.
 fn expand_edmd(
     header: Range<usize>,
     table: &DeTable<'_>,
     defaults: &Defaults,
 ) -> Result<Vec<JobSpec>, Issue> {
     let keys = edmd_keys();
-    let known: Vec<&str> = keys.iter().map(String::as_str).collect();
+    let known: Vec<&str> = keys.iter().map(|(key, _)| key.as_str()).collect();
     let sweep = &Sweep::new("[[edmd]]", header.clone(), table, &known)?;
-    let mut columns: Vec<(&str, Vec<toml::Value>)> = Vec::new();
-    for key in &known {
-        if let Some(values) = sweep.values(key)? {
-            for value in &values {
+    // Each key's values, each with where it was written.
+    let mut columns: Vec<(&str, Vec<Written>)> = Vec::new();
+    for (key, list_valued) in &keys {
+        let key = key.as_str();
+        let values = if *list_valued {
+            sweep.lists(key)?
+        } else {
+            sweep.values(key)?
+        };
+        if let Some(values) = values {
+            for (span, value) in &values {
                 check_scene_value(key, value)
-                    .map_err(|reason| Issue::new(sweep.span_of(key), Some(key), reason))?;
+                    .map_err(|reason| Issue::new(span.clone(), Some(key), reason))?;
             }
             columns.push((key, values));
         }
@@ -441,16 +461,21 @@ fn expand_edmd(
         }
     }
     if !columns.iter().any(|(k, _)| *k == "seed") {
-        columns.push(("seed", vec![toml::Value::Integer(defaults.seed as i64)]));
+        let seed = toml::Value::Integer(defaults.seed as i64);
+        columns.push(("seed", vec![(header.clone(), seed)]));
     }
     let lens: Vec<usize> = columns.iter().map(|(_, v)| v.len()).collect();
     check_product(sweep, &lens)?;
     cartesian(&lens)
         .map(|i| {
-            let mut table: toml::Table = columns
+            let point: Vec<(&str, &Written)> = columns
                 .iter()
                 .zip(&i)
-                .map(|((key, values), &k)| (key.to_string(), values[k].clone()))
+                .map(|((key, values), &k)| (*key, &values[k]))
+                .collect();
+            let mut table: toml::Table = point
+                .iter()
+                .map(|(key, (_, value))| (key.to_string(), value.clone()))
                 .collect();
             edmd::fill_default_neighbours(&mut table);
             let scene: edmd::Scene =
@@ -459,9 +484,17 @@ fn expand_edmd(
                     .map_err(|e: toml::de::Error| {
                         Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message()))
                     })?;
+            // A value that is wrong only with the others of its point is shown where it was
+            // written (the list element, not the key).
+            let written = |key: &str| {
+                point
+                    .iter()
+                    .find(|(k, _)| *k == key)
+                    .map_or_else(|| sweep.span_of(key), |(_, (span, _))| span.clone())
+            };
             scene.validate().map_err(|e| match e {
                 edmd::SceneError::Invalid { key, reason, .. } => {
-                    Issue::new(sweep.span_of(key), Some(key), reason)
+                    Issue::new(written(key), Some(key), reason)
                 }
                 other => Issue::new(header.clone(), None, other.to_string()),
             })?;
@@ -488,12 +521,16 @@ fn check_scene_value(key: &str, value: &toml::Value) -> Result<(), String> {
         .map_err(|e| e.message().to_owned())
 }
 
-/// The keys of a scene, read off a serialised default one, so this list cannot drift from the
-/// `edmd` crate (a superquadric's, the only one that serialises every key, `exponents` included).
-fn edmd_keys() -> Vec<String> {
+/// The keys of a scene, each with whether its value is itself a list, read off a serialised
+/// default one, so this list cannot drift from the `edmd` crate (a superquadric's, the only one
+/// that serialises every key, `exponents` included).
+fn edmd_keys() -> Vec<(String, bool)> {
     let scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 2, 0.1);
     match toml::Table::try_from(&scene) {
-        Ok(table) => table.keys().cloned().collect(),
+        Ok(table) => table
+            .into_iter()
+            .map(|(key, value)| (key, value.is_array()))
+            .collect(),
         Err(_) => Vec::new(),
     }
 }

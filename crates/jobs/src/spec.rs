@@ -89,12 +89,14 @@ impl JobSpec {
             // Rough costs measured on this project's reference machine: per collision on the
             // analytic sphere path and on the Newton–Raphson ellipsoid path (N = 256, φ 0.25–0.57,
             // X0 0.25–4: 10–240 µs, 60 on average), and the initial state of an ellipsoid run
-            // (0.9 s on average at N = 256; deploy/plans/edmd-figures-quick.toml).
+            // (0.9 s on average at N = 256; deploy/plans/edmd-figures-quick.toml); superquadrics
+            // at p = 2 (X0 = 2, φ = 0.256, N = 512, LL: 0.28 ms of CPU per collision, 5.5 s of
+            // initial state), higher p costing more.
             Self::Edmd(scene) => {
-                let (per_collision, init_per_particle) = if scene.shape == edmd::ShapeKind::Sphere {
-                    (2e-6, 1e-5)
-                } else {
-                    (6e-5, 3.5e-3)
+                let (per_collision, init_per_particle) = match scene.shape {
+                    edmd::ShapeKind::Sphere => (2e-6, 1e-5),
+                    edmd::ShapeKind::Ellipsoid => (6e-5, 3.5e-3),
+                    edmd::ShapeKind::Superquadric => (3e-4, 1.1e-2),
                 };
                 (scene.collisions + scene.equilibrate) as f64 * per_collision
                     + scene.n as f64 * init_per_particle

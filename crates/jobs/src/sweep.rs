@@ -30,6 +30,9 @@ impl Issue {
     }
 }
 
+/// A value as TOML, with the span it was written at.
+pub(crate) type Written = (Range<usize>, toml::Value);
+
 /// A check on one value: `Err` holds the reason, e.g. "must be positive, got -1".
 pub(crate) type Check<'c, T> = &'c dyn Fn(T) -> Result<(), String>;
 
@@ -119,19 +122,35 @@ impl<'a, 'i> Sweep<'a, 'i> {
 
     /// An expandable real-valued key without a default: `[None]` when absent, so that a point
     /// that does not set it keeps the identity it had before the key existed.
-    pub fn optional_floats(&self, key: &str, check: Check<'_, f64>) -> Result<Vec<Option<f64>>, Issue> {
+    pub fn optional_floats(
+        &self,
+        key: &str,
+        check: Check<'_, f64>,
+    ) -> Result<Vec<Option<f64>>, Issue> {
         if self.get(key).is_none() {
             return Ok(vec![None]);
         }
-        Ok(self.floats(key, None, check)?.into_iter().map(Some).collect())
+        Ok(self
+            .floats(key, None, check)?
+            .into_iter()
+            .map(Some)
+            .collect())
     }
 
     /// An expandable integer key without a default, as [`Sweep::optional_floats`].
-    pub fn optional_integers(&self, key: &str, check: Check<'_, u64>) -> Result<Vec<Option<u64>>, Issue> {
+    pub fn optional_integers(
+        &self,
+        key: &str,
+        check: Check<'_, u64>,
+    ) -> Result<Vec<Option<u64>>, Issue> {
         if self.get(key).is_none() {
             return Ok(vec![None]);
         }
-        Ok(self.integers(key, None, check)?.into_iter().map(Some).collect())
+        Ok(self
+            .integers(key, None, check)?
+            .into_iter()
+            .map(Some)
+            .collect())
     }
 
     /// An expandable non-negative integer key.
@@ -164,55 +183,97 @@ impl<'a, 'i> Sweep<'a, 'i> {
         Ok(out)
     }
 
-    /// An expandable key of any scalar type, as TOML values: for kinds whose keys and checks are
-    /// defined elsewhere (the `edmd` crate's scenes). A range gives integers when `from`, `to` and
-    /// `step` are all integers, else reals. `None` when the key is absent.
-    pub fn values(&self, key: &str) -> Result<Option<Vec<toml::Value>>, Issue> {
+    /// An expandable key of any scalar type, as TOML values, each with the span it was written
+    /// at: for kinds whose keys and checks are defined elsewhere (the `edmd` crate's scenes). A
+    /// range gives integers when `from`, `to` and `step` are all integers, else reals (all at the
+    /// range's span). `None` when the key is absent.
+    pub fn values(&self, key: &str) -> Result<Option<Vec<Written>>, Issue> {
         let Some(value) = self.get(key) else {
             return Ok(None);
         };
         let fail = |span: Range<usize>, message: String| Issue::new(span, Some(key), message);
-        let integer = |span: &Range<usize>, n: i128| {
-            i64::try_from(n)
-                .map(toml::Value::Integer)
-                .map_err(|_| fail(span.clone(), format!("{n} is out of range")))
-        };
         let mut out = Vec::new();
         for (span, item) in items(value, key)? {
             match item {
-                Item::Scalar(v) => out.push(match (v, toml_integer(v)) {
-                    (_, Some(n)) => integer(&span, n.map_err(|m| fail(span.clone(), m))?)?,
-                    (DeValue::String(s), None) => toml::Value::String(s.to_string()),
-                    (DeValue::Boolean(b), None) => toml::Value::Boolean(*b),
-                    (DeValue::Float(_), None) => {
-                        toml::Value::Float(real(v).map_err(|m| fail(span.clone(), m))?)
-                    }
-                    (other, None) => {
-                        return Err(fail(
-                            span,
-                            format!("expected a single value, got {}", other.type_str()),
-                        ));
-                    }
-                }),
+                Item::Scalar(v) => out.push((span.clone(), scalar_value(v, span, key)?)),
                 Item::Range(table) => {
                     if table
                         .values()
                         .all(|v| matches!(v.get_ref(), DeValue::Integer(_)))
                     {
                         for n in integer_range(table, span.clone(), key)? {
-                            out.push(integer(&span, i128::from(n))?);
+                            let n = i64::try_from(n)
+                                .map_err(|_| fail(span.clone(), format!("{n} is out of range")))?;
+                            out.push((span.clone(), toml::Value::Integer(n)));
                         }
                     } else {
                         out.extend(
                             float_range(table, span.clone(), key)?
                                 .into_iter()
-                                .map(toml::Value::Float),
+                                .map(|x| (span.clone(), toml::Value::Float(x))),
                         );
                     }
                 }
             }
         }
         Ok(Some(out))
+    }
+
+    /// An expandable key whose every value is itself a list of scalars (a scene's
+    /// `exponents = [n, m, p]`): a list of scalars is one value, a list of such lists is a sweep
+    /// over them, each with the span it was written at. Ranges and deeper nesting are refused;
+    /// the element types and the list's length are the defining crate's to check. `None` when
+    /// the key is absent.
+    pub fn lists(&self, key: &str) -> Result<Option<Vec<Written>>, Issue> {
+        let Some(value) = self.get(key) else {
+            return Ok(None);
+        };
+        let fail = |span: Range<usize>, message: &str| Issue::new(span, Some(key), message);
+        let list = |span: Range<usize>, elements: &[Spanned<DeValue<'i>>]| {
+            if elements.is_empty() {
+                return Err(fail(span, "must not be an empty list"));
+            }
+            let values = elements
+                .iter()
+                .map(|e| match e.get_ref() {
+                    DeValue::Array(_) | DeValue::Table(_) => Err(fail(
+                        e.span(),
+                        "a list of lists is a sweep; a list inside one of its lists is not allowed",
+                    )),
+                    scalar => scalar_value(scalar, e.span(), key),
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok((span, toml::Value::Array(values)))
+        };
+        let DeValue::Array(outer) = value.get_ref() else {
+            let what = value.get_ref().type_str();
+            let message = if matches!(value.get_ref(), DeValue::Table(_)) {
+                "takes a list as its value (or a list of lists, to sweep); a range cannot give one"
+                    .to_owned()
+            } else {
+                format!("takes a list as its value (or a list of lists, to sweep), got {what}")
+            };
+            return Err(Issue::new(value.span(), Some(key), message));
+        };
+        let nested = |e: &Spanned<DeValue<'_>>| matches!(e.get_ref(), DeValue::Array(_));
+        let sweep = outer.first().is_some_and(nested);
+        if let Some(odd) = outer.iter().find(|e| nested(e) != sweep) {
+            return Err(fail(
+                odd.span(),
+                "mixes lists and single values: write one list, or a list of lists to sweep",
+            ));
+        }
+        if !sweep {
+            return Ok(Some(vec![list(value.span(), outer)?]));
+        }
+        outer
+            .iter()
+            .filter_map(|element| match element.get_ref() {
+                DeValue::Array(inner) => Some(list(element.span(), inner)),
+                _ => None, // none: every element is a list, checked above
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(Some)
     }
 
     /// A non-negative integer key that takes one value (no list, no range).
@@ -358,6 +419,26 @@ fn toml_integer(value: &DeValue<'_>) -> Option<Result<i128, String>> {
         i128::from_str_radix(i.as_str(), i.radix())
             .map_err(|_| format!("integer {i} is out of range")),
     )
+}
+
+/// One scalar as a TOML value, for keys whose types are checked elsewhere.
+fn scalar_value(value: &DeValue<'_>, span: Range<usize>, key: &str) -> Result<toml::Value, Issue> {
+    let fail = |message: String| Issue::new(span.clone(), Some(key), message);
+    match (value, toml_integer(value)) {
+        (_, Some(n)) => {
+            let n = n.map_err(&fail)?;
+            i64::try_from(n)
+                .map(toml::Value::Integer)
+                .map_err(|_| fail(format!("{n} is out of range")))
+        }
+        (DeValue::String(s), None) => Ok(toml::Value::String(s.to_string())),
+        (DeValue::Boolean(b), None) => Ok(toml::Value::Boolean(*b)),
+        (DeValue::Float(_), None) => real(value).map(toml::Value::Float).map_err(&fail),
+        (other, None) => Err(fail(format!(
+            "expected a single value, got {}",
+            other.type_str()
+        ))),
+    }
 }
 
 /// A real number: a TOML integer or a finite float.

@@ -240,8 +240,9 @@ fn messages_read_as_documented() {
         "e.toml",
     )
     .expect_err("φ above close packing");
+    // EDMD values are shown where they were written, the list element, as overlap ones are.
     assert!(
-        edmd.to_string().starts_with("e.toml:4:7: key `phi`: "),
+        edmd.to_string().starts_with("e.toml:4:13: key `phi`: "),
         "{edmd}"
     );
     let list = Plan::parse(
@@ -447,7 +448,7 @@ fn edmd_sweeps_expand_and_are_checked_by_the_engine() {
     for (text, needle) in [
         (
             "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = [2, 0]\n",
-            "e.toml:5:6: key `x0`",
+            "e.toml:5:10: key `x0`",
         ),
         (
             "[[edmd]]\nshape = \"sphere\"\nn = 1\nphi = 0.3\n",
@@ -467,7 +468,7 @@ fn edmd_sweeps_expand_and_are_checked_by_the_engine() {
         ),
         (
             "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\nneighbours = [\"ll\", \"cells\"]\n",
-            "e.toml:5:14: key `neighbours`: unknown variant `cells`",
+            "e.toml:5:21: key `neighbours`: unknown variant `cells`",
         ),
         (
             "[[edmd]]\nshape = \"sphere\"\nn = 8\nphi = 0.3\ncollisions = \"many\"\n",
@@ -575,4 +576,199 @@ fn the_default_neighbour_method_is_part_of_the_point() {
         panic!("an edmd job")
     };
     assert_eq!(scene.neighbours, edmd::Neighbours::Ll);
+}
+
+/// BLAKE3 of the sorted ids of `plan`'s EDMD points of the Figs. 7–11 campaign (Fig. 13's state
+/// point, φ = 0.256, and every superquadric left out: those came later).
+fn figs_7_to_11_digest(plan: &Plan) -> String {
+    let mut ids: Vec<String> = plan
+        .jobs
+        .iter()
+        .filter(|job| match job {
+            JobSpec::Edmd(scene) => scene.shape != edmd::ShapeKind::Superquadric && scene.phi != 0.256,
+            _ => true,
+        })
+        .map(JobSpec::id)
+        .collect();
+    ids.sort();
+    blake3::hash(ids.join("\n").as_bytes()).to_hex().to_string()
+}
+
+/// Points that existed before list-valued keys (`exponents`) could be swept keep their ids: the
+/// digests below were taken on the code before that change (commit 1c41060), so a change to how
+/// plans are read or ids are hashed that moved any of them would schedule done points again.
+#[test]
+fn ids_of_existing_edmd_plans_are_stable() {
+    for (name, digest) in [
+        ("edmd-figures.toml", "6fb9041f9db05a0e5e5f2bfd27b7e54fc285b7de34e8e4828216c7b561befcb4"),
+        ("edmd-figures-quick.toml", "4de18e1729106f407b2a670a06bc9f30e050407b2dab83c5540fb1ef7e44c734"),
+        ("fig7.toml", "6c9efca8a0149bb6a0e6e2cd4d5c416aea64ea8c9fbc5babb4b0bf1c35074094"),
+    ] {
+        assert_eq!(figs_7_to_11_digest(&deploy_plan_for_this_engine(name)), digest, "{name}");
+    }
+    let sphere = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n");
+    assert_eq!(sphere.jobs[0].id(), "e6d48ee732ebca6639c459d388ea2bb76b6bd5767ad781b2a69670c5aeea343b");
+    let ellipsoid = parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2\nneighbours = \"nnl\"\ndelta_nnl = 0.06\n",
+    );
+    assert_eq!(ellipsoid.jobs[0].id(), "1a434f17443be8a015059f765d663a2dc68d78ed4c3cf5196ff1157c41c6a38a");
+    assert!(!ellipsoid.jobs[0].canonical_json().contains("exponents"));
+}
+
+fn superquadrics(exponents: &str) -> String {
+    format!("[[edmd]]\nshape = \"superquadric\"\nn = 64\nphi = 0.256\nx0 = [0.5, 2.0]\nexponents = {exponents}\n")
+}
+
+fn exponents_of(plan: &Plan) -> Vec<[f64; 3]> {
+    plan.jobs
+        .iter()
+        .map(|job| match job {
+            JobSpec::Edmd(scene) => scene.exponents.expect("a superquadric has exponents"),
+            other => panic!("an edmd job, got {other:?}"),
+        })
+        .collect()
+}
+
+/// `exponents = [n, m, p]` is one value of the key, not a sweep over three numbers; it is part of
+/// the point, so a superquadric is never the ellipsoid of the same X0.
+#[test]
+fn one_list_is_one_value_of_a_list_valued_key() {
+    let plan = parse(&superquadrics("[2, 2, 2]"));
+    assert_eq!(exponents_of(&plan), [[2.0; 3], [2.0; 3]], "X0 swept, exponents one value");
+    assert!(plan.jobs[0].canonical_json().contains(r#""exponents":[2,2,2]"#), "{}", plan.jobs[0].canonical_json());
+    // Written as floats, the same point.
+    assert_eq!(ids(&plan), ids(&parse(&superquadrics("[2.0, 2e0, 2]"))));
+    let ellipsoids = parse("[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.256\nx0 = [0.5, 2.0]\n");
+    assert!(ids(&plan).is_disjoint(&ids(&ellipsoids)));
+}
+
+/// A list of lists sweeps the key. Until the engine accepts exponents above 2 (issue 12), such a
+/// sweep is refused at the first list it refuses, on that list's own line: the sweep was expanded
+/// and each value checked by the engine on its own.
+#[test]
+fn a_list_of_lists_sweeps_a_list_valued_key() {
+    let text = superquadrics("[\n    [2, 2, 2],\n    [2, 2, 4],\n    [2, 2, 10],\n]");
+    let engine_takes_p_4 = {
+        let mut scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 64, 0.256);
+        scene.exponents = Some([2.0, 2.0, 4.0]);
+        scene.validate().is_ok()
+    };
+    match Plan::parse(&text, "sq.toml") {
+        Ok(plan) => {
+            assert!(engine_takes_p_4, "p = 4 passed a plan but not the engine's own check");
+            let mut got = exponents_of(&plan);
+            got.sort_by(|a, b| a[2].total_cmp(&b[2]));
+            got.dedup();
+            assert_eq!(got, [[2.0, 2.0, 2.0], [2.0, 2.0, 4.0], [2.0, 2.0, 10.0]]);
+            assert_eq!((plan.jobs.len(), ids(&plan).len()), (6, 6), "3 exponents × 2 X0");
+        }
+        Err(error) => {
+            assert!(!engine_takes_p_4, "the engine takes p = 4 but the plan was refused: {error}");
+            assert_eq!((error.line, error.column, error.key.as_deref()), (8, 5, Some("exponents")), "{error}");
+            assert!(error.message.contains("got 4"), "{error}");
+        }
+    }
+    // Repeated lists are one point.
+    let twice = parse(&superquadrics("[[2, 2, 2], [2.0, 2, 2]]"));
+    assert_eq!(exponents_of(&twice), [[2.0; 3], [2.0; 3]]);
+}
+
+/// Bad list-valued input is refused with the file, the line of the offending list and the key.
+#[test]
+fn bad_exponents_name_the_key_and_the_line() {
+    for (exponents, line, needle) in [
+        ("[[2, 2, 2], [2, 2]]", 6, "length 3"),
+        ("[\n  [2, 2, 2],\n  [2, 1.5, 2],\n]", 8, "each exponent must lie in [2, "),
+        ("[2, 2, \"p\"]", 6, "invalid type: string"),
+        ("[2, 2, 1]", 6, "got 1"),
+        ("[2, 2, nan]", 6, "finite"),
+        ("[2, [2, 2, 2]]", 6, "mixes lists and single values"),
+        ("[[2, 2, 2], 2]", 6, "mixes lists and single values"),
+        ("[[2, 2, [2]]]", 6, "a list inside one of its lists"),
+        ("4", 6, "takes a list as its value"),
+        ("{ from = 2, to = 4 }", 6, "a range cannot give one"),
+        ("[]", 6, "must not be an empty list"),
+        ("[[]]", 6, "must not be an empty list"),
+    ] {
+        let text = superquadrics(exponents);
+        let error = Plan::parse(&text, "sq.toml").expect_err(&text);
+        let shown = error.to_string();
+        assert!(!shown.contains('\n'), "one line: {shown}");
+        assert_eq!((error.line, error.key.as_deref()), (line, Some("exponents")), "{exponents}: {shown}");
+        assert!(shown.starts_with(&format!("sq.toml:{line}:")), "{shown}");
+        assert!(shown.contains(needle), "{exponents}: `{needle}` not in {shown}");
+    }
+    let ellipsoid = Plan::parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nexponents = [2, 2, 2]\n",
+        "e.toml",
+    )
+    .expect_err("an ellipsoid has no exponents");
+    assert!(ellipsoid.to_string().starts_with("e.toml:5:13: key `exponents`: only a superquadric"), "{ellipsoid}");
+    // A key whose value is a single number still refuses lists inside its sweep.
+    let nested = Plan::parse("[[edmd]]\nshape = \"sphere\"\nn = 64\nphi = [[0.3]]\n", "s.toml")
+        .expect_err("a list in a sweep of numbers");
+    assert!(nested.to_string().starts_with("s.toml:4:8: key `phi`: a list element must be a single value"), "{nested}");
+}
+
+/// Whether this build's engine accepts superquadric exponents above 2 (issue 12 lifts its
+/// refusal; until then the plans' Fig. 13 sweeps cannot run).
+fn engine_takes_exponents_above_2() -> bool {
+    let mut scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 512, 0.256);
+    scene.exponents = Some([2.0, 2.0, 4.0]);
+    scene.validate().is_ok()
+}
+
+/// A deploy plan as this build can run it: whole when the engine takes exponents above 2;
+/// otherwise the file must be refused for exactly that, at the `exponents` key of its Fig. 13
+/// sweep, and the plan before that sweep is returned.
+fn deploy_plan_for_this_engine(name: &str) -> Plan {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../deploy/plans").join(name);
+    let text = std::fs::read_to_string(&path).expect("the deploy plans are in the repository");
+    match Plan::parse(&text, name) {
+        Ok(plan) => plan,
+        Err(error) => {
+            assert!(!engine_takes_exponents_above_2(), "{error}");
+            let fig13 = text.find("\n# Fig. 13").unwrap_or_else(|| panic!("{error}"));
+            let exponents = fig13 + text[fig13..].find("\nexponents").unwrap_or(0) + 1;
+            let exponents_line = text[..exponents].matches('\n').count() + 1;
+            assert_eq!((error.key.as_deref(), error.line), (Some("exponents"), exponents_line), "{error}");
+            assert!(error.message.contains("above 2"), "{error}");
+            Plan::parse(&text[..fig13], name).unwrap_or_else(|e| panic!("{e}"))
+        }
+    }
+}
+
+/// Fig. 13's points in the EDMD plans: superquadrics [2, 2, p] at φ = 0.256, N = 512, X0 = 0.5
+/// and 2, LL and NNL (p = 2 … 10 in the full plan, 2, 4, 10 in the quick one), and the hard
+/// ellipsoids of the same state points. Checked whole once the engine takes p > 2; until then,
+/// the plans are refused at their Fig. 13 `exponents` line and only there.
+#[test]
+fn fig13_points_are_in_the_edmd_plans() {
+    for (name, grid, collisions) in [
+        ("edmd-figures.toml", vec![2.0, 3.0, 4.0, 6.0, 8.0, 10.0], 20_000),
+        ("edmd-figures-quick.toml", vec![2.0, 4.0, 10.0], 2_000),
+    ] {
+        let plan = deploy_plan_for_this_engine(name);
+        if !engine_takes_exponents_above_2() {
+            assert!(plan.jobs.iter().all(|j| !matches!(j, JobSpec::Edmd(s) if s.phi == 0.256)), "{name}");
+            continue;
+        }
+        let at_fig13: Vec<&edmd::Scene> = plan
+            .jobs
+            .iter()
+            .filter_map(|j| match j {
+                JobSpec::Edmd(s) if s.phi == 0.256 => Some(s),
+                _ => None,
+            })
+            .collect();
+        let mut p: Vec<f64> = at_fig13.iter().filter_map(|s| s.exponents.map(|[n, m, p]| { assert_eq!((n, m), (2.0, 2.0)); p })).collect();
+        p.sort_by(f64::total_cmp);
+        p.dedup();
+        assert_eq!(p, grid, "{name}");
+        let ellipsoids = at_fig13.iter().filter(|s| s.shape == edmd::ShapeKind::Ellipsoid).count();
+        assert_eq!((at_fig13.len(), ellipsoids), (grid.len() * 4 + 4, 4), "{name}");
+        for s in &at_fig13 {
+            assert_eq!((s.n, s.collisions, s.delta_nnl, s.eps_d), (512, collisions, 0.06, 1e-5), "{name}");
+        }
+    }
 }

@@ -8,7 +8,7 @@
 //! every run of it finished clean. The overlap kernels' family (f32 against f64) is
 //! [`crate::overlap_accuracy`]; [`accuracy_report`] puts both together.
 //!
-//! A state point is everything but the knob: shape, X0, φ, N, neighbour method, Δ_NNL, seed
+//! A state point is everything but the knob: shape (with a superquadric's exponents), X0, φ, N, neighbour method, Δ_NNL, seed
 //! and run length; the other knobs are held at the campaign's baseline. Two runs at different
 //! settings start from initial states prepared with those settings, so Z's deviation is judged
 //! against the two runs' combined standard error.
@@ -98,6 +98,8 @@ pub struct SettingSummary {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StatePointStudy {
     pub shape: String,
+    /// A superquadric's exponents; `None` for other shapes.
+    pub exponents: Option<[f64; 3]>,
     pub x0: f64,
     pub phi: f64,
     pub n: u32,
@@ -219,11 +221,12 @@ pub(crate) fn identical_prefix(reference: &[u32], run: &[u32]) -> (usize, usize)
     (same, reference.len().min(run.len()))
 }
 
-type PointKey = (String, Key, Key, u32, String, Key, u64, u64);
+type PointKey = (String, Option<[Key; 3]>, Key, Key, u32, String, Key, u64, u64);
 
 fn point_key(r: &EdmdRow) -> PointKey {
     (
         r.shape.clone(),
+        r.exponents.map(|e| e.map(Key)),
         Key(r.x0),
         Key(r.phi),
         r.n,
@@ -279,7 +282,7 @@ fn study(
         Tighter::Larger => b.total_cmp(a),
     };
     let mut state_points = Vec::new();
-    for ((shape, x0, phi, n, neighbours, delta_nnl, seed, collisions), point) in points {
+    for ((shape, exponents, x0, phi, n, neighbours, delta_nnl, seed, collisions), point) in points {
         let mut values: Vec<Key> = point.done.keys().copied().collect();
         values.extend(point.failed.iter().map(|f| Key(f.value)));
         values.sort();
@@ -301,6 +304,7 @@ fn study(
             .collect();
         state_points.push(StatePointStudy {
             shape,
+            exponents: exponents.map(|e| e.map(|k| k.0)),
             x0: x0.0,
             phi: phi.0,
             n,
@@ -561,8 +565,10 @@ pub fn accuracy_markdown(report: &AccuracyReport) -> String {
         out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for p in &study.state_points {
             let point = format!(
-                "{} X0 = {}, φ = {}, N = {}, {}{}",
+                "{}{} X0 = {}, φ = {}, N = {}, {}{}",
                 p.shape,
+                p.exponents
+                    .map_or(String::new(), |[n, m, q]| format!(" [{n}, {m}, {q}]")),
                 p.x0,
                 p.phi,
                 p.n,
@@ -850,6 +856,27 @@ mod tests {
         let svg = std::env::temp_dir().join(format!("accuracy-failed-{}.svg", std::process::id()));
         accuracy_plot(&report, &svg).expect("drawn without the setting that has no cost");
         let _ = std::fs::remove_file(svg);
+    }
+
+    #[test]
+    fn superquadrics_of_different_exponents_are_different_state_points() {
+        let sq = |p: f64, eps_d: f64, tau_c_us: f64| EdmdRow {
+            shape: "superquadric".into(),
+            exponents: Some([2.0, 2.0, p]),
+            ..run(eps_d, tau_c_us, 10.0, 0)
+        };
+        let rows = vec![
+            sq(2.0, 1e-7, 50.0),
+            sq(2.0, 1e-5, 45.0),
+            sq(4.0, 1e-7, 80.0),
+            sq(4.0, 1e-5, 60.0),
+        ];
+        let report = accuracy(&rows).expect("an ε_d study");
+        let points = &report.knobs[0].state_points;
+        let exponents: Vec<Option<[f64; 3]>> = points.iter().map(|p| p.exponents).collect();
+        assert_eq!(exponents, vec![Some([2.0, 2.0, 2.0]), Some([2.0, 2.0, 4.0])]);
+        assert!((points[1].runs[1].cost_ratio - 0.75).abs() < 1e-12);
+        assert!(accuracy_markdown(&report).contains("superquadric [2, 2, 4] X0 = 2"));
     }
 
     #[test]

@@ -26,7 +26,7 @@ const PAPER_X0: [f64; 2] = [0.5, 2.0];
 const FIG10_PHI: [f64; 2] = [0.45, 0.57];
 const FIG11_PHI: [f64; 2] = [0.40, 0.55];
 
-fn same(a: f64, b: f64) -> bool {
+pub(crate) fn same(a: f64, b: f64) -> bool {
     (a - b).abs() < 1e-9
 }
 
@@ -42,15 +42,44 @@ pub struct CurvePoint {
     pub runs: u32,
 }
 
-fn points_of(raw: Vec<(f64, f64)>) -> Vec<CurvePoint> {
+pub(crate) fn points_of(raw: Vec<(f64, f64)>) -> Vec<CurvePoint> {
     mean_by_x(raw.into_iter())
         .into_iter()
         .map(|(x, tau_c_us, runs)| CurvePoint { x, tau_c_us, runs })
         .collect()
 }
 
-fn xy(points: &[CurvePoint]) -> Vec<(f64, f64)> {
+pub(crate) fn xy(points: &[CurvePoint]) -> Vec<(f64, f64)> {
     points.iter().map(|p| (p.x, p.tau_c_us)).collect()
+}
+
+/// A measured curve, and its points at the x in `flagged` crossed out under their own label.
+pub(crate) fn curve_series(
+    label: String,
+    points: &[CurvePoint],
+    (flagged, flagged_label): (&[f64], String),
+    colour: usize,
+) -> Vec<Series> {
+    let crossed: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| flagged.iter().any(|&x| same(x, p.x)))
+        .map(|p| (p.x, p.tau_c_us))
+        .collect();
+    let mut series = vec![Series {
+        label,
+        points: xy(points),
+        style: Style::Measured,
+        colour,
+    }];
+    if !crossed.is_empty() {
+        series.push(Series {
+            label: flagged_label,
+            points: crossed,
+            style: Style::Flagged,
+            colour,
+        });
+    }
+    series
 }
 
 /// A state point (X0, φ, N) of the ellipsoid runs.
@@ -359,26 +388,12 @@ impl Fig9 {
             .map(|&x0| {
                 let mut series = Vec::new();
                 for (colour, c) in self.curves.iter().filter(|c| same(c.x0, x0)).enumerate() {
-                    series.push(Series {
-                        label: format!("φ = {}, N = {}", c.phi, c.n),
-                        points: xy(&c.points),
-                        style: Style::Measured,
+                    series.extend(curve_series(
+                        format!("φ = {}, N = {}", c.phi, c.n),
+                        &c.points,
+                        (&c.overlapping, format!("overlaps found (φ = {})", c.phi)),
                         colour,
-                    });
-                    let flagged: Vec<(f64, f64)> = c
-                        .points
-                        .iter()
-                        .filter(|p| c.overlapping.iter().any(|&e| same(e, p.x)))
-                        .map(|p| (p.x, p.tau_c_us))
-                        .collect();
-                    if !flagged.is_empty() {
-                        series.push(Series {
-                            label: format!("overlaps found (φ = {})", c.phi),
-                            points: flagged,
-                            style: Style::Flagged,
-                            colour,
-                        });
-                    }
+                    ));
                 }
                 Panel {
                     title: format!("X0 = {x0}, NNL"),
@@ -766,7 +781,7 @@ impl Fig11 {
 }
 
 /// `figure`, drawn into `path` when one is given.
-fn drawn<F>(
+pub(crate) fn drawn<F>(
     figure: F,
     path: Option<&Path>,
     draw: fn(&F, &Path) -> Result<(), ReportError>,

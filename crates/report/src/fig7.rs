@@ -66,10 +66,11 @@ fn label(r: &EdmdRow) -> String {
     } else {
         "LL".to_owned()
     };
-    let body = if r.shape == "sphere" {
-        "sphere".to_owned()
-    } else {
-        format!("{} X0 = {}", r.shape, r.x0)
+    let body = match (r.shape.as_str(), r.exponents) {
+        ("sphere", _) => "sphere".to_owned(),
+        // Superquadrics of other exponents are other bodies: never one curve.
+        (shape, Some([n, m, p])) => format!("{shape} X0 = {}, exponents [{n}, {m}, {p}]", r.x0),
+        (shape, None) => format!("{shape} X0 = {}", r.x0),
     };
     format!("{body}, {method}, N = {}", r.n)
 }

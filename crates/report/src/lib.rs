@@ -5,8 +5,9 @@
 //! [`render_table`] as Markdown, CSV, LaTeX or JSON) and Figure 2 ([`fig2`], PNG or SVG). Ours
 //! compare a second precision, f64, where the papers compare a second language: Table 1 is
 //! `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`. Figure 7 of the EDMD paper, τ_c
-//! against φ, is [`fig7`] over [`EdmdRow`]s; Figures 8–11 ([`fig8`] … [`fig11`]) and the cost of
-//! accuracy ([`accuracy`]) are data first (serialisable, for `--format json`), drawn second; a
+//! against φ, is [`fig7`] over [`EdmdRow`]s; Figures 8–11 ([`fig8`] … [`fig11`]), Figure 13
+//! (superquadrics against their exponent, [`fig13`]) and the cost of accuracy ([`accuracy`]) are
+//! data first (serialisable, for `--format json`), drawn second; a
 //! figure that would be empty is [`ReportError::MissingPoints`], naming what is missing.
 //!
 //! Figures use the DejaVu Sans file shipped in `assets/fonts/` (compiled in), never system
@@ -15,6 +16,7 @@
 mod accuracy;
 mod edmd_figs;
 mod fig;
+mod fig13;
 mod fig7;
 mod lines;
 mod minimum;
@@ -31,6 +33,7 @@ pub use accuracy::{
 };
 pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
 pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
+pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use fig7::{fig7, fig7_svg};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
@@ -94,6 +97,8 @@ fn quantile(values: &[f64], q: f64) -> Option<f64> {
 pub struct EdmdRow {
     pub shape: String,
     pub x0: f64,
+    /// A superquadric's exponents [n, m, p] of Eq. 77; `None` for other shapes.
+    pub exponents: Option<[f64; 3]>,
     pub neighbours: String,
     /// In the engine's unit, σ (the diameter of the sphere of equal volume).
     pub delta_nnl: f64,

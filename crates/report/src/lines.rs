@@ -23,6 +23,9 @@ pub(crate) enum Style {
     Flagged,
     /// Points without a line, drawn as large diamonds: located minima.
     Located,
+    /// Not drawn: points the axes must reach (a figure's whole x grid while some of it is
+    /// not measured yet).
+    Frame,
 }
 
 pub(crate) struct Series {
@@ -211,6 +214,7 @@ impl Panel {
                 Style::Located => {
                     chart.draw_series(points.map(|p| TriangleMarker::new(p, 9, colour.filled())))?
                 }
+                Style::Frame => continue,
             };
             if series.label.is_empty() {
                 continue;

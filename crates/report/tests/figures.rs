@@ -537,3 +537,138 @@ mod edmd_figures {
         assert!(!path.exists(), "no empty figure was written");
     }
 }
+
+/// Figure 13 over a synthetic superquadric campaign shaped like its part of
+/// `deploy/plans/edmd-figures.toml`, with a law whose answers are known.
+mod superquadric_figure {
+    use report::{EdmdRow, ReportError, fig13};
+
+    const P: [f64; 6] = [2.0, 3.0, 4.0, 6.0, 8.0, 10.0];
+
+    fn run(shape: &str, exponents: Option<[f64; 3]>, x0: f64, neighbours: &str, tau_c_us: f64) -> EdmdRow {
+        EdmdRow {
+            shape: shape.into(),
+            x0,
+            exponents,
+            neighbours: neighbours.into(),
+            delta_nnl: 0.06,
+            n: 512,
+            phi: 0.256,
+            tau_c_us,
+            eps_d: 1e-5,
+            eps_nnl: 5e-3,
+            nr_tol: 1e-12,
+            nr_max_iter: 50,
+            nr_relax: 0.5,
+            sd_max_iter: 200,
+            sd_tol: 1e-3,
+            brent_tol: 1e-12,
+            collisions: 20_000,
+            ..Default::default()
+        }
+    }
+
+    /// τ_c = base·(1 + (p − 2)/4), base 100 µs with LL and 60 µs with NNL at X0 = 2 (half that at
+    /// X0 = 0.5); hard ellipsoids take a fifth (LL) and a sixth (NNL) of the p = 2 time. Around
+    /// them, runs the figure must leave out.
+    fn campaign() -> Vec<EdmdRow> {
+        let mut rows = Vec::new();
+        for x0 in [0.5, 2.0] {
+            let scale = if x0 > 1.0 { 1.0 } else { 0.5 };
+            for (method, base, slower) in [("ll", 100.0, 5.0), ("nnl", 60.0, 6.0)] {
+                for p in P {
+                    let mut sq = run("superquadric", Some([2.0, 2.0, p]), x0, method, scale * base * (1.0 + (p - 2.0) / 4.0));
+                    sq.overlaps = u64::from(p == 10.0);
+                    rows.push(sq);
+                }
+                rows.push(run("ellipsoid", None, x0, method, scale * base / slower));
+                // Off the figure: another accuracy knob, another n, an ellipsoid with other knobs.
+                rows.push(EdmdRow { eps_d: 1e-3, ..run("superquadric", Some([2.0, 2.0, 4.0]), x0, method, 1e6) });
+                rows.push(run("superquadric", Some([4.0, 2.0, 4.0]), x0, method, 1e6));
+                rows.push(EdmdRow { nr_tol: 1e-6, ..run("ellipsoid", None, x0, method, 1e-3) });
+            }
+        }
+        rows
+    }
+
+    #[test]
+    fn fig13_follows_its_law_and_renders() {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let rows = campaign();
+        let figure = fig13(&rows, None).expect("fig13");
+        assert!(figure.missing.is_empty(), "{:?}", figure.missing);
+        assert_eq!(figure.curves.len(), 4, "X0 = 0.5, 2 with LL and NNL");
+        for c in &figure.curves {
+            let xs: Vec<f64> = c.points.iter().map(|p| p.x).collect();
+            assert_eq!(xs, P, "{c:?}");
+            let base = if c.neighbours == "ll" { 100.0 } else { 60.0 } * if c.x0 > 1.0 { 1.0 } else { 0.5 };
+            for p in &c.points {
+                assert!((p.tau_c_us - base * (1.0 + (p.x - 2.0) / 4.0)).abs() < 1e-9, "{c:?}");
+                assert_eq!(p.runs, 1, "the off-baseline runs are left out: {c:?}");
+            }
+            assert_eq!(c.flagged, [10.0], "{c:?}");
+            assert_eq!(c.delta_nnl_sigma.is_some(), c.neighbours == "nnl");
+        }
+        assert_eq!(figure.ellipsoid_ratios.len(), 4);
+        for r in &figure.ellipsoid_ratios {
+            let expected = if r.neighbours == "ll" { 5.0 } else { 6.0 };
+            assert!((r.ratio - expected).abs() < 1e-12, "{r:?}");
+            assert_eq!((r.superquadric_runs, r.ellipsoid_runs), (1, 1), "{r:?}");
+        }
+        assert_eq!(figure.paper_ratio, [5.0, 6.0]);
+        let json = serde_json::to_value(&figure).expect("serialises");
+        assert!(json["ellipsoid_ratios"][0]["ratio"].is_number(), "{json}");
+
+        for extension in ["png", "svg"] {
+            let path = dir.path().join(format!("fig13.{extension}"));
+            fig13(&rows, Some(&path)).expect("renders");
+            let bytes = std::fs::metadata(&path).expect("written").len();
+            assert!(bytes > 10_000, "{extension}: {bytes} bytes");
+            if extension == "png" {
+                image::open(&path).expect("the PNG decodes");
+            } else {
+                let text = std::fs::read_to_string(&path).expect("the SVG is text");
+                for label in [
+                    "p, the exponent of |z/c|^p in Eq. 77",
+                    "τ_c (µs, wall time)",
+                    "linked cells (LL)",
+                    "neighbour lists (NNL)",
+                    "τ_c(p = 2)/τ_c(HE) = 5.00",
+                    "τ_c(p = 2)/τ_c(HE) = 6.00",
+                    "at least 5–6 times slower",
+                    "overlaps or solver failures",
+                ] {
+                    assert!(text.contains(label), "fig13.svg lacks {label:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fig13_names_the_points_a_database_lacks() {
+        // Only p = 2 with LL at X0 = 0.5, and no hard-ellipsoid reference: drawn, the rest listed.
+        let rows = vec![run("superquadric", Some([2.0, 2.0, 2.0]), 0.5, "ll", 50.0)];
+        let figure = fig13(&rows, None).expect("one point is a figure");
+        assert!(figure.ellipsoid_ratios.is_empty());
+        let missing = figure.missing.join("\n");
+        assert!(missing.contains("superquadric LL at X0 = 0.5, φ = 0.256, N = 512 with exponents [2, 2, p] for p = 3, 4, 6, 8, 10"), "{missing}");
+        assert!(missing.contains("superquadric NNL at X0 = 2, φ = 0.256, N = 512 with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10"), "{missing}");
+        assert!(missing.contains("ellipsoid LL at X0 = 0.5, φ = 0.256, N = 512 with the knobs of its superquadric runs"), "{missing}");
+        assert_eq!(figure.missing.len(), 5, "{missing}");
+
+        // Ellipsoids only: nothing to draw, an error naming all four curves, and no file.
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let path = dir.path().join("fig13.png");
+        let ellipsoids = vec![run("ellipsoid", None, 0.5, "ll", 10.0)];
+        match fig13(&ellipsoids, Some(&path)) {
+            Err(e @ ReportError::MissingPoints { .. }) => {
+                let text = e.to_string();
+                assert!(text.starts_with("fig13: nothing to draw"), "{text}");
+                assert_eq!(text.matches("with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10").count(), 4, "{text}");
+                assert!(text.contains("edmd-figures.toml"), "{text}");
+            }
+            other => panic!("expected missing points, got {other:?}"),
+        }
+        assert!(!path.exists(), "no empty figure was written");
+    }
+}

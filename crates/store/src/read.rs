@@ -361,7 +361,8 @@ impl Store {
         })
     }
 
-    /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ. A record
+    /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ (then the
+    /// superquadric exponent p). A record
     /// lacking a field the engine always writes is reported as [`Error::Corrupt`] rather than
     /// skipped; fields added later (`tau_c_cpu_us`, `wall_s`, `cpu_s`) may be absent.
     pub async fn edmd_runs(&self) -> Result<Vec<EdmdRun>> {
@@ -377,7 +378,7 @@ impl Store {
             .join(", ");
         let sql = format!(
             "SELECT job_id, shape, neighbours, sequence_fingerprint, {reals} FROM edmd_runs
-             ORDER BY shape, x0, neighbours, n, delta_nnl, phi, eps_d, nr_tol, seed"
+             ORDER BY shape, x0, neighbours, n, delta_nnl, phi, eps_d, nr_tol, seed, exponent_p"
         );
         let rows = sqlx::query(AssertSqlSafe(sql).into_sql_str())
             .fetch_all(&self.reader)
@@ -496,9 +497,12 @@ fn add_state_count(status: &mut Status, state: &str, count: i64, estimate_s: f64
 }
 
 /// Real-valued columns of `edmd_runs` that [`Store::edmd_runs`] reads.
-const EDMD_REALS: [&str; 22] = [
+const EDMD_REALS: [&str; 25] = [
     "phi",
     "x0",
+    "exponent_n",
+    "exponent_m",
+    "exponent_p",
     "delta_nnl",
     "tau_c_us",
     "pressure_z",
@@ -553,6 +557,16 @@ fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
         n: integer("n")?,
         phi: number("phi")?,
         x0: number("x0")?,
+        // A superquadric's three, or none.
+        exponents: match (
+            optional("exponent_n")?,
+            optional("exponent_m")?,
+            optional("exponent_p")?,
+        ) {
+            (Some(n), Some(m), Some(p)) => Some([n, m, p]),
+            (None, None, None) => None,
+            _ => return Err(missing("one of its three exponents")),
+        },
         neighbours: text("neighbours")?,
         delta_nnl: number("delta_nnl")?,
         tau_c_us: number("tau_c_us")?,

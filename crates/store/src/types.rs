@@ -139,6 +139,8 @@ pub struct EdmdRun {
     pub n: i64,
     pub phi: f64,
     pub x0: f64,
+    /// A superquadric's exponents [n, m, p] (Eq. 77); `None` for other shapes.
+    pub exponents: Option<[f64; 3]>,
     pub neighbours: String,
     pub delta_nnl: f64,
     pub tau_c_us: f64,
