@@ -604,7 +604,7 @@ fn ids_of_existing_edmd_plans_are_stable() {
         ("edmd-figures-quick.toml", "4de18e1729106f407b2a670a06bc9f30e050407b2dab83c5540fb1ef7e44c734"),
         ("fig7.toml", "6c9efca8a0149bb6a0e6e2cd4d5c416aea64ea8c9fbc5babb4b0bf1c35074094"),
     ] {
-        assert_eq!(figs_7_to_11_digest(&deploy_plan_for_this_engine(name)), digest, "{name}");
+        assert_eq!(figs_7_to_11_digest(&deploy_plan(name)), digest, "{name}");
     }
     let sphere = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n");
     assert_eq!(sphere.jobs[0].id(), "e6d48ee732ebca6639c459d388ea2bb76b6bd5767ad781b2a69670c5aeea343b");
@@ -642,32 +642,16 @@ fn one_list_is_one_value_of_a_list_valued_key() {
     assert!(ids(&plan).is_disjoint(&ids(&ellipsoids)));
 }
 
-/// A list of lists sweeps the key. Until the engine accepts exponents above 2 (issue 12), such a
-/// sweep is refused at the first list it refuses, on that list's own line: the sweep was expanded
-/// and each value checked by the engine on its own.
+/// A list of lists sweeps the key: each value is one point, checked by the engine on its own.
 #[test]
 fn a_list_of_lists_sweeps_a_list_valued_key() {
     let text = superquadrics("[\n    [2, 2, 2],\n    [2, 2, 4],\n    [2, 2, 10],\n]");
-    let engine_takes_p_4 = {
-        let mut scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 64, 0.256);
-        scene.exponents = Some([2.0, 2.0, 4.0]);
-        scene.validate().is_ok()
-    };
-    match Plan::parse(&text, "sq.toml") {
-        Ok(plan) => {
-            assert!(engine_takes_p_4, "p = 4 passed a plan but not the engine's own check");
-            let mut got = exponents_of(&plan);
-            got.sort_by(|a, b| a[2].total_cmp(&b[2]));
-            got.dedup();
-            assert_eq!(got, [[2.0, 2.0, 2.0], [2.0, 2.0, 4.0], [2.0, 2.0, 10.0]]);
-            assert_eq!((plan.jobs.len(), ids(&plan).len()), (6, 6), "3 exponents × 2 X0");
-        }
-        Err(error) => {
-            assert!(!engine_takes_p_4, "the engine takes p = 4 but the plan was refused: {error}");
-            assert_eq!((error.line, error.column, error.key.as_deref()), (8, 5, Some("exponents")), "{error}");
-            assert!(error.message.contains("got 4"), "{error}");
-        }
-    }
+    let plan = Plan::parse(&text, "sq.toml").unwrap_or_else(|e| panic!("{e}"));
+    let mut got = exponents_of(&plan);
+    got.sort_by(|a, b| a[2].total_cmp(&b[2]));
+    got.dedup();
+    assert_eq!(got, [[2.0, 2.0, 2.0], [2.0, 2.0, 4.0], [2.0, 2.0, 10.0]]);
+    assert_eq!((plan.jobs.len(), ids(&plan).len()), (6, 6), "3 exponents × 2 X0");
     // Repeated lists are one point.
     let twice = parse(&superquadrics("[[2, 2, 2], [2.0, 2, 2]]"));
     assert_eq!(exponents_of(&twice), [[2.0; 3], [2.0; 3]]);
@@ -710,49 +694,16 @@ fn bad_exponents_name_the_key_and_the_line() {
     assert!(nested.to_string().starts_with("s.toml:4:8: key `phi`: a list element must be a single value"), "{nested}");
 }
 
-/// Whether this build's engine accepts superquadric exponents above 2 (issue 12 lifts its
-/// refusal; until then the plans' Fig. 13 sweeps cannot run).
-fn engine_takes_exponents_above_2() -> bool {
-    let mut scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 512, 0.256);
-    scene.exponents = Some([2.0, 2.0, 4.0]);
-    scene.validate().is_ok()
-}
-
-/// A deploy plan as this build can run it: whole when the engine takes exponents above 2;
-/// otherwise the file must be refused for exactly that, at the `exponents` key of its Fig. 13
-/// sweep, and the plan before that sweep is returned.
-fn deploy_plan_for_this_engine(name: &str) -> Plan {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../deploy/plans").join(name);
-    let text = std::fs::read_to_string(&path).expect("the deploy plans are in the repository");
-    match Plan::parse(&text, name) {
-        Ok(plan) => plan,
-        Err(error) => {
-            assert!(!engine_takes_exponents_above_2(), "{error}");
-            let fig13 = text.find("\n# Fig. 13").unwrap_or_else(|| panic!("{error}"));
-            let exponents = fig13 + text[fig13..].find("\nexponents").unwrap_or(0) + 1;
-            let exponents_line = text[..exponents].matches('\n').count() + 1;
-            assert_eq!((error.key.as_deref(), error.line), (Some("exponents"), exponents_line), "{error}");
-            assert!(error.message.contains("above 2"), "{error}");
-            Plan::parse(&text[..fig13], name).unwrap_or_else(|e| panic!("{e}"))
-        }
-    }
-}
-
 /// Fig. 13's points in the EDMD plans: superquadrics [2, 2, p] at φ = 0.256, N = 512, X0 = 0.5
 /// and 2, LL and NNL (p = 2 … 10 in the full plan, 2, 4, 10 in the quick one), and the hard
-/// ellipsoids of the same state points. Checked whole once the engine takes p > 2; until then,
-/// the plans are refused at their Fig. 13 `exponents` line and only there.
+/// ellipsoids of the same state points.
 #[test]
 fn fig13_points_are_in_the_edmd_plans() {
     for (name, grid, collisions) in [
         ("edmd-figures.toml", vec![2.0, 3.0, 4.0, 6.0, 8.0, 10.0], 20_000),
         ("edmd-figures-quick.toml", vec![2.0, 4.0, 10.0], 2_000),
     ] {
-        let plan = deploy_plan_for_this_engine(name);
-        if !engine_takes_exponents_above_2() {
-            assert!(plan.jobs.iter().all(|j| !matches!(j, JobSpec::Edmd(s) if s.phi == 0.256)), "{name}");
-            continue;
-        }
+        let plan = deploy_plan(name);
         let at_fig13: Vec<&edmd::Scene> = plan
             .jobs
             .iter()
