@@ -4,13 +4,14 @@
 #
 #   scripts/hog-experiment.sh NEW_SWEEP OLD_SWEEP OUT_DIR [CONFIGURATIONS]
 #
-# NEW_SWEEP: this branch's binary (blocks, median of set medians, references, re-runs, ci_target).
+# NEW_SWEEP: this branch's binary (blocks, a statistic per report, references, re-runs, ci_target).
 # OLD_SWEEP: a binary without the protocol (e.g. main before issue 18: one whole-pass time per set,
 #            the mean over sets), or the same binary to repeat the new protocol.
 # Each run is a local-mode campaign on both cores (`--cores 0,1`); the hogs are pinned there
 # too, so every timed loop shares its core with a busy loop. Prints one line per protocol:
 # Spearman rho and the median relative difference of the per-point ns/check between the two
-# seeds, for QRI and QRF, and each run's wall time. Run it inside /work/bin/quiet on a shared
+# seeds, for QRI, QRF, OCSI and SSE, by each statistic, how often the two runs' intervals agree,
+# and each run's wall time. Run it inside /work/bin/quiet on a shared
 # machine so that other builds do not add noise nobody controls.
 set -euo pipefail
 new=$(realpath "$1"); old=$(realpath "$2"); out=$3; configurations=${4:-2000000}

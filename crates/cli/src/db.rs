@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::Args;
 use coordinator::Store;
+use overlap::estimate::Statistic;
 use report::{OverlapRow, TableFormat};
 
 use crate::local::report_status;
@@ -89,20 +90,26 @@ pub struct ReportArgs {
     /// Figures 2–3: a circle in every cell, its size the point's 95 % CI half-width.
     #[arg(long)]
     pub(crate) ci: bool,
+    /// Tables 1–2 and figures 2–3: each point's estimate from its timed blocks, `mean` (the papers'
+    /// mean time per configuration set; the tables' default), `median`, or `p5` (the 5th
+    /// percentile, the kernel's cost without the machine's noise; the figures' default).
+    #[arg(long, value_parser = clap::builder::ValueParser::new(str::parse::<Statistic>))]
+    pub(crate) statistic: Option<Statistic>,
 }
 
-/// A report row from the store's: the estimate re-made from the stored blocks (their 5th
-/// percentile over every set, `overlap::estimate`, with its interval; results measured with the
-/// earlier statistic get this one too), or for points measured before blocks were kept the mean
-/// over repeats the store gave, with Student's interval.
-pub(crate) fn report_row(r: store::OverlapRow) -> OverlapRow {
+/// A report row from the store's: the estimate re-made from the stored blocks by `statistic`
+/// (`overlap::estimate`, with its interval), or for points measured before blocks were kept
+/// the mean over repeats the store gave, with Student's interval, whatever `statistic` asked
+/// for (the row's `statistic` says `mean`, and so does the table's).
+pub(crate) fn report_row(r: store::OverlapRow, statistic: Statistic) -> OverlapRow {
     let checks_ms = r.configurations as f64 * 1e-6;
-    let (estimate, ns_per_check, mean_ms) = if r.block_ns_per_check.is_empty() {
-        (overlap::estimate::mean_interval(&r.repeat_ns_per_check), r.ns_per_check, r.mean_ms)
+    let (estimate, ns_per_check, mean_ms, statistic) = if r.block_ns_per_check.is_empty() {
+        let estimate = overlap::estimate::mean_interval(&r.repeat_ns_per_check);
+        (estimate, r.ns_per_check, r.mean_ms, Statistic::Mean)
     } else {
-        let estimate = overlap::estimate::estimate(&r.block_ns_per_check);
+        let estimate = overlap::estimate::estimate_with(statistic, &r.block_ns_per_check);
         let ns = estimate.map_or(r.ns_per_check, |e| e.value);
-        (estimate, ns, ns * checks_ms)
+        (estimate, ns, ns * checks_ms, statistic)
     };
     let finite = |x: f64| x.is_finite().then_some(x);
     let lo = estimate.and_then(|e| finite(e.lo));
@@ -125,18 +132,17 @@ pub(crate) fn report_row(r: store::OverlapRow) -> OverlapRow {
         ci95_hi_ms: hi.map(|x| x * to_ms),
         disturbed: r.disturbed,
         reruns: r.reruns,
+        statistic: statistic.name().to_owned(),
     }
 }
 
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     if crate::edmd_report::NAMES.contains(&args.name.as_str()) {
+        if args.statistic.is_some() {
+            bail!("--statistic applies to table1, table2, fig2 and fig3, not to {}", args.name);
+        }
         return crate::edmd_report::report(args, format);
     }
-    let rows: Vec<OverlapRow> = runtime()?.block_on(async {
-        let store = open_read_only(&args.db).await?;
-        let rows = store.overlap_rows().await?;
-        anyhow::Ok(rows.into_iter().map(report_row).collect())
-    })?;
     let (kind, precision) = match args.name.as_str() {
         "table1" => ("table", "f32"),
         "table2" => ("table", "f64"),
@@ -144,6 +150,15 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "fig3" => ("figure", "f64"),
         other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy)"),
     };
+    let statistic = args.statistic.unwrap_or(match kind {
+        "table" => Statistic::FOR_TABLES,
+        _ => Statistic::FOR_SURFACES,
+    });
+    let rows: Vec<OverlapRow> = runtime()?.block_on(async {
+        let store = open_read_only(&args.db).await?;
+        let rows = store.overlap_rows().await?;
+        anyhow::Ok(rows.into_iter().map(|r| report_row(r, statistic)).collect())
+    })?;
     if kind == "figure" {
         let json_out = args.out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")));
         if json_out.is_some() || (args.out.is_none() && format == Format::Json) {

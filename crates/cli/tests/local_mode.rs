@@ -225,6 +225,102 @@ fn overlap_results_carry_their_uncertainty() {
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<circle"));
 }
 
+/// `report --statistic`: each point's estimate is the statistic asked for of its stored blocks
+/// (checked against the blocks read back with `query`), Table 1 defaults to the mean and Fig. 2
+/// to the 5th percentile, every output names its statistic, and a bad or misplaced value is a
+/// one-line error naming the flag.
+#[test]
+fn reports_estimate_by_the_statistic_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("s.db");
+    let db = db.to_str().unwrap();
+    let plan = write(
+        dir.path(),
+        "s.toml",
+        "name = \"s\"\n[[overlap]]\nl_star = [1, 4]\nw_star = 1\nr_star = 5\nconfigurations = 20_000\nrepeats = 2\nalgorithms = [\"qri\", \"ocsi\"]\n",
+    );
+    run_plan(&plan, db);
+    let out = sweep(&["query", "SELECT l_star, algorithm, block_ns_per_check FROM overlap_timings", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut blocks: std::collections::HashMap<(i64, String), Vec<f64>> = Default::default();
+    for row in serde_json::from_slice::<Vec<serde_json::Value>>(&out.stdout).unwrap() {
+        let these: Vec<f64> = serde_json::from_str(row["block_ns_per_check"].as_str().unwrap()).unwrap();
+        blocks
+            .entry((row["l_star"].as_i64().unwrap(), row["algorithm"].as_str().unwrap().to_owned()))
+            .or_default()
+            .extend(these);
+    }
+    assert_eq!(blocks.len(), 4);
+    // Independent of the estimator's code: the mean, and the linearly interpolated quantile.
+    let expected = |statistic: &str, values: &[f64]| -> f64 {
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let at = |q: f64| {
+            let x = q * (sorted.len() - 1) as f64;
+            let i = x.floor() as usize;
+            sorted[i] + (x - i as f64) * (sorted[(i + 1).min(sorted.len() - 1)] - sorted[i])
+        };
+        match statistic {
+            "mean" => values.iter().sum::<f64>() / values.len() as f64,
+            "median" => at(0.5),
+            _ => at(0.05),
+        }
+    };
+    let report = |args: &[&str]| -> Vec<serde_json::Value> {
+        let out = sweep(&[&["report"], args, &["--db", db, "--format", "json"]].concat());
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    for (args, statistic) in [
+        (&["fig2"][..], "p5"),
+        (&["fig2", "--statistic", "mean"][..], "mean"),
+        (&["fig2", "--statistic", "median"][..], "median"),
+        (&["fig2", "--statistic", "p5"][..], "p5"),
+    ] {
+        let points = report(args);
+        assert_eq!(points.len(), 4);
+        for p in &points {
+            assert_eq!(p["statistic"], statistic, "{args:?}: {p}");
+            let values = &blocks[&(p["l_star"].as_f64().unwrap() as i64, p["algorithm"].as_str().unwrap().to_owned())];
+            let want = expected(statistic, values);
+            let got = p["ns_per_check"].as_f64().unwrap();
+            assert!((got / want - 1.0).abs() < 1e-9, "{args:?}: {got} for {want}: {p}");
+            assert!(p["ci95_lo_ns_per_check"].as_f64().unwrap() <= got && got <= p["ci95_hi_ns_per_check"].as_f64().unwrap());
+        }
+    }
+    // Table 1: the mean by default; each cell the mean over its points of their estimates.
+    for (args, statistic) in [(&["table1"][..], "mean"), (&["table1", "--statistic", "p5"][..], "p5")] {
+        let table = report(args);
+        for row in &table {
+            assert_eq!(row["statistic"], statistic, "{row}");
+            let algorithm = row["algorithm"].as_str().unwrap().to_owned();
+            let want = [1, 4].iter().map(|&l| expected(statistic, &blocks[&(l, algorithm.clone())])).sum::<f64>() / 2.0;
+            assert!((row["ns_per_check"].as_f64().unwrap() / want - 1.0).abs() < 1e-9, "{row}");
+        }
+    }
+    let out = sweep(&["report", "table1", "--db", db, "--statistic", "median"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("Each point's estimate (median): the median of its timed blocks."), "{text}");
+    let csv = dir.path().join("t.csv");
+    assert!(sweep(&["report", "table1", "--db", db, "--out", csv.to_str().unwrap()]).status.success());
+    let csv = std::fs::read_to_string(&csv).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",statistic") && csv.lines().nth(1).unwrap().ends_with(",mean"), "{csv}");
+    let svg = dir.path().join("f.svg");
+    assert!(sweep(&["report", "fig2", "--db", db, "--out", svg.to_str().unwrap()]).status.success());
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("p5 of the blocks"));
+
+    for (args, named) in [
+        (&["report", "table1", "--db", db, "--statistic", "p10"][..], "--statistic"),
+        (&["report", "fig7", "--db", db, "--statistic", "mean"][..], "--statistic"),
+    ] {
+        let out = sweep(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} accepted");
+        assert!(err.contains(named), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().filter(|l| l.starts_with("error") || l.starts_with("Error")).count(), 1, "{args:?}: {err}");
+    }
+}
+
 #[test]
 fn an_edmd_sweep_lands_in_edmd_runs_and_draws_figure_7() {
     let dir = tempfile::tempdir().unwrap();

@@ -25,10 +25,12 @@ pub const MIN_AGE: Duration = Duration::from_secs(2);
 const DUTY: u32 = 10;
 
 /// How the application turns the store's rows into the report crate's (`sweep report` does the
-/// same): the overlap re-estimate from stored blocks, the EDMD τ_c clock.
+/// same): the overlap re-estimate from stored blocks (by the statistic of the tables, and of the
+/// figures), the EDMD τ_c clock.
 #[derive(Clone, Copy)]
 pub struct RowConversions {
-    pub overlap: fn(store::OverlapRow) -> report::OverlapRow,
+    pub overlap_table: fn(store::OverlapRow) -> report::OverlapRow,
+    pub overlap_figure: fn(store::OverlapRow) -> report::OverlapRow,
     pub edmd: fn(Vec<store::EdmdRun>) -> Vec<report::EdmdRow>,
 }
 
@@ -178,7 +180,11 @@ fn draw(
             let stored = runtime
                 .block_on(store.overlap_rows())
                 .map_err(|e| e.to_string())?;
-            let rows: Vec<report::OverlapRow> = stored.into_iter().map(rows.overlap).collect();
+            let convert = match drawing {
+                Drawing::Fig2 { .. } => rows.overlap_figure,
+                _ => rows.overlap_table,
+            };
+            let rows: Vec<report::OverlapRow> = stored.into_iter().map(convert).collect();
             if let Drawing::Fig2 { .. } = drawing {
                 return report::fig2_svg(&rows, precision, report::Fig2Options::default())
                     .map_err(|e| e.to_string());

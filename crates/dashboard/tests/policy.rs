@@ -21,7 +21,8 @@ const TOKEN: &str = "policy-test-token";
 
 fn no_rows() -> RowConversions {
     RowConversions {
-        overlap: |_| report::OverlapRow::default(),
+        overlap_table: |_| report::OverlapRow::default(),
+        overlap_figure: |_| report::OverlapRow::default(),
         edmd: |_| Vec::new(),
     }
 }

@@ -14,7 +14,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::render::{DrawResult, Drawing, FONT, render, render_svg};
-use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, quantile};
+use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, join_statistics, quantile};
 
 const PANEL_WIDTH: u32 = 330;
 const PANEL_HEIGHT: u32 = 290;
@@ -97,6 +97,8 @@ struct Figure {
     /// By (algorithm, R*, L*, W*) indices; several rows of one cell (other acceptance targets
     /// or sizes) are averaged, their widest interval kept, flagged if any is.
     cells: BTreeMap<[usize; 4], Cell>,
+    /// The statistic of the points' blocks (`mean`, `median`, `p5`), named in the title.
+    statistic: String,
     options: Fig2Options,
 }
 
@@ -128,8 +130,12 @@ impl Drawing for Figure {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
+        let statistic = match self.statistic.as_str() {
+            "" => String::new(),
+            name => format!(", {name} of the blocks"),
+        };
         let mut title = format!(
-            "Run time per point (ms) over the L*–W* plane, {}",
+            "Run time per point (ms{statistic}) over the L*–W* plane, {}",
             self.precision
         );
         if self.options.show_ci {
@@ -174,6 +180,7 @@ impl Figure {
                 precision: precision.to_owned(),
             });
         }
+        let statistic = join_statistics(rows.iter().map(|r| r.statistic.as_str()));
         let l_values = distinct(rows.iter().map(|r| r.l_star));
         let w_values = distinct(rows.iter().map(|r| r.w_star));
         let r_values = distinct(rows.iter().map(|r| r.r_star));
@@ -221,6 +228,7 @@ impl Figure {
             r_values,
             algorithms,
             cells,
+            statistic,
             options,
         })
     }

@@ -40,9 +40,10 @@ pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overla
 pub use table::{Table1Row, TableFormat, render_table, table1};
 pub use units::LengthUnit;
 
-/// One benchmark point's result for one algorithm: its estimate (the 5th percentile of its
-/// timed blocks over every set, or for points measured before blocks were kept the mean over its repeats) with the
-/// 95 % confidence interval, and whether the machine was disturbed while it was measured.
+/// One benchmark point's result for one algorithm: its estimate (a statistic of its timed
+/// blocks over every set, named in `statistic`, or for points measured before blocks were kept
+/// the mean over its repeats) with the 95 % confidence interval, and whether the machine was
+/// disturbed while it was measured.
 /// `sweep report fig2 --format json` prints these.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct OverlapRow {
@@ -68,6 +69,9 @@ pub struct OverlapRow {
     pub disturbed: Option<bool>,
     /// Measurements of the point thrown away because the machine was disturbed.
     pub reruns: Option<u32>,
+    /// The statistic of the blocks the estimate is (`mean`, `median`, `p5`; `overlap::estimate`);
+    /// `mean` for points measured before blocks were kept, whatever was asked.
+    pub statistic: String,
 }
 
 impl OverlapRow {
@@ -89,6 +93,37 @@ fn quantile(values: &[f64], q: f64) -> Option<f64> {
         Some(next) => sorted[i] + at.fract() * (next - sorted[i]),
         None => sorted[i],
     })
+}
+
+/// The statistic rows were estimated by, from their `statistic` names: their common one
+/// (`mean`, `median`, `p5`), or the distinct ones joined by `+` (names already joined are split)
+/// when points measured before blocks were kept (always `mean`) mix with others; empty when no
+/// row names one.
+fn join_statistics<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    let mut names: Vec<&str> = names
+        .flat_map(|name| name.split('+'))
+        .filter(|s| !s.is_empty())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    names.join("+")
+}
+
+/// A sentence that says what each point's estimate is, for a caption; `None` without a
+/// statistic.
+fn statistic_caption(statistic: &str) -> Option<String> {
+    let words = match statistic {
+        "" => return None,
+        "mean" => "the mean of its timed blocks (the papers' mean time per configuration set)",
+        "median" => "the median of its timed blocks",
+        "p5" => "the 5th percentile of its timed blocks (the kernel's cost without the machine's noise)",
+        mixed => {
+            return Some(format!(
+                "Each point's estimate: mixed statistics ({mixed}); points measured before blocks were kept give the mean over their repeats."
+            ));
+        }
+    };
+    Some(format!("Each point's estimate ({statistic}): {words}."))
 }
 
 /// One EDMD run: the point's parameters (what tells its curve apart, its accuracy knobs) and

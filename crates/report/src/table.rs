@@ -6,7 +6,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, quantile};
+use crate::{
+    OverlapRow, ReportError, algorithm_rank, algorithm_title, join_statistics, quantile,
+    statistic_caption,
+};
 
 /// One cell of Table 1: an algorithm's mean over every (L*, W*) point measured at one R*.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -28,6 +31,9 @@ pub struct Table1Row {
     pub disturbed: u64,
     /// Points re-run because the machine was disturbed.
     pub rerun: u64,
+    /// The statistic of each point's blocks that the mean is over (`mean`, `median`, `p5`, or
+    /// several joined by `+`; see [`OverlapRow::statistic`]).
+    pub statistic: String,
 }
 
 /// The 97.5 % quantile of the normal distribution: a 95 % interval is ±1.96 standard errors.
@@ -70,6 +76,7 @@ pub fn table1(rows: &[OverlapRow], precision: &str) -> Vec<Table1Row> {
                 .iter()
                 .filter(|r| r.reruns.is_some_and(|n| n > 0))
                 .count() as u64,
+            statistic: join_statistics(group.iter().map(|r| r.statistic.as_str())),
         });
     }
     out
@@ -84,7 +91,7 @@ pub enum TableFormat {
     /// A booktabs `tabular` (needs `\usepackage{booktabs}`), same layout.
     Latex,
     /// The rows themselves: a list of `{r_star, precision, algorithm, mean_ms, ns_per_check,
-    /// points, ci95_ms, point_ci95_rel, disturbed, rerun}`.
+    /// points, ci95_ms, point_ci95_rel, disturbed, rerun, statistic}`.
     Json,
 }
 
@@ -132,6 +139,8 @@ struct Grid {
     point_ci95_rel: Option<f64>,
     disturbed: u64,
     rerun: u64,
+    /// The statistic of the points' blocks, over every row.
+    statistic: String,
 }
 
 impl Grid {
@@ -172,13 +181,15 @@ impl Grid {
             point_ci95_rel: quantile(&relative, 0.5),
             disturbed: per_r_star(|r| r.disturbed),
             rerun: per_r_star(|r| r.rerun),
+            statistic: join_statistics(rows.iter().map(|r| r.statistic.as_str())),
         }
     }
 
-    /// Lines under the table: what ± means and how the points were measured. Empty for a table
-    /// without intervals or noise checks (results of the protocol before both existed).
+    /// Lines under the table: what each point's estimate is, what ± means and how the points
+    /// were measured. Empty for rows that name no statistic and have no intervals or noise
+    /// checks.
     fn footnote(&self) -> Vec<String> {
-        let mut notes = Vec::new();
+        let mut notes: Vec<String> = statistic_caption(&self.statistic).into_iter().collect();
         if self
             .lines
             .iter()
@@ -232,7 +243,8 @@ impl Grid {
 
     fn csv(&self) -> String {
         // Algorithm names are identifiers (letters, digits, `_`): no quoting needed. The means
-        // first, then the half-widths of their 95 % intervals (`<algorithm>_ci95`).
+        // first, then the half-widths of their 95 % intervals (`<algorithm>_ci95`), then the
+        // statistic of the points' blocks (`mean`, `median`, `p5`, joined by `+` if mixed).
         let mut out = String::from("r_star");
         for a in &self.algorithms {
             let _ = write!(out, ",{a}");
@@ -240,7 +252,7 @@ impl Grid {
         for a in &self.algorithms {
             let _ = write!(out, ",{a}_ci95");
         }
-        out.push('\n');
+        out.push_str(",statistic\n");
         for (r_star, cells) in &self.lines {
             let _ = write!(out, "{r_star}");
             for cell in cells {
@@ -258,7 +270,7 @@ impl Grid {
                         .map_or_else(String::new, two_digits)
                 );
             }
-            out.push('\n');
+            let _ = writeln!(out, ",{}", self.statistic);
         }
         out
     }
@@ -406,7 +418,7 @@ mod tests {
         let csv = render_table(&t, TableFormat::Csv).expect("renders");
         assert_eq!(
             csv,
-            "r_star,qri,ocsi,my_kernel,qri_ci95,ocsi_ci95,my_kernel_ci95\n0.05,22.30,10.00,1.00,,,\n0.5,,12.00,,,,\n5,27.25,10.00,1.00,,,\n"
+            "r_star,qri,ocsi,my_kernel,qri_ci95,ocsi_ci95,my_kernel_ci95,statistic\n0.05,22.30,10.00,1.00,,,,\n0.5,,12.00,,,,,\n5,27.25,10.00,1.00,,,,\n"
         );
 
         let tex = render_table(&t, TableFormat::Latex).expect("renders");
@@ -432,7 +444,8 @@ mod tests {
                 "points",
                 "precision",
                 "r_star",
-                "rerun"
+                "rerun",
+                "statistic"
             ]
         );
         assert_eq!(json[0]["points"], 4);
@@ -474,10 +487,44 @@ mod tests {
             "{md}"
         );
         let csv = render_table(&t, TableFormat::Csv).expect("renders");
-        assert!(csv.ends_with("5,20.00,20.00,0.10,0.10\n"), "{csv}");
+        assert!(csv.ends_with("5,20.00,20.00,0.10,0.10,\n"), "{csv}");
         // A point without an interval leaves the mean without one.
         rows[0].ci95_lo_ms = None;
         assert_eq!(table1(&rows, "f32")[0].ci95_ms, None);
+    }
+
+    /// The statistic of the points reaches every format; points measured before blocks were
+    /// kept (always the mean) mixed with re-estimated ones are named as a mix, not hidden.
+    #[test]
+    fn the_statistic_is_named_and_a_mix_is_told() {
+        let mut rows = sample();
+        for r in &mut rows {
+            r.statistic = "median".into();
+        }
+        let t = table1(&rows, "f32");
+        assert!(t.iter().all(|r| r.statistic == "median"));
+        let md = render_table(&t, TableFormat::Markdown).expect("renders");
+        assert!(
+            md.contains("Each point's estimate (median): the median of its timed blocks."),
+            "{md}"
+        );
+        let tex = render_table(&t, TableFormat::Latex).expect("renders");
+        assert!(tex.contains("% Each point's estimate (median)"), "{tex}");
+        rows[0].statistic = "mean".into();
+        let t = table1(&rows, "f32");
+        let first = t
+            .iter()
+            .find(|r| r.r_star == rows[0].r_star && r.algorithm == rows[0].algorithm)
+            .expect("the cell of the old point");
+        assert_eq!(first.statistic, "mean+median");
+        assert!(t.iter().filter(|r| r.statistic == "median").count() == t.len() - 1);
+        let md = render_table(&t, TableFormat::Markdown).expect("renders");
+        assert!(md.contains("mixed statistics (mean+median)"), "{md}");
+        let csv = render_table(&t, TableFormat::Csv).expect("renders");
+        assert!(
+            csv.lines().skip(1).all(|l| l.ends_with(",mean+median")),
+            "{csv}"
+        );
     }
 
     #[test]
