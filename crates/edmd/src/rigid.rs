@@ -4,8 +4,9 @@ use crate::geometry::{M3, Pose, Surface, V3};
 
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
 pub struct Body {
-    // Position, velocity and time first: the sphere path reads only them, from one cache line.
+    // Position, velocity and time first, aligned: the sphere path reads only them, one cache line.
     pub r: V3,
     pub v: V3,
     pub t: f64,
