@@ -10,7 +10,9 @@ use crate::db::{ReportArgs, open_read_only, runtime};
 use crate::output::{Format, print_json, print_text};
 
 /// The reports this module makes.
-pub const NAMES: [&str; 7] = ["fig7", "fig8", "fig9", "fig10", "fig11", "fig13", "accuracy"];
+pub const NAMES: [&str; 7] = [
+    "fig7", "fig8", "fig9", "fig10", "fig11", "fig13", "accuracy",
+];
 
 /// Every EDMD run of the database, as the report crate reads them, with τ_c by `clock` where
 /// the record has it.
@@ -331,7 +333,10 @@ mod tests {
             reason: String::new(),
         };
         let run = failed_run(job).expect("readable parameters").run;
-        assert_eq!((run.shape.as_str(), run.exponents), ("superquadric", Some([2.0, 2.0, 4.0])));
+        assert_eq!(
+            (run.shape.as_str(), run.exponents),
+            ("superquadric", Some([2.0, 2.0, 4.0]))
+        );
 
         let broken = store::FailedJob {
             id: "j1".into(),

@@ -221,7 +221,17 @@ pub(crate) fn identical_prefix(reference: &[u32], run: &[u32]) -> (usize, usize)
     (same, reference.len().min(run.len()))
 }
 
-type PointKey = (String, Option<[Key; 3]>, Key, Key, u32, String, Key, u64, u64);
+type PointKey = (
+    String,
+    Option<[Key; 3]>,
+    Key,
+    Key,
+    u32,
+    String,
+    Key,
+    u64,
+    u64,
+);
 
 fn point_key(r: &EdmdRow) -> PointKey {
     (
@@ -663,25 +673,18 @@ pub fn accuracy_plot(report: &AccuracyReport, path: &Path) -> Result<(), ReportE
     let knob_panels = report.knobs.iter().map(|study| {
         // A setting whose every run failed has no cost to place; the table lists it.
         let point = |s: &SettingSummary| Some((s.cost_ratio?, s.max_z_deviation_rel * 100.0));
-        let mut front: Vec<(f64, f64)> = study
-            .settings
-            .iter()
-            .filter(|s| s.pareto)
-            .filter_map(point)
-            .collect();
+        let points_of = |keep: fn(&SettingSummary) -> bool| -> Vec<(f64, f64)> {
+            study
+                .settings
+                .iter()
+                .filter(|s| keep(s))
+                .filter_map(point)
+                .collect()
+        };
+        let mut front = points_of(|s| s.pareto);
         front.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let others: Vec<(f64, f64)> = study
-            .settings
-            .iter()
-            .filter(|s| s.safe && !s.pareto)
-            .filter_map(point)
-            .collect();
-        let lost: Vec<(f64, f64)> = study
-            .settings
-            .iter()
-            .filter(|s| !s.safe)
-            .filter_map(point)
-            .collect();
+        let others = points_of(|s| s.safe && !s.pareto);
+        let lost = points_of(|s| !s.safe);
         let notes = study
             .settings
             .iter()
@@ -874,7 +877,10 @@ mod tests {
         let report = accuracy(&rows).expect("an ε_d study");
         let points = &report.knobs[0].state_points;
         let exponents: Vec<Option<[f64; 3]>> = points.iter().map(|p| p.exponents).collect();
-        assert_eq!(exponents, vec![Some([2.0, 2.0, 2.0]), Some([2.0, 2.0, 4.0])]);
+        assert_eq!(
+            exponents,
+            vec![Some([2.0, 2.0, 2.0]), Some([2.0, 2.0, 4.0])]
+        );
         assert!((points[1].runs[1].cost_ratio - 0.75).abs() < 1e-12);
         assert!(accuracy_markdown(&report).contains("superquadric [2, 2, 4] X0 = 2"));
     }
