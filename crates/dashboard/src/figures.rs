@@ -43,6 +43,8 @@ enum Drawing {
     Fig2 { precision: &'static str },
     /// Figure 7 as `sweep report fig7 --out F.svg` draws it.
     Fig7,
+    /// Figure 13 as `sweep report fig13 --out F.svg` draws it.
+    Fig13,
 }
 
 /// A figure or table the page offers.
@@ -72,7 +74,7 @@ impl Figure {
     }
 }
 
-const FIGURES: [Figure; 5] = [
+const FIGURES: [Figure; 6] = [
     Figure {
         name: "table1",
         title: "Table 1: mean run time per algorithm and R* (f32)",
@@ -98,12 +100,17 @@ const FIGURES: [Figure; 5] = [
         title: "Figure 7: EDMD time per collision τ_c against φ",
         drawing: Drawing::Fig7,
     },
+    Figure {
+        name: "fig13",
+        title: "Figure 13: superquadrics, τ_c against the exponent p",
+        drawing: Drawing::Fig13,
+    },
 ];
 
 /// What the page shows for a job kind once any of its jobs is done.
 pub const BY_KIND: [(&str, &[Figure]); 2] = [
     ("overlap", &[FIGURES[0], FIGURES[1]]),
-    ("edmd", &[FIGURES[4]]),
+    ("edmd", &[FIGURES[4], FIGURES[5]]),
 ];
 
 /// Looks a figure up by name; `table` says whether a table (JSON) or a figure (SVG) is asked.
@@ -195,12 +202,16 @@ fn draw(
             }
             report::render_table(&table, TableFormat::Json).map_err(|e| e.to_string())
         }
-        Drawing::Fig7 => {
+        Drawing::Fig7 | Drawing::Fig13 => {
             let stored = runtime
                 .block_on(store.edmd_runs())
                 .map_err(|e| e.to_string())?;
             let rows = (rows.edmd)(stored);
-            report::fig7_svg(&rows).map_err(|e| e.to_string())
+            match drawing {
+                Drawing::Fig13 => report::Fig13::new(&rows).and_then(|f| f.svg()),
+                _ => report::fig7_svg(&rows),
+            }
+            .map_err(|e| e.to_string())
         }
     }
 }

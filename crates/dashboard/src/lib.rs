@@ -321,7 +321,7 @@ async fn drawn(app: &App, figure: Option<figures::Figure>, content_type: &'stati
     let Some(figure) = figure else {
         return error(
             StatusCode::NOT_FOUND,
-            "no such figure (figures: fig2, fig3, fig7 as .svg; tables: table1, table2 as .json)",
+            "no such figure (figures: fig2, fig3, fig7, fig13 as .svg; tables: table1, table2 as .json)",
         );
     };
     let done = app.sampler.latest().done_total;

@@ -364,3 +364,69 @@ async fn an_address_off_loopback_without_a_token_is_refused() {
     let refused = dashboard::bind(options).await.err().expect("refused");
     assert!(refused.to_string().contains("without a token"), "{refused}");
 }
+
+/// Superquadric runs of Fig. 13 (p = 2, 4 at X0 = 0.5 with LL), whatever the store holds: the
+/// conversion is where the application hands the store's rows to the report crate.
+fn superquadric_rows() -> RowConversions {
+    RowConversions {
+        edmd: |_| {
+            [(2.0, 90.0), (4.0, 800.0)]
+                .into_iter()
+                .map(|(p, tau_c_us)| report::EdmdRow {
+                    shape: "superquadric".into(),
+                    x0: 0.5,
+                    exponents: Some([2.0, 2.0, p]),
+                    neighbours: "ll".into(),
+                    delta_nnl: 0.06,
+                    n: 512,
+                    phi: 0.256,
+                    tau_c_us,
+                    eps_d: 1e-5,
+                    eps_nnl: 5e-3,
+                    nr_tol: 1e-12,
+                    nr_max_iter: 50,
+                    nr_relax: 0.5,
+                    sd_max_iter: 200,
+                    sd_tol: 1e-3,
+                    brent_tol: 1e-12,
+                    collisions: 2000,
+                    ..Default::default()
+                })
+                .collect()
+        },
+        ..no_rows()
+    }
+}
+
+#[tokio::test]
+async fn the_page_draws_fig13_from_superquadric_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let coordinator = coordinator(&dir, 1).await;
+    for (rows, drawn) in [(superquadric_rows(), true), (no_rows(), false)] {
+        let (router, _sampler) = dashboard::router(
+            coordinator.clone(),
+            rows,
+            "127.0.0.1:8080".parse().unwrap(),
+            Some(Token::new(TOKEN).unwrap()),
+            false,
+        )
+        .await
+        .unwrap();
+        let (status, headers, body) = call(
+            &router,
+            request("GET", "/api/figures/fig13.svg", LOOPBACK, &[]),
+        )
+        .await;
+        if drawn {
+            assert_eq!(status, StatusCode::OK, "{body}");
+            assert_eq!(headers[header::CONTENT_TYPE], "image/svg+xml");
+            assert!(
+                body.starts_with("<svg") && body.contains("Fig. 13"),
+                "{body}"
+            );
+        } else {
+            assert_eq!(status, StatusCode::NOT_FOUND);
+            assert!(body.contains("fig13: nothing to draw yet"), "{body}");
+        }
+    }
+}

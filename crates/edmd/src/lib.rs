@@ -20,7 +20,8 @@
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
-//!   superquadrics are audited by [`support_distance::overlap_certified`] (Gilbert's algorithm)
+//!   superquadrics are audited by [`support_distance::overlap_certified`] (a separating axis with a
+//!   positive support gap, from Gilbert's algorithm or Newton's normal)
 //!   and compressed with the contact scale of [`scale`].
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
 //! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use crate::edmd_figs::{CurvePoint, curve_series, drawn, points_of, same};
 use crate::lines::{LinePlot, Panel, Series, Style};
-use crate::render::render;
+use crate::render::{render, render_svg};
 use crate::selection::{Baseline, Key, knobs, timed};
 use crate::{EdmdRow, ReportError, tau_label};
 
@@ -168,6 +168,15 @@ impl Fig13 {
     }
 
     pub fn draw(&self, path: &Path) -> Result<(), ReportError> {
+        render(&self.plot(), path)
+    }
+
+    /// The figure as [`Fig13::draw`] draws it, as an SVG document in memory (the status page's).
+    pub fn svg(&self) -> Result<String, ReportError> {
+        render_svg(&self.plot())
+    }
+
+    fn plot(&self) -> LinePlot {
         let panels = [
             ("ll", "linked cells (LL)"),
             ("nnl", "neighbour lists (NNL)"),
@@ -177,16 +186,13 @@ impl Fig13 {
         .map(|(method, title)| self.panel(method, title))
         .collect();
         let [low, high] = self.paper_ratio;
-        render(
-            &LinePlot {
-                title: format!(
-                    "Fig. 13: superquadrics, τ_c against p (triangles: hard ellipsoids; the paper: superquadrics at p = 2 at least {low}–{high} times slower)"
-                ),
-                panels,
-                columns: 2,
-            },
-            path,
-        )
+        LinePlot {
+            title: format!(
+                "Fig. 13: superquadrics, τ_c against p (triangles: hard ellipsoids; the paper: superquadrics at p = 2 at least {low}–{high} times slower)"
+            ),
+            panels,
+            columns: 2,
+        }
     }
 
     fn panel(&self, method: &str, title: &str) -> Panel {
