@@ -105,13 +105,18 @@ impl Drawing for LinePlot {
             // A logarithmic axis shorter than a decade would show no tick label at all.
             let x_log = panel.x_log && x_hi / x_lo > 10.0;
             let y_log = panel.y_log && y_hi / y_lo > 10.0;
+            let log = |lo: f64, hi: f64| {
+                let (bold, light) = log_ticks(lo, hi);
+                (lo..hi)
+                    .log_scale()
+                    .with_key_points(bold)
+                    .with_light_points(light)
+            };
             match (x_log, y_log) {
                 (false, false) => panel.draw_on(area, x_lo..x_hi, y_lo..y_hi)?,
-                (true, false) => panel.draw_on(area, (x_lo..x_hi).log_scale(), y_lo..y_hi)?,
-                (false, true) => panel.draw_on(area, x_lo..x_hi, (y_lo..y_hi).log_scale())?,
-                (true, true) => {
-                    panel.draw_on(area, (x_lo..x_hi).log_scale(), (y_lo..y_hi).log_scale())?
-                }
+                (true, false) => panel.draw_on(area, log(x_lo, x_hi), y_lo..y_hi)?,
+                (false, true) => panel.draw_on(area, x_lo..x_hi, log(y_lo, y_hi))?,
+                (true, true) => panel.draw_on(area, log(x_lo, x_hi), log(y_lo, y_hi))?,
             }
         }
         Ok(())
@@ -140,6 +145,40 @@ fn padded(values: impl Iterator<Item = f64>, log: bool, legend_room: f64) -> (f6
         };
         (lo - 0.05 * span, hi + (0.05 + legend_room) * span)
     }
+}
+
+/// Ticks of a logarithmic axis on [lo, hi]: labelled ones at the decades (and at 2 and 5 times
+/// them on an axis of at most two decades, which would otherwise carry two or three labels), grid
+/// lines at every m·10^k (only the decades beyond three). Plotters' own choice for a span of a
+/// decade or two labels some values twice and crowds sub-decade grid lines into one band.
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let decades = (hi / lo).log10();
+    let in_range = |v: &f64| (lo..=hi).contains(v);
+    let ticks = |mantissas: &[f64]| -> Vec<f64> {
+        (lo.log10().floor() as i32..=hi.log10().ceil() as i32)
+            // 1/10^|k|, not 10^k, for negative k: 0.1 exactly as the label's value.
+            .map(|k| {
+                if k < 0 {
+                    1.0 / 10f64.powi(-k)
+                } else {
+                    10f64.powi(k)
+                }
+            })
+            .flat_map(|decade| mantissas.iter().map(move |m| m * decade))
+            .filter(in_range)
+            .collect()
+    };
+    let bold = ticks(if decades <= 2.0 {
+        &[1.0, 2.0, 5.0]
+    } else {
+        &[1.0]
+    });
+    let light = if decades <= 3.0 {
+        ticks(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
+    } else {
+        ticks(&[1.0])
+    };
+    (bold, light)
 }
 
 /// A tick label short enough for any axis: 0.001 as 1e-3, 12345 as 1.2e4.
@@ -248,6 +287,23 @@ impl Panel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_axes_label_each_value_once() {
+        // Fig. 13's NNL panel: 85 to 2700 µs.
+        let (bold, light) = log_ticks(85.0, 2700.0);
+        assert_eq!(bold, [100.0, 200.0, 500.0, 1000.0, 2000.0]);
+        assert_eq!(light.len(), 1 + 9 + 2);
+        assert!(light.windows(2).all(|w| w[0] < w[1]));
+        let labels: Vec<String> = bold.iter().map(|&v| tick(v)).collect();
+        let mut unique = labels.clone();
+        unique.dedup();
+        assert_eq!(labels, unique);
+        // Four decades: decades only.
+        let (bold, light) = log_ticks(0.05, 800.0);
+        assert_eq!(bold, [0.1, 1.0, 10.0, 100.0]);
+        assert_eq!(light, bold);
+    }
 
     #[test]
     fn ticks_are_short() {
