@@ -1,7 +1,7 @@
 //! τ_c and the initial state's time against N, with the memory per particle: one process per run,
 //! so that each run's peak RSS is its own.
 //!
-//! `cargo bench -p edmd --bench scale` runs hard spheres (φ = 0.45, NNL, Δ_NNL = 0.3) at
+//! `cargo bench -p edmd --bench scale` runs hard spheres (φ = 0.45, NNL, the default Δ_NNL = 0.25) at
 //! N = 256 … 131072 and X0 = 2 ellipsoids (φ = 0.5, NNL, Δ_NNL = 0.08) at N = 256 … 16384.
 //! `SWEEP_SCALE_SPHERES` and `SWEEP_SCALE_ELLIPSOIDS` replace the lists of N (comma-separated,
 //! empty for none; e.g. `SWEEP_SCALE_SPHERES=1000000` for the million), and
@@ -95,11 +95,7 @@ fn main() {
 
 fn scene(shape: &str, n: usize, collisions: u64) -> Scene {
     let mut s = match shape {
-        "sphere" => {
-            let mut s = Scene::new(ShapeKind::Sphere, n, 0.45);
-            s.delta_nnl = 0.3;
-            s
-        }
+        "sphere" => Scene::new(ShapeKind::Sphere, n, 0.45),
         _ => {
             let mut s = Scene::new(ShapeKind::Ellipsoid, n, 0.5);
             s.x0 = 2.0;

@@ -31,13 +31,12 @@ fn tau_c(c: &mut Criterion, name: &str, base: Scene, at_least: u64) {
 }
 
 fn benches(c: &mut Criterion) {
+    // Spheres default to lists with Δ_NNL = 0.25 (`scene::default_delta_nnl`); cells are named.
     let mut s = Scene::new(ShapeKind::Sphere, 256, 0.45);
     s.equilibrate = 20_000;
-    tau_c(c, "sphere_n256_phi0.45_ll", s.clone(), 250_000);
-    // Bounding balls whose centre may wander 0.3 σ: the fastest in a scan of 0.2-0.4.
-    s.neighbours = Neighbours::Nnl;
-    s.delta_nnl = 0.3;
-    tau_c(c, "sphere_n256_phi0.45_nnl", s, 250_000);
+    tau_c(c, "sphere_n256_phi0.45_nnl", s.clone(), 250_000);
+    s.neighbours = Neighbours::Ll;
+    tau_c(c, "sphere_n256_phi0.45_ll", s, 250_000);
 
     // The same hard spheres through the general rigid-body path: what the analytic path saves.
     let mut s = Scene::new(ShapeKind::Ellipsoid, 256, 0.45);

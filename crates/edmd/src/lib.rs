@@ -79,7 +79,8 @@ pub mod support_distance;
 
 pub use engine::{FinalState, ParticleDump, RunReport, run, run_with_state};
 pub use scene::{
-    Neighbours, Scene, SceneError, ShapeKind, default_neighbours, fill_default_neighbours,
+    Neighbours, Scene, SceneError, ShapeKind, default_delta_nnl, default_neighbours,
+    fill_shape_defaults,
 };
 
 use thiserror::Error;

@@ -477,7 +477,7 @@ fn expand_edmd(
                 .iter()
                 .map(|(key, (_, value))| (key.to_string(), value.clone()))
                 .collect();
-            edmd::fill_default_neighbours(&mut table);
+            edmd::fill_shape_defaults(&mut table);
             let scene: edmd::Scene =
                 toml::Value::Table(table)
                     .try_into()
@@ -514,7 +514,7 @@ fn check_scene_value(key: &str, value: &toml::Value) -> Result<(), String> {
     probe.insert("n".into(), toml::Value::Integer(2));
     probe.insert("phi".into(), toml::Value::Float(0.1));
     probe.insert(key.to_owned(), value.clone());
-    edmd::fill_default_neighbours(&mut probe);
+    edmd::fill_shape_defaults(&mut probe);
     toml::Value::Table(probe)
         .try_into::<edmd::Scene>()
         .map(|_| ())

@@ -606,13 +606,38 @@ fn ids_of_existing_edmd_plans_are_stable() {
     ] {
         assert_eq!(figs_7_to_11_digest(&deploy_plan(name)), digest, "{name}");
     }
+    // Spheres on lists default to Δ_NNL = 0.25 since issue 13 (faster at every N), which changes
+    // what this point is, so its id changed with it (it was e6d48ee7…343b with Δ_NNL = 0.15): it
+    // is now the point fig7.toml's spheres with `delta_nnl = 0.25` have always named.
     let sphere = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n");
-    assert_eq!(sphere.jobs[0].id(), "e6d48ee732ebca6639c459d388ea2bb76b6bd5767ad781b2a69670c5aeea343b");
+    assert_eq!(sphere.jobs[0].id(), "ce0e397ec2c0cf0bd3d274930430bc1ce8d9f041c9a650e2e2e6db5fe8a2bb6c");
+    assert_eq!(ids(&sphere), ids(&parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\ndelta_nnl = 0.25\n")));
     let ellipsoid = parse(
         "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2\nneighbours = \"nnl\"\ndelta_nnl = 0.06\n",
     );
     assert_eq!(ellipsoid.jobs[0].id(), "1a434f17443be8a015059f765d663a2dc68d78ed4c3cf5196ff1157c41c6a38a");
     assert!(!ellipsoid.jobs[0].canonical_json().contains("exponents"));
+}
+
+/// The spheres' new default Δ_NNL moves no other point: ellipsoids and superquadrics (on either
+/// method) and spheres on cells written without `delta_nnl` keep the ids they had before it
+/// (taken on the code before issue 13's change of default), as if `delta_nnl = 0.15` were written.
+#[test]
+fn a_shape_dependent_delta_nnl_moves_only_sphere_list_points() {
+    for (text, id) in [
+        ("shape = \"ellipsoid\"\nx0 = 2\nneighbours = \"nnl\"", "d54083ee97e0d396f1928e6a47280e18f06fc03ccf09dcfb412a42800c520cb9"),
+        ("shape = \"ellipsoid\"\nx0 = 2", "19e584324b2128592c9c327a63ca9a4c57ca111e1b3175b928d6561504a761da"),
+        ("shape = \"superquadric\"\nx0 = 2\nexponents = [2, 2, 4]\nneighbours = \"nnl\"", "fb44c8ad7152921ca0dc2e96f53488819ae66c7be9604393e2c19af209685034"),
+        ("shape = \"sphere\"\nneighbours = \"ll\"", "6e7f4845aad1c8740d3404821ce4af6906620e287d4729b6f54901e9e837fb04"),
+    ] {
+        let plan = parse(&format!("[[edmd]]\nn = 256\nphi = 0.45\n{text}\n"));
+        assert_eq!(plan.jobs[0].id(), id, "{text}");
+        let written = parse(&format!("[[edmd]]\nn = 256\nphi = 0.45\n{text}\ndelta_nnl = 0.15\n"));
+        assert_eq!(ids(&plan), ids(&written), "{text}");
+    }
+    // A sphere on lists with Δ_NNL written keeps its id whatever the default.
+    let written = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\ndelta_nnl = 0.15\n");
+    assert_eq!(written.jobs[0].id(), "e6d48ee732ebca6639c459d388ea2bb76b6bd5767ad781b2a69670c5aeea343b");
 }
 
 fn superquadrics(exponents: &str) -> String {
