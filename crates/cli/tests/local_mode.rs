@@ -483,7 +483,7 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
         .iter()
         .map(|(scene, _)| {
             let spec = jobs::JobSpec::Edmd(scene.clone());
-            store::NewJob { id: spec.id(), kind: spec.kind().into(), params_json: spec.canonical_json(), estimate_s: 1.0, exclusive: false }
+            store::NewJob { id: spec.id(), kind: spec.kind().into(), params_json: spec.canonical_json(), estimate_s: 1.0, exclusive: false, pass: spec.pass() }
         })
         .collect();
     let tau: std::collections::HashMap<String, f64> = jobs.iter().zip(&points).map(|(job, (_, tau))| (job.id.clone(), *tau)).collect();
