@@ -6,8 +6,9 @@
 #   SEEDS="1" scripts/visits-experiment.sh SWEEP OUT_DIR    # one seed per call (one quiet section)
 #   SEEDS="2" scripts/visits-experiment.sh SWEEP OUT_DIR    # ... prints the agreement at the end
 #
-# Same measuring budget per point: 1 visit with time_cap_s = CAP1 (default 3), or 3 visits with
-# time_cap_s = CAP3 (default 1) each. Runs are local-mode campaigns on both cores; the hogs are
+# The same cap on measuring per point: 1 visit with time_cap_s = CAP1 (default 3), or 3 visits
+# with time_cap_s = CAP3 (default 1) each; ci_target = CI1 (default 0.01) for the single visit
+# (a small one makes it use its whole cap: the same wall time as 3 visits), 0.01 for visits. Runs are local-mode campaigns on both cores; the hogs are
 # pinned there too. Wall times go to OUT_DIR/wall.txt; scripts/visits_agreement.py compares.
 set -euo pipefail
 sweep=$(realpath "$1"); out=$2
@@ -15,7 +16,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 grid=${GRID:-"[1, 4, 8, 12, 16, 20]"}; configurations=${CONFIGURATIONS:-500000}
 mkdir -p "$out"
 
-plan() { # name seed visits time_cap_s
+plan() { # name seed visits time_cap_s ci_target
   cat > "$out/$1.toml" <<PLAN
 name = "$1"
 exclusive = false
@@ -30,7 +31,7 @@ configurations = $configurations
 repeats = 3
 precision = "f32"
 algorithms = ["qri", "qrf", "ocsi", "sse"]
-ci_target = 0.01
+ci_target = $5
 time_cap_s = $4
 visits = $3
 PLAN
@@ -49,8 +50,8 @@ run() { # name
 }
 
 for seed in ${SEEDS:-1 2}; do
-  plan "v1-$seed" "$seed" 1 "${CAP1:-3}"
-  plan "v3-$seed" "$seed" 3 "${CAP3:-1}"
+  plan "v1-$seed" "$seed" 1 "${CAP1:-3}" "${CI1:-0.01}"
+  plan "v3-$seed" "$seed" 3 "${CAP3:-1}" 0.01
 done
 start_hogs
 for seed in ${SEEDS:-1 2}; do   # interleaved, so a slow phase of the machine hits both protocols

@@ -339,3 +339,55 @@ pub fn export(args: &ExportArgs, format: Format) -> anyhow::Result<()> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stored row of the point at `l_star`, visit `visit`: two sets of 50 blocks, every block
+    /// `ns` ± 0.5 %.
+    fn stored(l_star: f64, visit: u32, ns: f64) -> store::OverlapRow {
+        let set: Vec<f64> = (0..50).map(|k| ns * if k % 2 == 0 { 1.005 } else { 0.995 }).collect();
+        store::OverlapRow {
+            job_id: format!("{l_star}-{visit}"),
+            l_star,
+            w_star: 1.0,
+            r_star: 5.0,
+            acceptance_target: 0.4,
+            configurations: 1_000_000,
+            precision: "f32".into(),
+            algorithm: "qri".into(),
+            mean_ms: ns,
+            ns_per_check: ns,
+            acceptance: 0.4,
+            repeats: 2,
+            repeat_ns_per_check: vec![ns, ns],
+            block_ns_per_check: vec![set.clone(), set],
+            disturbed: Some(visit == 1),
+            reruns: Some(visit),
+            visit,
+            point: format!(r#"{{"l_star":{l_star}}}"#),
+        }
+    }
+
+    #[test]
+    fn a_points_visits_pool_into_one_row_and_a_single_visit_is_left_alone() {
+        let rows = vec![stored(1.0, 0, 10.0), stored(1.0, 1, 11.0), stored(1.0, 2, 12.0), stored(2.0, 0, 20.0)];
+        let single = visit_row(stored(2.0, 0, 20.0), Statistic::Mean).0;
+        let report = report_rows(rows, Statistic::Mean);
+        assert_eq!(report.len(), 2);
+        let (pooled, alone) = (&report[0], &report[1]);
+        assert_eq!(alone, &single);
+        assert_eq!(alone.visits, 1);
+        assert_eq!(pooled.visits, 3);
+        assert!((pooled.ns_per_check - 11.0).abs() < 1e-9, "{pooled:?}");
+        assert!((pooled.mean_ms - 11.0).abs() < 1e-9);
+        // Between visits: t(2) · 1 / √3 (s = 1 for 10, 11, 12), far wider than any visit's own.
+        let half = 4.303 / 3f64.sqrt();
+        let (lo, hi) = (pooled.ci95_lo_ns_per_check.expect("lo"), pooled.ci95_hi_ns_per_check.expect("hi"));
+        assert!((hi - 11.0 - half).abs() < 1e-6 && (11.0 - lo - half).abs() < 1e-6, "{lo} {hi}");
+        assert!((pooled.ci95_hi_ms.expect("ms") - hi).abs() < 1e-9, "1 ms per ns/check here");
+        assert_eq!((pooled.repeats, pooled.reruns, pooled.disturbed), (6, Some(3), Some(true)));
+        assert_eq!(pooled.statistic, "mean");
+    }
+}
