@@ -26,7 +26,12 @@
 //! ```
 //!
 //! A sweep is the cartesian product of its keys' values; `algorithms` is one set per point,
-//! never expanded. A scene key whose value is itself a list (`exponents = [n, m, p]`) is
+//! never expanded. `visits` (one number per sweep, 1 to [`MAX_VISITS`]) makes each point that
+//! many jobs, leased visit-major (every point's first visit, then every second …), so that
+//! reports can pool them with a between-visit term (`overlap::estimate::pool_visits`).
+//! `ci_target` and `time_cap_s` then apply to each visit: a job sees only its own blocks, so it
+//! stops on its within-visit interval; how much the visits differ is known once they are all
+//! done, and it is the reports' interval that shows it. A scene key whose value is itself a list (`exponents = [n, m, p]`) is
 //! swept by a list of such lists; lists nested deeper, ranges and a mix of lists and numbers
 //! are refused, and so is any list inside the sweep of a single-valued key. A plan is parsed and validated completely before any job exists, and the
 //! first problem (in file order within a sweep) is reported as `FILE:LINE:COL: key `k`: reason`.
