@@ -49,9 +49,9 @@
 //! never saw the fast one cannot know it. An honest interval for "what another run would give"
 //! needs that run: measuring a point again later, not more blocks now. That is what a plan's
 //! `visits` does, and [`pool_visits`] combines the visits with a between-visit term (measured,
-//! `scripts/visits-experiment.sh`, 6 × 6 grid under the hog, two runs each: by the 5th
-//! percentile the OCSI/SSE intervals of two runs agreed at 28–47 % of the points with one
-//! visit and at 97–100 % with three; QRI/QRF at 94–100 % either way). Visits spread over one
+//! `scripts/visits-experiment.sh`, 6 × 6 grid under the hog, three experiments of two runs: by
+//! the 5th percentile the OCSI/SSE intervals of two runs agreed at 28–50 % of the points with
+//! one visit and at 92–100 % with three; QRI/QRF at 94–100 % either way). Visits spread over one
 //! campaign still cannot see a state that lasts the whole campaign.
 //!
 //! Everything here is a pure function of numbers, tested on synthetic timings.
