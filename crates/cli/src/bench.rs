@@ -116,6 +116,7 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
         ci_target: args.ci_target,
         time_cap_s: args.time_cap_s,
         verdict_check: None,
+        visit: None,
     };
     spec.validate().map_err(flag_error)?;
     system::start_thread_pool()?;

@@ -30,6 +30,7 @@ pub fn from_plan(text: &str, file_name: &str) -> Result<Campaign, jobs::PlanErro
             params_json: spec.canonical_json(),
             estimate_s: spec.estimate_seconds(),
             exclusive: plan.exclusive_timing,
+            pass: spec.pass(),
         })
         .collect();
     // The campaign is its name and its set of points: the same plan is the same campaign.

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::Args;
 use coordinator::Store;
-use overlap::estimate::Statistic;
+use overlap::estimate::{Estimate, Statistic};
 use report::{OverlapRow, TableFormat};
 
 use crate::local::report_status;
@@ -97,11 +97,29 @@ pub struct ReportArgs {
     pub(crate) statistic: Option<Statistic>,
 }
 
-/// A report row from the store's: the estimate re-made from the stored blocks by `statistic`
-/// (`overlap::estimate`, with its interval), or for points measured before blocks were kept
-/// the mean over repeats the store gave, with Student's interval, whatever `statistic` asked
-/// for (the row's `statistic` says `mean`, and so does the table's).
-pub(crate) fn report_row(r: store::OverlapRow, statistic: Statistic) -> OverlapRow {
+/// Report rows from the store's, one per (point, algorithm): each visit's estimate re-made from
+/// its stored blocks by `statistic` (`overlap::estimate`, with its interval), or for jobs
+/// measured before blocks were kept the mean over repeats the store gave, with Student's
+/// interval, whatever `statistic` asked for (the row's `statistic` says `mean`, and so does the
+/// table's); then a point's visits pooled by `overlap::estimate::pool_visits` (one visit: its
+/// row as it is). The store orders the visits of a point next to each other.
+pub(crate) fn report_rows(rows: Vec<store::OverlapRow>, statistic: Statistic) -> Vec<OverlapRow> {
+    let visits: Vec<(OverlapRow, Option<Estimate>, String)> = rows
+        .into_iter()
+        .map(|r| {
+            let point = r.point.clone();
+            let (row, estimate) = visit_row(r, statistic);
+            (row, estimate, point)
+        })
+        .collect();
+    visits
+        .chunk_by(|a, b| a.2 == b.2 && a.0.algorithm == b.0.algorithm)
+        .map(pool_point)
+        .collect()
+}
+
+/// One visit's row, and its estimate (`None` where it has none).
+fn visit_row(r: store::OverlapRow, statistic: Statistic) -> (OverlapRow, Option<Estimate>) {
     let checks_ms = r.configurations as f64 * 1e-6;
     let (estimate, ns_per_check, mean_ms, statistic) = if r.block_ns_per_check.is_empty() {
         let estimate = overlap::estimate::mean_interval(&r.repeat_ns_per_check);
@@ -111,12 +129,7 @@ pub(crate) fn report_row(r: store::OverlapRow, statistic: Statistic) -> OverlapR
         let ns = estimate.map_or(r.ns_per_check, |e| e.value);
         (estimate, ns, ns * checks_ms, statistic)
     };
-    let finite = |x: f64| x.is_finite().then_some(x);
-    let lo = estimate.and_then(|e| finite(e.lo));
-    let hi = estimate.and_then(|e| finite(e.hi));
-    // ms per ns/check: the set's size, or for old rows the ratio the store averaged.
-    let to_ms = if ns_per_check > 0.0 { mean_ms / ns_per_check } else { checks_ms };
-    OverlapRow {
+    let row = OverlapRow {
         l_star: r.l_star,
         w_star: r.w_star,
         r_star: r.r_star,
@@ -126,14 +139,70 @@ pub(crate) fn report_row(r: store::OverlapRow, statistic: Statistic) -> OverlapR
         ns_per_check,
         acceptance: r.acceptance,
         repeats: r.repeats,
+        disturbed: r.disturbed,
+        reruns: r.reruns,
+        statistic: statistic.name().to_owned(),
+        visits: 1,
+        ..OverlapRow::default()
+    };
+    // ms per ns/check: the set's size, or for old rows the ratio the store averaged.
+    let to_ms = if ns_per_check > 0.0 { mean_ms / ns_per_check } else { checks_ms };
+    (with_interval(row, estimate, to_ms), estimate)
+}
+
+/// `row` with the 95 % interval of `estimate`, in ns/check and, times `to_ms`, in ms.
+fn with_interval(row: OverlapRow, estimate: Option<Estimate>, to_ms: f64) -> OverlapRow {
+    let finite = |x: f64| x.is_finite().then_some(x);
+    let lo = estimate.and_then(|e| finite(e.lo));
+    let hi = estimate.and_then(|e| finite(e.hi));
+    OverlapRow {
         ci95_lo_ns_per_check: lo,
         ci95_hi_ns_per_check: hi,
         ci95_lo_ms: lo.map(|x| x * to_ms),
         ci95_hi_ms: hi.map(|x| x * to_ms),
-        disturbed: r.disturbed,
-        reruns: r.reruns,
-        statistic: statistic.name().to_owned(),
+        ..row
     }
+}
+
+/// A point's visits (rows of one point and algorithm) as one row: the mean of their estimates
+/// with the pooled interval; a visit without an interval takes part by its value alone.
+fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
+    let first = &visits[0].0;
+    if let [(only, _, _)] = visits {
+        return only.clone();
+    }
+    // Every visit of a point has the same set size, hence the same ms per ns/check.
+    let to_ms = if first.ns_per_check > 0.0 { first.mean_ms / first.ns_per_check } else { 0.0 };
+    let estimates: Vec<Estimate> = visits
+        .iter()
+        .map(|(row, estimate, _)| {
+            estimate.unwrap_or(Estimate {
+                value: row.ns_per_check,
+                lo: f64::NAN,
+                hi: f64::NAN,
+                samples: 0,
+                repeats: row.repeats as usize,
+            })
+        })
+        .collect();
+    let pooled = overlap::estimate::pool_visits(&estimates);
+    let n = visits.len() as f64;
+    let mean = |f: fn(&OverlapRow) -> f64| visits.iter().map(|(r, _, _)| f(r)).sum::<f64>() / n;
+    let any_flag = |f: fn(&OverlapRow) -> Option<bool>| {
+        visits.iter().filter_map(|(r, _, _)| f(r)).reduce(|a, b| a || b)
+    };
+    let row = OverlapRow {
+        mean_ms: mean(|r| r.mean_ms),
+        ns_per_check: pooled.map_or_else(|| mean(|r| r.ns_per_check), |e| e.value),
+        acceptance: mean(|r| r.acceptance),
+        repeats: visits.iter().map(|(r, _, _)| r.repeats).sum(),
+        disturbed: any_flag(|r| r.disturbed),
+        reruns: visits.iter().filter_map(|(r, _, _)| r.reruns).reduce(|a, b| a + b),
+        statistic: report::join_statistics(visits.iter().map(|(r, _, _)| r.statistic.as_str())),
+        visits: visits.len() as u32,
+        ..first.clone()
+    };
+    with_interval(row, pooled, to_ms)
 }
 
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
@@ -157,7 +226,7 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     let rows: Vec<OverlapRow> = runtime()?.block_on(async {
         let store = open_read_only(&args.db).await?;
         let rows = store.overlap_rows().await?;
-        anyhow::Ok(rows.into_iter().map(|r| report_row(r, statistic)).collect())
+        anyhow::Ok(report_rows(rows, statistic))
     })?;
     if kind == "figure" {
         let json_out = args.out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")));
@@ -268,5 +337,57 @@ pub fn export(args: &ExportArgs, format: Format) -> anyhow::Result<()> {
             let rows = flat.iter().map(|r| columns.iter().map(|c| r.get(c).map(cell).unwrap_or_default()).collect());
             write_csv(&columns, rows)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stored row of the point at `l_star`, visit `visit`: two sets of 50 blocks, every block
+    /// `ns` ± 0.5 %.
+    fn stored(l_star: f64, visit: u32, ns: f64) -> store::OverlapRow {
+        let set: Vec<f64> = (0..50).map(|k| ns * if k % 2 == 0 { 1.005 } else { 0.995 }).collect();
+        store::OverlapRow {
+            job_id: format!("{l_star}-{visit}"),
+            l_star,
+            w_star: 1.0,
+            r_star: 5.0,
+            acceptance_target: 0.4,
+            configurations: 1_000_000,
+            precision: "f32".into(),
+            algorithm: "qri".into(),
+            mean_ms: ns,
+            ns_per_check: ns,
+            acceptance: 0.4,
+            repeats: 2,
+            repeat_ns_per_check: vec![ns, ns],
+            block_ns_per_check: vec![set.clone(), set],
+            disturbed: Some(visit == 1),
+            reruns: Some(visit),
+            visit,
+            point: format!(r#"{{"l_star":{l_star}}}"#),
+        }
+    }
+
+    #[test]
+    fn a_points_visits_pool_into_one_row_and_a_single_visit_is_left_alone() {
+        let rows = vec![stored(1.0, 0, 10.0), stored(1.0, 1, 11.0), stored(1.0, 2, 12.0), stored(2.0, 0, 20.0)];
+        let single = visit_row(stored(2.0, 0, 20.0), Statistic::Mean).0;
+        let report = report_rows(rows, Statistic::Mean);
+        assert_eq!(report.len(), 2);
+        let (pooled, alone) = (&report[0], &report[1]);
+        assert_eq!(alone, &single);
+        assert_eq!(alone.visits, 1);
+        assert_eq!(pooled.visits, 3);
+        assert!((pooled.ns_per_check - 11.0).abs() < 1e-9, "{pooled:?}");
+        assert!((pooled.mean_ms - 11.0).abs() < 1e-9);
+        // Between visits: t(2) · 1 / √3 (s = 1 for 10, 11, 12), far wider than any visit's own.
+        let half = 4.303 / 3f64.sqrt();
+        let (lo, hi) = (pooled.ci95_lo_ns_per_check.expect("lo"), pooled.ci95_hi_ns_per_check.expect("hi"));
+        assert!((hi - 11.0 - half).abs() < 1e-6 && (11.0 - lo - half).abs() < 1e-6, "{lo} {hi}");
+        assert!((pooled.ci95_hi_ms.expect("ms") - hi).abs() < 1e-9, "1 ms per ns/check here");
+        assert_eq!((pooled.repeats, pooled.reruns, pooled.disturbed), (6, Some(3), Some(true)));
+        assert_eq!(pooled.statistic, "mean");
     }
 }

@@ -19,9 +19,11 @@ pub struct HttpArgs {
 /// How the page turns store rows into report rows: exactly as `sweep report` does.
 fn conversions() -> dashboard::figures::RowConversions {
     dashboard::figures::RowConversions {
-        overlap_table: |row| crate::db::report_row(row, overlap::estimate::Statistic::FOR_TABLES),
-        overlap_figure: |row| {
-            crate::db::report_row(row, overlap::estimate::Statistic::FOR_SURFACES)
+        overlap_table: |rows| {
+            crate::db::report_rows(rows, overlap::estimate::Statistic::FOR_TABLES)
+        },
+        overlap_figure: |rows| {
+            crate::db::report_rows(rows, overlap::estimate::Statistic::FOR_SURFACES)
         },
         edmd: |runs| crate::edmd_report::edmd_rows(runs, report::Clock::Cpu),
     }

@@ -229,6 +229,45 @@ fn overlap_results_carry_their_uncertainty() {
 /// (checked against the blocks read back with `query`), Table 1 defaults to the mean and Fig. 2
 /// to the 5th percentile, every output names its statistic, and a bad or misplaced value is a
 /// one-line error naming the flag.
+/// `visits`: one job per visit, every first visit started before any second one; the reports
+/// give one row per point with its visits pooled; more visits later add only the new jobs.
+#[test]
+fn visits_run_visit_major_and_pool_in_the_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("v.db");
+    let db = db.to_str().unwrap();
+    let plan = |visits: u32| {
+        format!(
+            "name = \"v\"\n[[overlap]]\nl_star = [1, 4, 8]\nw_star = 1\nr_star = 5\nconfigurations = 20_000\nrepeats = 2\nalgorithms = [\"qri\"]\nvisits = {visits}\n"
+        )
+    };
+    let two = run_plan(&write(dir.path(), "v2.toml", &plan(2)), db);
+    assert_eq!(two["new_jobs"], 6, "{two}");
+    // Short jobs are leased a few at a time (the worker prefetches): a batch may hold the last
+    // first visits and the first second ones, but no second visit is leased before a first.
+    let out = sweep(&[
+        "query",
+        "SELECT (SELECT max(started_at) FROM jobs WHERE pass = 0) <= (SELECT min(started_at) FROM jobs WHERE pass = 1) AS ordered, \
+         (SELECT count(*) FROM jobs WHERE pass = 1) AS second",
+        "--db", db, "--format", "json",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let order: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((order[0]["ordered"].as_i64(), order[0]["second"].as_i64()), (Some(1), Some(3)), "{order:?}");
+    let out = sweep(&["report", "fig2", "--db", db, "--format", "json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let points: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(points.len(), 3, "one row per point");
+    for point in &points {
+        assert_eq!(point["visits"], 2, "{point}");
+        assert_eq!(point["repeats"], 4, "{point}");
+        let (lo, hi) = (point["ci95_lo_ns_per_check"].as_f64().unwrap(), point["ci95_hi_ns_per_check"].as_f64().unwrap());
+        assert!(lo <= point["ns_per_check"].as_f64().unwrap() && point["ns_per_check"].as_f64().unwrap() <= hi, "{point}");
+    }
+    let three = run_plan(&write(dir.path(), "v3.toml", &plan(3)), db);
+    assert_eq!((three["new_jobs"].as_u64(), three["already_known"].as_u64()), (Some(3), Some(6)), "{three}");
+}
+
 #[test]
 fn reports_estimate_by_the_statistic_asked_for() {
     let dir = tempfile::tempdir().unwrap();
@@ -483,7 +522,7 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
         .iter()
         .map(|(scene, _)| {
             let spec = jobs::JobSpec::Edmd(scene.clone());
-            store::NewJob { id: spec.id(), kind: spec.kind().into(), params_json: spec.canonical_json(), estimate_s: 1.0, exclusive: false }
+            store::NewJob { id: spec.id(), kind: spec.kind().into(), params_json: spec.canonical_json(), estimate_s: 1.0, exclusive: false, pass: spec.pass() }
         })
         .collect();
     let tau: std::collections::HashMap<String, f64> = jobs.iter().zip(&points).map(|(job, (_, tau))| (job.id.clone(), *tau)).collect();

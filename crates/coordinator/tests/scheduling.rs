@@ -40,6 +40,7 @@ fn job(i: usize, exclusive: bool) -> NewJob {
         params_json: format!(r#"{{"i":{i}}}"#),
         estimate_s: 0.0,
         exclusive,
+        pass: 0,
     }
 }
 

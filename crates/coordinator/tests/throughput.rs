@@ -21,6 +21,7 @@ fn noop_jobs() -> Vec<NewJob> {
             params_json: format!(r#"{{"index":{i},"duration_ms":0}}"#),
             estimate_s: 0.0,
             exclusive: false,
+            pass: 0,
         })
         .collect()
 }

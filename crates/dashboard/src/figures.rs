@@ -26,11 +26,11 @@ const DUTY: u32 = 10;
 
 /// How the application turns the store's rows into the report crate's (`sweep report` does the
 /// same): the overlap re-estimate from stored blocks (by the statistic of the tables, and of the
-/// figures), the EDMD τ_c clock.
+/// figures; a point's visits pooled into one row), the EDMD τ_c clock.
 #[derive(Clone, Copy)]
 pub struct RowConversions {
-    pub overlap_table: fn(store::OverlapRow) -> report::OverlapRow,
-    pub overlap_figure: fn(store::OverlapRow) -> report::OverlapRow,
+    pub overlap_table: fn(Vec<store::OverlapRow>) -> Vec<report::OverlapRow>,
+    pub overlap_figure: fn(Vec<store::OverlapRow>) -> Vec<report::OverlapRow>,
     pub edmd: fn(Vec<store::EdmdRun>) -> Vec<report::EdmdRow>,
 }
 
@@ -191,7 +191,7 @@ fn draw(
                 Drawing::Fig2 { .. } => rows.overlap_figure,
                 _ => rows.overlap_table,
             };
-            let rows: Vec<report::OverlapRow> = stored.into_iter().map(convert).collect();
+            let rows = convert(stored);
             if let Drawing::Fig2 { .. } = drawing {
                 return report::fig2_svg(&rows, precision, report::Fig2Options::default())
                     .map_err(|e| e.to_string());

@@ -21,8 +21,8 @@ const TOKEN: &str = "policy-test-token";
 
 fn no_rows() -> RowConversions {
     RowConversions {
-        overlap_table: |_| report::OverlapRow::default(),
-        overlap_figure: |_| report::OverlapRow::default(),
+        overlap_table: |_| Vec::new(),
+        overlap_figure: |_| Vec::new(),
         edmd: |_| Vec::new(),
     }
 }
@@ -46,6 +46,7 @@ async fn coordinator(dir: &tempfile::TempDir, jobs: usize) -> Coordinator {
             params_json: format!(r#"{{"i":{i}}}"#),
             estimate_s: 1.0,
             exclusive: false,
+            pass: 0,
         })
         .collect();
     coordinator.submit(&campaign, &jobs).await.unwrap();

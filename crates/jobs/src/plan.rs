@@ -11,6 +11,7 @@
 //! precision = ["f32", "f64"]
 //! ci_target = 0.01         # optional: more sets until each 95 % CI half-width is <= 1 %,
 //! time_cap_s = 30          #   or until 30 s of measurement (default 60 s; only with ci_target)
+//! visits = 3               # optional: measure every point in 3 visits spread over the campaign
 //!
 //! [[noop]]
 //! count = 1000
@@ -25,7 +26,12 @@
 //! ```
 //!
 //! A sweep is the cartesian product of its keys' values; `algorithms` is one set per point,
-//! never expanded. A scene key whose value is itself a list (`exponents = [n, m, p]`) is
+//! never expanded. `visits` (one number per sweep, 1 to [`MAX_VISITS`]) makes each point that
+//! many jobs, leased visit-major (every point's first visit, then every second …), so that
+//! reports can pool them with a between-visit term (`overlap::estimate::pool_visits`).
+//! `ci_target` and `time_cap_s` then apply to each visit: a job sees only its own blocks, so it
+//! stops on its within-visit interval; how much the visits differ is known once they are all
+//! done, and it is the reports' interval that shows it. A scene key whose value is itself a list (`exponents = [n, m, p]`) is
 //! swept by a list of such lists; lists nested deeper, ranges and a mix of lists and numbers
 //! are refused, and so is any list inside the sweep of a single-valued key. A plan is parsed and validated completely before any job exists, and the
 //! first problem (in file order within a sweep) is reported as `FILE:LINE:COL: key `k`: reason`.
@@ -51,6 +57,8 @@ pub const MAX_REPEATS: u64 = 1000;
 pub const MAX_REDUCED_LENGTH: f64 = 10_000.0;
 /// A day: the most one point's precision may cost.
 pub const MAX_TIME_CAP_S: f64 = 86_400.0;
+/// Visits of one overlap point: each is a whole measurement, so more than this is a typo.
+pub const MAX_VISITS: u64 = 100;
 /// One hour: a no-op job is for testing the orchestrator, not for occupying a core.
 pub const MAX_NOOP_DURATION_MS: u64 = 3_600_000;
 
@@ -262,6 +270,7 @@ const OVERLAP_KEYS: &[&str] = &[
     "ci_target",
     "time_cap_s",
     "verdict_check",
+    "visits",
 ];
 
 fn positive_length(x: f64) -> Result<(), String> {
@@ -337,6 +346,8 @@ fn expand_overlap(
 
     let verdict_check =
         sweep.optional_integers("verdict_check", &at_least_one_up_to(MAX_CONFIGURATIONS))?;
+    // One number for the sweep, not swept: visits are repeats of a point, not a parameter of it.
+    let visits = sweep.integer("visits", Some(1), &at_least_one_up_to(MAX_VISITS))?;
 
     let lens = [
         seed.len(),
@@ -352,7 +363,20 @@ fn expand_overlap(
         verdict_check.len(),
     ];
     check_product(sweep, &lens)?;
-    cartesian(&lens)
+    // `visits` multiplies the sweep: checked on the product, before anything is built.
+    let points_and_visits = lens
+        .iter()
+        .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+        .and_then(|n| n.checked_mul(usize::try_from(visits).ok()?))
+        .filter(|&n| n <= MAX_JOBS);
+    if points_and_visits.is_none() {
+        return Err(Issue::new(
+            sweep.span_of("visits"),
+            Some("visits"),
+            format!("the sweep's points times its visits exceed {MAX_JOBS} jobs"),
+        ));
+    }
+    let points = cartesian(&lens)
         .map(|i| {
             let point = PointSpec {
                 seed: seed[i[0]],
@@ -368,6 +392,7 @@ fn expand_overlap(
                 ci_target: ci_target[i[8]],
                 time_cap_s: time_cap_s[i[9]],
                 verdict_check: verdict_check[i[10]],
+                visit: None,
             };
             // The kernel crate's own rules, so that a rule added there is enforced here too.
             point
@@ -375,9 +400,32 @@ fn expand_overlap(
                 .map_err(|OverlapError::Invalid { key, reason }| {
                     Issue::new(sweep.span_of(key), Some(key), reason)
                 })?;
-            Ok(JobSpec::Overlap(point))
+            Ok(point)
         })
-        .collect()
+        .collect::<Result<Vec<PointSpec>, Issue>>()?;
+    Ok(visit_major(points, visits))
+}
+
+/// Every point's first visit, then every point's second, and so on: the order the store leases
+/// them in too ([`JobSpec::pass`]), so that the visits of one point are a whole pass over the
+/// sweep apart in time and see different states of the machine. The first visit is the point
+/// as it was before visits existed (same id); later ones carry `visit` and are new jobs. The
+/// verdict check is about the kernels' answers, not their speed: only the first visit runs it.
+fn visit_major(points: Vec<PointSpec>, visits: u64) -> Vec<JobSpec> {
+    let mut jobs = Vec::with_capacity(points.len() * visits as usize);
+    jobs.extend(points.iter().cloned().map(JobSpec::Overlap));
+    for visit in 1..visits {
+        // Bounded by MAX_VISITS.
+        let visit = u32::try_from(visit).unwrap_or(u32::MAX);
+        jobs.extend(points.iter().map(|point| {
+            JobSpec::Overlap(PointSpec {
+                visit: Some(visit),
+                verdict_check: None,
+                ..point.clone()
+            })
+        }));
+    }
+    jobs
 }
 
 fn expand_noop(

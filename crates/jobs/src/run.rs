@@ -278,6 +278,7 @@ mod tests {
             ci_target: None,
             time_cap_s: None,
             verdict_check: None,
+            visit: None,
         });
         let records = run(&job, 1).expect("a valid point runs");
         assert_eq!(records.len(), 2 * 2 + 1);

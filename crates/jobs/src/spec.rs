@@ -40,6 +40,16 @@ impl JobSpec {
         }
     }
 
+    /// The scheduling pass the store leases the job in (every queued job of an earlier pass of
+    /// one submission before any of a later one): an overlap point's visit, 0 for its first
+    /// and for every other kind of job.
+    pub fn pass(&self) -> u32 {
+        match self {
+            Self::Overlap(p) => p.visit.unwrap_or(0),
+            Self::Noop(_) | Self::Edmd(_) => 0,
+        }
+    }
+
     /// The spec as canonical JSON (sorted keys, numbers by value: `4` and `4.0` are the same
     /// bytes), the input of [`JobSpec::id`].
     pub fn canonical_json(&self) -> String {
@@ -155,6 +165,7 @@ mod tests {
             ci_target: None,
             time_cap_s: None,
             verdict_check: None,
+            visit: None,
         })
     }
 

@@ -199,6 +199,9 @@ const BAD: &[(&str, Option<&str>, usize)] = &[
         4,
     ),
     ("[[noop]]\ncount = 1\nduration_ms = [1,\n", None, 3),
+    ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = 0\n", Some("visits"), 5),
+    ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = [1, 3]\n", Some("visits"), 5),
+    ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = 101\n", Some("visits"), 5),
     ("name = \"empty\"\n", None, 1),
 ];
 
@@ -747,4 +750,85 @@ fn fig13_points_are_in_the_edmd_plans() {
             assert_eq!((s.n, s.collisions, s.delta_nnl, s.eps_d), (512, collisions, 0.06, 1e-5), "{name}");
         }
     }
+}
+
+/// The hog experiments' plan (`scripts/hog-experiment.sh`, seed 1), as measured before visits
+/// existed.
+const HOG_PLAN: &str = "name = \"new-1\"\nexclusive = false\nseed = 1\n\n[[overlap]]\n\
+    l_star = [1, 3, 5, 8, 11, 14, 17, 20]\nw_star = [1, 3, 5, 8, 11, 14, 17, 20]\nr_star = 5.0\n\
+    acceptance = 0.4\nconfigurations = 500000\nrepeats = 3\nprecision = \"f32\"\n\
+    algorithms = [\"qri\", \"qrf\", \"ocsi\", \"sse\"]\nci_target = 0.01\ntime_cap_s = 5\n";
+
+/// Ids of that plan's corner points in the databases main wrote (/tmp/h18b-hog5/new-1.db, `SELECT
+/// id FROM jobs`): `visits = 1`, or no `visits`, must give exactly these.
+const MAIN_IDS: [(f64, f64, &str); 4] = [
+    (1.0, 1.0, "88e9ba72593ca5ee027c9b4f8c21660243eaf9576d73b227d632352eeac1c2e0"),
+    (20.0, 1.0, "93dd72ee0cf922c4897847e9c37091e79890651f49cedea90f9375cce4982267"),
+    (20.0, 20.0, "e584faecfc72e98f4dddd318583211a223012393a65aa7c2a2ca877360e5e541"),
+    (1.0, 20.0, "eb5c43300dae2211d8566dc3f1b76b372b54e3a774d106e8360f36b5f33e154d"),
+];
+
+fn overlap_points(plan: &Plan) -> Vec<overlap::PointSpec> {
+    plan.jobs
+        .iter()
+        .map(|job| match job {
+            JobSpec::Overlap(p) => p.clone(),
+            other => panic!("not an overlap job: {other:?}"),
+        })
+        .collect()
+}
+
+#[test]
+fn one_visit_keeps_the_ids_main_gave() {
+    let plain = parse(HOG_PLAN);
+    let one = parse(&format!("{HOG_PLAN}visits = 1\n"));
+    assert_eq!(plain, one);
+    assert_eq!(plain.jobs.len(), 64);
+    for (l_star, w_star, id) in MAIN_IDS {
+        let job = plain
+            .jobs
+            .iter()
+            .find(|j| matches!(j, JobSpec::Overlap(p) if p.l_star == l_star && p.w_star == w_star))
+            .expect("the corner is in the plan");
+        assert_eq!(job.id(), id, "L* {l_star}, W* {w_star}");
+        assert_eq!(job.pass(), 0);
+    }
+    assert!(!plain.jobs[0].canonical_json().contains("visit"));
+}
+
+/// `visits = 3`: three jobs per point, every point's first visit (the job a plan without
+/// `visits` has), then every second, then every third; each visit its own job, id and
+/// generator seed, with the pass the store leases it in; resubmitting with more visits adds
+/// only the new ones.
+#[test]
+fn visits_expand_visit_major_with_their_own_ids() {
+    let one = parse(&format!("{HOG_PLAN}visits = 1\n"));
+    let three = parse(&format!("{HOG_PLAN}verdict_check = 1000\nvisits = 3\n"));
+    assert_eq!(three.jobs.len(), 3 * 64);
+    let points = overlap_points(&three);
+    let visits: Vec<Option<u32>> = points.iter().map(|p| p.visit).collect();
+    assert!(visits[..64].iter().all(|v| v.is_none()));
+    assert!(visits[64..128].iter().all(|&v| v == Some(1)));
+    assert!(visits[128..].iter().all(|&v| v == Some(2)));
+    let passes: Vec<u32> = three.jobs.iter().map(JobSpec::pass).collect();
+    assert!(passes.windows(2).all(|w| w[0] <= w[1]), "visit-major");
+    // Each pass is the same sweep of points in the same order.
+    for k in 0..64 {
+        for visit in [64, 128] {
+            let (a, b) = (&points[k], &points[visit + k]);
+            assert_eq!((a.l_star, a.w_star, a.seed), (b.l_star, b.w_star, b.seed));
+        }
+    }
+    // Only the first visit checks verdicts; timing is what visits repeat.
+    assert!(points[..64].iter().all(|p| p.verdict_check == Some(1000)));
+    assert!(points[64..].iter().all(|p| p.verdict_check.is_none()));
+    // Distinct ids and generator seeds for every visit.
+    assert_eq!(ids(&three).len(), 3 * 64);
+    let seeds: BTreeSet<u64> = three.jobs.iter().map(JobSpec::generator_seed).collect();
+    assert_eq!(seeds.len(), 3 * 64);
+    // Going from 1 to 3 visits keeps every done job (same ids) and adds 128 new ones.
+    let three_plain = parse(&format!("{HOG_PLAN}visits = 3\n"));
+    assert!(ids(&one).is_subset(&ids(&three_plain)));
+    assert_eq!(ids(&three_plain).difference(&ids(&one)).count(), 128);
+    assert!(three.jobs[64].canonical_json().contains(r#""visit":1"#));
 }

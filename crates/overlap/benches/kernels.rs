@@ -33,6 +33,7 @@ fn point() -> PointSpec {
         ci_target: None,
         time_cap_s: None,
         verdict_check: None,
+        visit: None,
     }
 }
 

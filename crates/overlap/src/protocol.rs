@@ -62,6 +62,12 @@ pub struct PointSpec {
     /// point's id is the one it had before this key existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub verdict_check: Option<u64>,
+    /// Which visit of the point this is, when a plan measures it in several visits spread over
+    /// the campaign (the plan key `visits`): `None` is the first visit, so a point measured once
+    /// keeps the id it had before visits existed, and raising `visits` adds jobs without
+    /// touching the done one. Each visit is its own job with its own configuration sets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visit: Option<u32>,
 }
 
 fn invalid(key: &'static str, reason: String) -> OverlapError {
@@ -113,6 +119,12 @@ impl PointSpec {
             return Err(invalid(
                 "verdict_check",
                 "must be at least 1 configuration (leave it out for none)".into(),
+            ));
+        }
+        if self.visit == Some(0) {
+            return Err(invalid(
+                "visit",
+                "the first visit is written without `visit` (ids must not depend on how it is written)".into(),
             ));
         }
         if let Some(cap) = self.time_cap_s {

@@ -270,6 +270,7 @@ mod tests {
             ci_target: None,
             time_cap_s: None,
             verdict_check: Some(20_000),
+            visit: None,
         };
         let f32_check = check_verdicts(&spec(Precision::F32), 20_000, 7);
         let f64_check = check_verdicts(&spec(Precision::F64), 20_000, 7);

@@ -22,6 +22,7 @@ fn spec(configurations: u64, repeats: u32) -> PointSpec {
         ci_target: None,
         time_cap_s: None,
         verdict_check: None,
+        visit: None,
     }
 }
 

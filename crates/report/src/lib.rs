@@ -72,6 +72,14 @@ pub struct OverlapRow {
     /// The statistic of the blocks the estimate is (`mean`, `median`, `p5`; `overlap::estimate`);
     /// `mean` for points measured before blocks were kept, whatever was asked.
     pub statistic: String,
+    /// Visits the point was measured in (the plan key `visits`; 0 in rows built without a
+    /// store). With more than one, the estimate is the mean of the visits' estimates and the
+    /// interval has a between-visit term (`overlap::estimate::pool_visits`: the larger of
+    /// Student's t with visits − 1 degrees of freedom on the visits' estimates and the
+    /// within-visit intervals combined); `repeats` and `reruns` are summed over the visits,
+    /// `disturbed` is whether any visit was.
+    #[serde(default)]
+    pub visits: u32,
 }
 
 impl OverlapRow {
@@ -99,7 +107,7 @@ fn quantile(values: &[f64], q: f64) -> Option<f64> {
 /// (`mean`, `median`, `p5`), or the distinct ones joined by `+` (names already joined are split)
 /// when points measured before blocks were kept (always `mean`) mix with others; empty when no
 /// row names one.
-fn join_statistics<'a>(names: impl Iterator<Item = &'a str>) -> String {
+pub fn join_statistics<'a>(names: impl Iterator<Item = &'a str>) -> String {
     let mut names: Vec<&str> = names
         .flat_map(|name| name.split('+'))
         .filter(|s| !s.is_empty())

@@ -34,6 +34,11 @@ pub struct Table1Row {
     /// The statistic of each point's blocks that the mean is over (`mean`, `median`, `p5`, or
     /// several joined by `+`; see [`OverlapRow::statistic`]).
     pub statistic: String,
+    /// The fewest visits any of the points was measured in ([`OverlapRow::visits`]; 1 for a
+    /// point measured once): with more, each point's interval includes how much its visits
+    /// differ, and so does `ci95_ms`.
+    #[serde(default)]
+    pub visits: u32,
 }
 
 /// The 97.5 % quantile of the normal distribution: a 95 % interval is ±1.96 standard errors.
@@ -77,6 +82,7 @@ pub fn table1(rows: &[OverlapRow], precision: &str) -> Vec<Table1Row> {
                 .filter(|r| r.reruns.is_some_and(|n| n > 0))
                 .count() as u64,
             statistic: join_statistics(group.iter().map(|r| r.statistic.as_str())),
+            visits: group.iter().map(|r| r.visits.max(1)).min().unwrap_or(1),
         });
     }
     out
@@ -141,6 +147,8 @@ struct Grid {
     rerun: u64,
     /// The statistic of the points' blocks, over every row.
     statistic: String,
+    /// The fewest and the most visits of a point, over every row.
+    visits: (u32, u32),
 }
 
 impl Grid {
@@ -182,6 +190,10 @@ impl Grid {
             disturbed: per_r_star(|r| r.disturbed),
             rerun: per_r_star(|r| r.rerun),
             statistic: join_statistics(rows.iter().map(|r| r.statistic.as_str())),
+            visits: (
+                rows.iter().map(|r| r.visits.max(1)).min().unwrap_or(1),
+                rows.iter().map(|r| r.visits.max(1)).max().unwrap_or(1),
+            ),
         }
     }
 
@@ -202,6 +214,17 @@ impl Grid {
             notes.push(format!(
                 "A single point is known to ±{:.2} % (median 95 % CI half-width).",
                 rel * 100.0
+            ));
+        }
+        if self.visits.1 > 1 {
+            let (fewest, most) = self.visits;
+            let count = if fewest == most {
+                format!("{most}")
+            } else {
+                format!("{fewest}–{most}")
+            };
+            notes.push(format!(
+                "Each point was measured in {count} visits spread over the campaign: its estimate is the mean of theirs, its interval includes how much they differ."
             ));
         }
         if self.disturbed + self.rerun > 0 {
@@ -405,6 +428,47 @@ mod tests {
     }
 
     #[test]
+    fn visits_are_counted_and_said() {
+        let t = table1(&sample(), "f32");
+        assert!(
+            t.iter().all(|r| r.visits == 1),
+            "rows without visits count as one"
+        );
+        let md = render_table(&t, TableFormat::Markdown).expect("renders");
+        assert!(!md.contains("visits"), "{md}");
+        let visited: Vec<OverlapRow> = sample()
+            .into_iter()
+            .map(|r| OverlapRow {
+                // A table row counts its least visited point.
+                visits: if r.r_star == 5.0 || r.l_star == 2.0 {
+                    5
+                } else {
+                    3
+                },
+                ..r
+            })
+            .collect();
+        let t = table1(&visited, "f32");
+        let visits: Vec<(f64, u32)> = t.iter().map(|r| (r.r_star, r.visits)).collect();
+        assert_eq!(
+            visits,
+            [
+                (0.05, 3),
+                (0.05, 3),
+                (0.05, 3),
+                (0.5, 3),
+                (5.0, 5),
+                (5.0, 5),
+                (5.0, 5)
+            ]
+        );
+        let md = render_table(&t, TableFormat::Markdown).expect("renders");
+        assert!(md.contains("measured in 3–5 visits"), "{md}");
+        let json = render_table(&t, TableFormat::Json).expect("renders");
+        assert!(json.contains(r#""visits": 3"#), "{json}");
+    }
+
+    #[test]
     fn renderers_use_the_papers_layout() {
         let t = table1(&sample(), "f32");
         let md = render_table(&t, TableFormat::Markdown).expect("renders");
@@ -445,7 +509,8 @@ mod tests {
                 "precision",
                 "r_star",
                 "rerun",
-                "statistic"
+                "statistic",
+                "visits"
             ]
         );
         assert_eq!(json[0]["points"], 4);

@@ -125,9 +125,9 @@ async fn submit_chunk(
     now: f64,
 ) -> Result<(u64, u64)> {
     let new_jobs = sqlx::query(
-        "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at)
+        "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at, pass)
          SELECT value ->> 'id', value ->> 'kind', value ->> 'params_json',
-                value ->> 'estimate_s', value ->> 'exclusive', ?2
+                value ->> 'estimate_s', value ->> 'exclusive', ?2, value ->> 'pass'
          FROM json_each(?1) WHERE true
          ON CONFLICT (id) DO NOTHING",
     )

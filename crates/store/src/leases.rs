@@ -58,7 +58,7 @@ impl Store {
                 }
                 let candidates = sqlx::query(
                     "SELECT id, exclusive FROM jobs WHERE state = 'queued'
-             ORDER BY created_at, id LIMIT ?1",
+             ORDER BY created_at, pass, id LIMIT ?1",
                 )
                 .bind(max_jobs)
                 .fetch_all(&mut *conn)

@@ -236,7 +236,8 @@ impl Store {
     }
 
     /// Overlap timings, one row per (job, algorithm), ordered by precision, R*, L*, W*,
-    /// acceptance target and algorithm: the means over repeats, every repeat's `ns_per_check`
+    /// acceptance target and algorithm, then the point's other parameters and the visit (so the
+    /// visits of a point are consecutive): the means over repeats, every repeat's `ns_per_check`
     /// and, for points measured in blocks, every block (so a report can re-estimate), with the
     /// point's noise check. A done overlap job lacking a numeric field, or with a malformed
     /// record, is reported as [`Error::Corrupt`] rather than skipped, so a table never silently
@@ -246,10 +247,12 @@ impl Store {
     /// about 1 kB each, and extracting fields in SQL would parse each several times.
     pub async fn overlap_rows(&self) -> Result<Vec<OverlapRow>> {
         let points = sqlx::query(
-            "SELECT job_id, CAST(l_star AS REAL), CAST(w_star AS REAL), CAST(r_star AS REAL),
-                    CAST(acceptance_target AS REAL), CAST(configurations AS INTEGER), precision
-             FROM overlap_points
-             WHERE job_id IN (SELECT job_id FROM results)",
+            "SELECT p.job_id, CAST(p.l_star AS REAL), CAST(p.w_star AS REAL), CAST(p.r_star AS REAL),
+                    CAST(p.acceptance_target AS REAL), CAST(p.configurations AS INTEGER), p.precision,
+                    CAST(coalesce(json_extract(j.params, '$.visit'), 0) AS INTEGER),
+                    json_remove(j.params, '$.visit')
+             FROM overlap_points AS p JOIN jobs AS j ON j.id = p.job_id
+             WHERE p.job_id IN (SELECT job_id FROM results)",
         )
         .fetch_all(&self.reader)
         .await?;
@@ -289,6 +292,10 @@ impl Store {
             let precision = point
                 .try_get::<Option<String>, _>(6)?
                 .ok_or_else(|| missing("precision"))?;
+            let visit = u32::try_from(point.try_get::<i64, _>(7)?).map_err(|_| {
+                Error::Corrupt(format!("overlap job {job_id:?}: visit out of range"))
+            })?;
+            let point_params: String = point.try_get(8)?;
             let Some(job) = by_job.remove(&job_id) else {
                 continue;
             };
@@ -316,6 +323,8 @@ impl Store {
                     block_ns_per_check: if blocked { t.blocks } else { Vec::new() },
                     disturbed: job.disturbed,
                     reruns: job.reruns,
+                    visit,
+                    point: point_params.clone(),
                 });
             }
         }
@@ -327,6 +336,8 @@ impl Store {
                 .then(a.w_star.total_cmp(&b.w_star))
                 .then(a.acceptance_target.total_cmp(&b.acceptance_target))
                 .then_with(|| a.algorithm.cmp(&b.algorithm))
+                .then_with(|| a.point.cmp(&b.point))
+                .then(a.visit.cmp(&b.visit))
         });
         Ok(rows)
     }

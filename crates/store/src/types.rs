@@ -26,6 +26,10 @@ pub struct NewJob {
     pub estimate_s: f64,
     /// Run this job only while no other job runs anywhere (memory-bound timings disturb each other).
     pub exclusive: bool,
+    /// Scheduling pass: of the jobs submitted at one time, every queued job of an earlier pass is
+    /// leased before any of a later one (the visits of an overlap point; 0 for most jobs).
+    #[serde(default)]
+    pub pass: u32,
 }
 
 /// What [`crate::Store::submit`] did.
@@ -112,6 +116,13 @@ pub struct OverlapRow {
     /// Whether the machine was still disturbed after the re-runs; `None` without a noise check.
     pub disturbed: Option<bool>,
     pub reruns: Option<u32>,
+    /// Which visit of its point the job measured (0: the first, or the only one).
+    #[serde(default)]
+    pub visit: u32,
+    /// The point's parameters without its visit (the job's canonical params less `visit`): the
+    /// rows of one point's visits, and only those, share it.
+    #[serde(default)]
+    pub point: String,
 }
 
 /// How the overlap points of a campaign were measured (`sweep status`, reports).

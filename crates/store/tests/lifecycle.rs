@@ -263,6 +263,7 @@ async fn a_campaign_is_leased_in_id_order_and_older_campaigns_first() {
         params_json: format!(r#"{{"name":"{id}"}}"#),
         estimate_s: 0.1,
         exclusive: false,
+        pass: 0,
     };
     let older: Vec<NewJob> = ["c9", "a3", "f0", "07"].into_iter().map(job).collect();
     let newer: Vec<NewJob> = ["55", "00"].into_iter().map(job).collect();
@@ -278,4 +279,40 @@ async fn a_campaign_is_leased_in_id_order_and_older_campaigns_first() {
         leased.extend(leases.into_iter().map(|l| l.job_id));
     }
     assert_eq!(leased, ["07", "a3", "c9", "f0", "00", "55"]);
+}
+
+/// The visits of overlap points: of one submission, every job of pass 0 (in id order) before
+/// any of pass 1, and so on; a later submission still waits for the earlier one's every pass.
+#[tokio::test]
+async fn a_submission_is_leased_pass_by_pass() {
+    let (_dir, _path, store) = temp_store().await;
+    store.register_worker(&worker("w"), T0).await.unwrap();
+    let job = |(id, pass): (&str, u32)| NewJob {
+        id: id.to_owned(),
+        kind: "noop".to_owned(),
+        params_json: format!(r#"{{"name":"{id}"}}"#),
+        estimate_s: 0.1,
+        exclusive: false,
+        pass,
+    };
+    let visits: Vec<NewJob> = [("c9", 0), ("a3", 1), ("f0", 0), ("07", 2), ("55", 1)]
+        .into_iter()
+        .map(job)
+        .collect();
+    store.submit(&campaign("visits"), &visits, T0).await.unwrap();
+    store
+        .submit(&campaign("later"), &[job(("00", 0))], T0 + 1.0)
+        .await
+        .unwrap();
+    // Resubmitting changes nothing: the jobs, their passes and their order are known.
+    let again = store.submit(&campaign("visits"), &visits, T0 + 2.0).await.unwrap();
+    assert_eq!((again.new_jobs, again.already_known), (0, 5));
+
+    let mut leased = Vec::new();
+    for _ in 0..6 {
+        let leases = store.lease("w", 1, LEASE, T0 + 3.0, true).await.unwrap();
+        leased.extend(leases.into_iter().map(|l| l.job_id));
+    }
+    assert_eq!(leased, ["c9", "f0", "55", "a3", "07", "00"]);
+    assert_eq!(count(&store, "SELECT count(*) FROM jobs WHERE pass = 1").await, 2);
 }

@@ -27,6 +27,7 @@ fn overlap_jobs() -> Vec<NewJob> {
                         params_json: params.to_string(),
                         estimate_s: 2.0,
                         exclusive: false,
+                        pass: 0,
                     });
                 }
             }
@@ -186,4 +187,58 @@ async fn overlap_rows_refuse_a_record_without_timing() {
         store.overlap_rows().await,
         Err(store::Error::Corrupt(_))
     ));
+}
+
+/// The visits of a point (`visit` absent for the first, then 1, 2, …) come back with their
+/// visit and one `point` (the params less `visit`) that no other point shares, next to each
+/// other whatever their ids.
+#[tokio::test]
+async fn overlap_rows_carry_the_visit_and_the_point() {
+    let (_dir, _path, store) = temp_store().await;
+    store.register_worker(&worker("w1"), T0).await.unwrap();
+    let job = |id: &str, l_star: f64, visit: Option<u32>| {
+        let mut params = serde_json::json!({
+            "l_star": l_star, "w_star": 2.0, "r_star": 5.0, "acceptance": 0.4,
+            "configurations": 1000, "repeats": REPEATS, "precision": "f32",
+            "algorithms": ALGORITHMS, "seed": 1,
+        });
+        if let Some(visit) = visit {
+            params["visit"] = visit.into();
+        }
+        NewJob {
+            id: id.to_owned(),
+            kind: "overlap".to_owned(),
+            params_json: params.to_string(),
+            estimate_s: 1.0,
+            exclusive: false,
+            pass: visit.unwrap_or(0),
+        }
+    };
+    // Ids that sort against the visits.
+    let jobs = [
+        job("z-first", 1.0, None),
+        job("a-second", 1.0, Some(1)),
+        job("m-third", 1.0, Some(2)),
+        job("b-other", 3.0, None),
+    ];
+    store.submit(&campaign("visits"), &jobs, T0).await.unwrap();
+    let records = records();
+    for lease in store.lease("w1", 8, Duration::from_secs(60), T0, true).await.unwrap() {
+        store
+            .complete("w1", &lease.job_id, lease.token, Some(2), &records, T0)
+            .await
+            .unwrap();
+    }
+    let rows: Vec<_> = store
+        .overlap_rows()
+        .await
+        .unwrap()
+        .into_iter()
+        .filter(|r| r.algorithm == "qri")
+        .collect();
+    let seen: Vec<(&str, u32)> = rows.iter().map(|r| (r.job_id.as_str(), r.visit)).collect();
+    assert_eq!(seen, [("z-first", 0), ("a-second", 1), ("m-third", 2), ("b-other", 0)]);
+    assert!(rows[..3].iter().all(|r| r.point == rows[0].point), "{rows:?}");
+    assert!(!rows[0].point.contains("visit"), "{}", rows[0].point);
+    assert_ne!(rows[3].point, rows[0].point);
 }

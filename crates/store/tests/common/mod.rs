@@ -57,6 +57,7 @@ pub fn noop_jobs(from: usize, to: usize) -> Vec<NewJob> {
             params_json: format!(r#"{{"index":{i},"duration_ms":0}}"#),
             estimate_s: 0.5,
             exclusive: false,
+            pass: 0,
         })
         .collect()
 }
@@ -68,6 +69,7 @@ pub fn exclusive_job(id: &str) -> NewJob {
         params_json: format!(r#"{{"name":"{id}"}}"#),
         estimate_s: 1.0,
         exclusive: true,
+        pass: 0,
     }
 }
 
