@@ -8,9 +8,7 @@ use crate::distance::{
     Distance, Guess, SolverStats, Tolerances, distance, multipliers_guess, solve5,
 };
 use crate::geometry::{Placed, Pose, Surface, V3};
-use crate::rigid::{
-    Body, GapSide, ddot_max, gap_closing_rates, gap_safe_time, support_acceleration_bound,
-};
+use crate::rigid::{Body, GapSide, Towards, ddot_max, gap_safe_time, gap_safe_time_towards};
 
 /// Everything the contact search needs besides the solver tolerances.
 #[derive(Clone, Copy, Debug)]
@@ -109,14 +107,15 @@ pub fn predict<S: Surface>(
     let mut failures = 0;
     // Step multiplier for the far regime (see below); 1 is the plain step of Eq. (39).
     let mut k: f64 = 1.0;
-    // The secant jump needs a curvature bound to prove its contact the first (flat faces have
-    // none), and is tried once per search.
-    let mut secant = sa.max_curvature_radius().is_finite() && sb.max_curvature_radius().is_finite();
+    // The secant jump is tried once per search.
+    let mut secant = true;
     for _ in 0..MAX_STEPS {
         if t > t2 {
             return None;
         }
         let far = matches!(cur, Some(c) if c.d > p.eps_d);
+        // Whether [t, t + dt] is proved free of contact, or only no longer than ε_d/ḋ_max.
+        let mut proved = far;
         let dt = match cur {
             Some(c) => {
                 // No contact is possible within `safe` of t: as rigorous as the d/ḋ_max of
@@ -128,6 +127,7 @@ pub fn predict<S: Surface>(
                 if far {
                     (k * safe).min(t2 - t)
                 } else {
+                    proved = safe >= p.eps_d / ddmax;
                     safe.max(p.eps_d / ddmax)
                 }
             }
@@ -162,8 +162,14 @@ pub fn predict<S: Surface>(
             (Some((tl, l)), Some(n)) if l.d >= 0.0 && n.d < 0.0 => {
                 return search.refine(tl, &l, tn, &n);
             }
+            // A grazing contact can hide only inside a step that was not proved free of one.
             (Some((tl, l)), Some(n))
-                if tl == t && l.d > 0.0 && n.d > 0.0 && l.d < p.eps_d && n.d < p.eps_d =>
+                if tl == t
+                    && !proved
+                    && l.d > 0.0
+                    && n.d > 0.0
+                    && l.d < p.eps_d
+                    && n.d < p.eps_d =>
             {
                 if let Some(h) = search.grazing(t, &l, tn, &n) {
                     return Some(h);
@@ -366,62 +372,60 @@ impl<S: Surface> Search<'_, S> {
         )
     }
 
-    /// How long after `t` the bodies, `d` apart at `t`, provably do not touch: the support gap along
-    /// the contact normal equals d at t (the closest points are the support points) and bounds it
-    /// from below afterwards ([`gap_safe_time`]).
-    fn safe_time(&self, t: f64, d: &Distance) -> f64 {
+    /// How long after (or before) `t` the bodies, `d` apart at `t`, provably do not touch: the
+    /// support gap along the contact normal equals d at t (the closest points are the support
+    /// points) and bounds it from below at every other time ([`gap_safe_time_towards`]).
+    fn safe_time_towards(&self, t: f64, d: &Distance, towards: Towards) -> f64 {
         let pa = self.a.pose_after(t);
         let pb = self.b.pose_after(t);
         let n = self.sa.place(&pa).grad(&d.xa).normalize();
-        gap_safe_time(
+        gap_safe_time_towards(
             &GapSide::new(self.sa, self.a, d.xa - pa.r),
             &GapSide::new(self.sb, self.b, d.xb - pb.r),
             &n,
             d.d.max(0.0),
+            towards,
         )
     }
 
-    /// Whether d > 0 throughout [t0, t0 + dt] follows from d at both ends (`lo`, `hi`) and
-    /// [`gap_closing_rates`]: the forward bound from t0 and the backward bound from t0 + dt, each
-    /// along the contact normal at its end (where the support gap is d).
+    fn safe_time(&self, t: f64, d: &Distance) -> f64 {
+        self.safe_time_towards(t, d, Towards::Future)
+    }
+
+    /// Whether d > 0 throughout [t0, t0 + dt] follows from d at both ends (`lo`, `hi`): the
+    /// contact-free interval forwards from t0 and the one backwards from t0 + dt cover it.
     fn no_zero_between(&self, t0: f64, lo: &Distance, hi: &Distance, dt: f64) -> bool {
         if lo.d <= 0.0 || hi.d <= 0.0 {
             return false;
         }
-        let (la, lb) = (self.sa.bounding_radius(), self.sb.bounding_radius());
-        let normal =
-            |t: f64, d: &Distance| self.sa.place(&self.a.pose_after(t)).grad(&d.xa).normalize();
-        let (forward, _) = gap_closing_rates(self.a, self.b, la, lb, &normal(t0, lo));
-        let (_, backward) = gap_closing_rates(self.a, self.b, la, lb, &normal(t0 + dt, hi));
-        forward <= 0.0 || backward <= 0.0 || lo.d / forward + hi.d / backward >= dt
+        let forward = self.safe_time_towards(t0, lo, Towards::Future);
+        forward >= dt || forward + self.safe_time_towards(t0 + dt, hi, Towards::Past) >= dt
     }
 
     /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart), is the first
-    /// after t0. The support gap g along the contact normal n bounds d from below at every time
-    /// and is zero at the contact, where it closes at the rate ġ < 0; with |g̈| ≤ M
-    /// ([`support_acceleration_bound`]), g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M. The
-    /// rest of [t0, t_c], if any, must pass the two-sided test of [`Search::no_zero_between`]
-    /// with one more distance (at 90 % of that window before the contact).
+    /// after t0. The support gap g along the contact normal bounds d from below at every time and
+    /// is zero at the contact, where it closes: backwards from it g stays positive for the
+    /// contact-free interval of [`gap_safe_time_towards`] (for bounded curvature, |g̈| ≤ M gives
+    /// g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M; flat faces have the powers of their
+    /// [`crate::geometry::SupportModulus`] instead). The rest of [t0, t_c], if any, must pass the
+    /// two-sided test of [`Search::no_zero_between`] with one more distance (at 90 % of that
+    /// interval before the contact).
     fn first_contact_after(&mut self, t0: f64, d0: &Distance, h: &Hit) -> bool {
         let (a, b) = (self.a, self.b);
         let (pa, pb) = (a.pose_after(h.t), b.pose_after(h.t));
+        let before = gap_safe_time_towards(
+            &GapSide::new(self.sa, a, h.xc - pa.r),
+            &GapSide::new(self.sb, b, h.xc - pb.r),
+            &h.n,
+            0.0,
+            Towards::Past,
+        );
         let rate =
             h.n.dot(&((b.v + b.w.cross(&(h.xc - pb.r))) - (a.v + a.w.cross(&(h.xc - pa.r)))));
-        let m = support_acceleration_bound(
-            &a.w,
-            &h.n,
-            self.sa.bounding_radius(),
-            self.sa.max_curvature_radius(),
-        ) + support_acceleration_bound(
-            &b.w,
-            &h.n,
-            self.sb.bounding_radius(),
-            self.sb.max_curvature_radius(),
-        );
-        if !(rate < 0.0 && m.is_finite() && h.t > t0) {
+        if !(rate < 0.0 && before > 0.0 && h.t > t0) {
             return false;
         }
-        let tv = h.t - 0.9 * 2.0 * -rate / m;
+        let tv = h.t - 0.9 * before;
         if tv <= t0 {
             return true;
         }
