@@ -82,7 +82,7 @@ impl Surface for Ellipsoid {
     fn max_curvature_radius(&self) -> f64 {
         self.s.max().powi(2) / self.s.min()
     }
-    fn support_modulus(&self) -> SupportModulus {
+    fn support_modulus(&self, _v: &V3) -> SupportModulus {
         SupportModulus::quadratic(self.max_curvature_radius())
     }
     fn support(&self, n: &V3) -> f64 {

@@ -40,14 +40,15 @@ pub trait Surface {
     /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
     /// support function: for an ellipsoid s_max²/s_min.
     fn max_curvature_radius(&self) -> f64;
-    /// The bound on how far the support function rises above its tangent planes.
-    fn support_modulus(&self) -> SupportModulus;
+    /// The bound on how far the support function rises above its tangent plane at the unit
+    /// body-frame direction `v`.
+    fn support_modulus(&self, v: &V3) -> SupportModulus;
     /// Semi-axes, for the guess of Sec. 3.2 (Eq. 51) and the bounding parallelepiped (Eq. 52).
     fn semi_axes(&self) -> V3;
 }
 
-/// How far a body's support function h rises above its tangent plane, a bound that holds for flat
-/// faces too: for every unit body-frame direction v and every u,
+/// How far a body's support function h rises above its tangent plane at v, a bound that holds for
+/// flat faces too: for the unit body-frame direction v it was given for and every u,
 /// h(u) ≤ h(v) + x(v)·(u − v) + Σ c_i |u − v|^(q_i), with x(v) = ∇h(v) the support point.
 ///
 /// An ellipsoid (or any body whose radii of curvature are at most ρ_max) has the single term

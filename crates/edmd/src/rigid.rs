@@ -214,7 +214,7 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
 }
 
 /// One body as seen by [`gap_safe_time`]: its motion, the offset of its support point from its
-/// centre (lab frame), its bounding radius L and the modulus of its support function.
+/// centre (lab frame), its bounding radius L and the modulus of its support function there.
 pub struct GapSide<'a> {
     pub body: &'a Body,
     pub offset: V3,
@@ -223,13 +223,14 @@ pub struct GapSide<'a> {
 }
 
 impl<'a> GapSide<'a> {
-    /// Body `body` of shape `s` with its support point `offset` from its centre.
-    pub fn new<S: Surface>(s: &S, body: &'a Body, offset: V3) -> Self {
+    /// Body `body` of shape `s`, turned by `rot` now (rows = body axes), with its support point
+    /// `offset` from its centre along the outward unit lab direction `out` (n for A, −n for B).
+    pub fn new<S: Surface>(s: &S, body: &'a Body, rot: &M3, offset: V3, out: &V3) -> Self {
         GapSide {
             body,
             offset,
             l: s.bounding_radius(),
-            modulus: s.support_modulus(),
+            modulus: s.support_modulus(&(rot * out)),
         }
     }
 }

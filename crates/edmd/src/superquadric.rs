@@ -21,8 +21,9 @@ pub struct Superquadric {
     pub e: V3,
     /// [`Surface::bounding_radius`], computed once: the contact-free bounds ask for it often.
     radius: f64,
-    /// [`Surface::support_modulus`], computed once ([`support_modulus`]).
-    modulus: SupportModulus,
+    /// The direction-free parts of [`Surface::support_modulus`]; `None` when every exponent
+    /// is 2 (an ellipsoid, whose modulus is a constant).
+    modulus: Option<ModulusParts>,
 }
 
 impl Superquadric {
@@ -35,7 +36,7 @@ impl Superquadric {
             // s_max · 3^(1/2 − 1/e_max): with u_k = |x_k/s_k| ≤ 1, Σ u_k^(e_max) ≤ Σ u_k^(e_k) ≤ 1,
             // and Σ u_k² under that constraint is largest at equal u_k. Exact for an ellipsoid.
             let radius = (s.max() * 3f64.powf(0.5 - 1.0 / e.max())).min(s.norm());
-            let modulus = support_modulus(&s, &e);
+            let modulus = (e.iter().any(|&e| e != 2.0)).then(|| ModulusParts::new(&s, &e));
             Superquadric {
                 s,
                 e,
@@ -61,18 +62,17 @@ impl Superquadric {
     }
 }
 
-/// The modulus of the support function h of the superquadric with semi-axes `s` and exponents
-/// `e` (see [`SupportModulus`]): for every unit v and every u,
+/// The modulus of the support function h of a superquadric (see [`SupportModulus`]), as the
+/// parts that do not depend on the direction: for every unit v and every u,
 /// h(u) − h(v) − x₀·(u − v) ≤ Σ_k C_k |δ_k|^(q_k), δ = u − v, q_k = e_k/(e_k − 1), x₀ = x(v),
-/// with C_k = (1 − 1/e_k) s_k^(q_k) (e_k λ c_k)^(−1/(e_k − 1)), λ = s_min/e_max and c_k from
-/// [`bregman_floor`]; axes of equal exponent share one term, C = m^(1 − q/2) max C_k over the m
-/// of them (Σ|δ_k|^q ≤ m^(1 − q/2)(Σδ_k²)^(q/2) for q ≤ 2), bounded by |δ|^q.
+/// with C_k = (1 − 1/e_k) s_k^(q_k) (e_k λ c_k)^(−1/(e_k − 1)), c_k from [`bregman_floor`] and λ
+/// the multiplier of v ([`Superquadric::multiplier_inverse`] bounds 1/λ from above); axes of
+/// equal exponent share one term, m^(1 − q/2) max C_k over the m of them
+/// (Σ|δ_k|^q ≤ m^(1 − q/2)(Σδ_k²)^(q/2) for q ≤ 2), so that every term is c|δ|^q.
 ///
 /// Proof. Write F(x) = Σ φ_k(x_k), φ_k(x) = |x/s_k|^(e_k), K = {F ≤ 1}.
 /// 1. The left side is max over x ∈ K of (x − x₀)·u (h(u) = max x·u, h(v) = x₀·v).
-/// 2. x₀ maximises v·x over K: v = λ∇F(x₀) with λ > 0. Euler's identity x·∇φ_k = e_kφ_k gives
-///    h(v) = λ Σ e_kφ_k(x₀) ≤ λ e_max (Σφ_k(x₀) = 1), and h(v) ≥ s_min (K holds the ball of
-///    radius s_min: there Σφ_k ≤ Σ x_k²/s_k² ≤ 1), so λ ≥ s_min/e_max.
+/// 2. x₀ maximises v·x over K: v = λ∇F(x₀) with λ > 0.
 /// 3. For x ∈ K, with the Bregman divergence B(x) = F(x) − F(x₀) − ∇F(x₀)·(x − x₀) ≥ 0:
 ///    (x − x₀)·v = λ∇F(x₀)·(x − x₀) = λ(F(x) − 1 − B(x)) ≤ −λB(x), and B = Σ_k B_k(x_k) with
 ///    B_k(x₀_k + z) ≥ c_k |z/s_k|^(e_k) ([`bregman_floor`]).
@@ -80,37 +80,53 @@ impl Superquadric {
 ///    and each bracket is at most its supremum over z_k: max_ζ (Aζ − Bζ^e) = (1 − 1/e) A^q (eB)^(−1/(e−1))
 ///    with A = s_k|δ_k|, B = λc_k.
 ///
-/// For exponents 2 this is ½ρ_max|δ|² with ρ_max = s_max²/s_min, the ellipsoid's bound, returned
-/// as [`SupportModulus::quadratic`]. At the centre of a flat face (exponent p) the exact excess
-/// grows like |δ|^(p/(p−1)) ([`Surface::max_curvature_radius`] is +∞ there), so no power above q
-/// can hold.
-fn support_modulus(s: &V3, e: &V3) -> SupportModulus {
-    if e.iter().all(|&e| e == 2.0) {
-        return SupportModulus::quadratic(s.max().powi(2) / s.min());
-    }
-    let lambda = s.min() / e.max();
-    let mut terms = [(0.0, 2.0); 3];
-    let mut groups = 0;
-    for k in 0..3 {
-        if (0..k).any(|j| e[j] == e[k]) {
-            continue;
+/// With every exponent 2 and λ ≥ s_min/2 this is ½ρ_max|δ|², ρ_max = s_max²/s_min, the
+/// ellipsoid's bound ([`SupportModulus::quadratic`]). At the centre of a flat face (exponent p)
+/// the exact excess grows like |δ|^(p/(p−1)) ([`Surface::max_curvature_radius`] is +∞ there),
+/// so no larger power can hold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ModulusParts {
+    /// Per distinct exponent e: (m^(1 − q/2) max_k (1 − 1/e) s_k^q (e c_e)^(−1/(e−1)), q, 1/(e − 1));
+    /// the term's c is the first times (1/λ)^(1/(e−1)). Unused slots have 0.
+    groups: [(f64, f64, f64); 3],
+}
+
+impl ModulusParts {
+    fn new(s: &V3, e: &V3) -> Self {
+        let mut groups = [(0.0, 2.0, 1.0); 3];
+        let mut used = 0;
+        for k in 0..3 {
+            if (0..k).any(|j| e[j] == e[k]) {
+                continue;
+            }
+            let (ek, q) = (e[k], e[k] / (e[k] - 1.0));
+            let inv = 1.0 / (ek - 1.0);
+            let (mut largest, mut members) = (0.0f64, 0);
+            for j in (0..3).filter(|&j| e[j] == ek) {
+                let c = (1.0 - 1.0 / ek) * s[j].powf(q) * (ek * bregman_floor(ek)).powf(-inv);
+                largest = largest.max(c);
+                members += 1;
+            }
+            let spread = (members as f64).powf(1.0 - 0.5 * q);
+            // Rounding of the powers above: a relative 1e-12 more is far beyond it.
+            groups[used] = (largest * spread * (1.0 + 1e-12), q, inv);
+            used += 1;
         }
-        let (ek, q) = (e[k], e[k] / (e[k] - 1.0));
-        let members: Vec<usize> = (0..3).filter(|&j| e[j] == ek).collect();
-        let largest = members
-            .iter()
-            .map(|&j| {
-                (1.0 - 1.0 / ek)
-                    * s[j].powf(q)
-                    * (ek * lambda * bregman_floor(ek)).powf(-1.0 / (ek - 1.0))
-            })
-            .fold(0.0, f64::max);
-        let spread = (members.len() as f64).powf(1.0 - 0.5 * q);
-        // Rounding of the powers above: a relative 1e-12 more is far beyond it.
-        terms[groups] = (largest * spread * (1.0 + 1e-12), q);
-        groups += 1;
+        ModulusParts { groups }
     }
-    SupportModulus { terms }
+
+    fn at(&self, lambda_inverse: f64) -> SupportModulus {
+        SupportModulus {
+            terms: self.groups.map(|(a, q, inv)| {
+                let scale = if inv == 1.0 {
+                    lambda_inverse
+                } else {
+                    lambda_inverse.powf(inv)
+                };
+                (a * scale, q)
+            }),
+        }
+    }
 }
 
 /// A c > 0 with |a + z|^e − |a|^e − e|a|^(e−2)a·z ≥ c|z|^e for all real a, z (e ≥ 2): the
@@ -194,6 +210,19 @@ pub fn scale_root(c: &V3, q: &V3) -> f64 {
 }
 
 impl Superquadric {
+    /// An upper bound on 1/λ, λ the multiplier of the unit body-frame direction v (v = λ∇f at
+    /// its support point x₀). With y_k = |x₀_k|/s_k, v_k = λ e_k y_k^(e_k−1)/s_k and Σ y_k^(e_k) = 1
+    /// give Σ (|v_k| s_k μ/e_k)^(q_k) = 1 for μ = 1/λ, the equation of [`Surface::support_point`];
+    /// [`scale_root`] solves it erring high. Also 1/λ ≤ e_max/s_min: Euler's identity
+    /// x·∇f = Σ e_k y_k^(e_k) gives h(v) = x₀·v ≤ λ e_max, and h(v) ≥ s_min (the body holds the ball
+    /// of radius s_min). The smaller of the two, or the second alone if the first is not a number.
+    fn multiplier_inverse(&self, v: &V3) -> f64 {
+        let q = self.e.map(|e| e / (e - 1.0));
+        let c = V3::from_fn(|k, _| ((v[k] * self.s[k]).abs() / self.e[k]).powf(q[k]));
+        let global = self.e.max() / self.s.min();
+        (scale_root(&c, &q) * (1.0 + 1e-12)).min(global)
+    }
+
     /// |x_k/s_k| and its powers e−2, e−1, e per axis.
     fn terms(&self, x: &V3) -> [(f64, f64, f64); 3] {
         std::array::from_fn(|k| {
@@ -282,8 +311,11 @@ impl Surface for Superquadric {
         let mu = scale_root(&c, &q);
         V3::from_fn(|k, _| n[k].signum() * self.s[k] * (a[k] * mu).powf(1.0 / (self.e[k] - 1.0)))
     }
-    fn support_modulus(&self) -> SupportModulus {
-        self.modulus
+    fn support_modulus(&self, v: &V3) -> SupportModulus {
+        match &self.modulus {
+            Some(parts) => parts.at(self.multiplier_inverse(v)),
+            None => SupportModulus::quadratic(self.max_curvature_radius()),
+        }
     }
     fn max_curvature_radius(&self) -> f64 {
         if self.e.iter().all(|&e| e == 2.0) {
@@ -376,7 +408,7 @@ mod tests {
             let u = (v + V3::from(step).normalize() * 10f64.powf(scale)).normalize();
             let x0 = q.support_point(&v);
             let delta = (u - v).norm();
-            let allowed: f64 = q.support_modulus().terms.iter().map(|&(c, e)| c * delta.powf(e)).sum();
+            let allowed: f64 = q.support_modulus(&v).terms.iter().map(|&(c, e)| c * delta.powf(e)).sum();
             let tangent = q.support(&v) + x0.dot(&(u - v));
             // The support solver's own rounding margin (1e-13 of the largest semi-axis), twice.
             let slack = 4e-13 * q.semi_axes().max();
