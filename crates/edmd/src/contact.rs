@@ -385,7 +385,11 @@ impl<S: Surface> Search<'_, S> {
 
     /// How long after (or before) `t` the bodies, `d` apart at `t`, provably do not touch: the
     /// support gap along the contact normal equals d at t (the closest points are the support
-    /// points) and bounds it from below at every other time ([`gap_safe_time_towards`]).
+    /// points) and bounds it from below at every other time ([`gap_safe_time_towards`]). Each
+    /// closest point is exactly the support point along its own normal, which matches n to the
+    /// solver's tolerance ε: anchoring each body's bound there (its support modulus holds for
+    /// any u) changes the bound by terms of order ε, however fast a flat face's support point
+    /// runs with the direction.
     fn safe_time_towards(&self, t: f64, d: &Distance, towards: Towards) -> f64 {
         let pa = self.a.pose_after(t);
         let pb = self.b.pose_after(t);

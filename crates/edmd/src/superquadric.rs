@@ -5,8 +5,11 @@
 //! the Newton systems stay finite there. The support function has no closed form for mixed
 //! exponents but a one-dimensional monotone equation ([`scale_root`]), solved from the side that
 //! errs outwards, plus a margin of 1e-13 of the largest semi-axis for the final rounding: the
-//! support is never underestimated, so contact-free intervals built on it stay rigorous. At a flat face the radius of curvature is infinite ([`Surface::max_curvature_radius`]
-//! returns +∞ for exponents above 2): only the linear (Lipschitz) contact-free bounds apply.
+//! support is never underestimated, so contact-free intervals built on it stay rigorous. At a
+//! flat face the radius of curvature is infinite ([`Surface::max_curvature_radius`] returns +∞
+//! for exponents above 2), but the support function still rises above its tangent planes no
+//! faster than |δ|^(p/(p−1)) ([`Surface::support_modulus`]), which gives the contact search superlinear
+//! contact-free intervals ([`crate::rigid::gap_safe_time`]).
 //!
 //! Scenes ask for it with `shape = "superquadric"` and `exponents`; the engine runs it through the
 //! same rigid-body model as the ellipsoid, and the overlap audit tests it with Gilbert's algorithm.
