@@ -1,6 +1,6 @@
 //! Hard ellipsoid: f(x') = Σ x'_k²/s_k² − 1 (Eq. 42 with X = diag(s_k⁻²), Eqs. 43–44).
 
-use crate::geometry::{LabEval, M3, Placed, Pose, Surface, V3};
+use crate::geometry::{LabEval, M3, Placed, Pose, SupportModulus, Surface, V3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ellipsoid {
@@ -81,6 +81,9 @@ impl Surface for Ellipsoid {
     }
     fn max_curvature_radius(&self) -> f64 {
         self.s.max().powi(2) / self.s.min()
+    }
+    fn support_modulus(&self, _v: &V3) -> SupportModulus {
+        SupportModulus::quadratic(self.max_curvature_radius())
     }
     fn support(&self, n: &V3) -> f64 {
         let sn = self.s.component_mul(n);

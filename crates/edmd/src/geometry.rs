@@ -40,8 +40,39 @@ pub trait Surface {
     /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
     /// support function: for an ellipsoid s_max²/s_min.
     fn max_curvature_radius(&self) -> f64;
+    /// The bound on how far the support function rises above its tangent plane at the unit
+    /// body-frame direction `v`.
+    fn support_modulus(&self, v: &V3) -> SupportModulus;
     /// Semi-axes, for the guess of Sec. 3.2 (Eq. 51) and the bounding parallelepiped (Eq. 52).
     fn semi_axes(&self) -> V3;
+}
+
+/// How far a body's support function h rises above its tangent plane at v, a bound that holds for
+/// flat faces too: for the unit body-frame direction v it was given for and every u,
+/// h(u) ≤ h(v) + x(v)·(u − v) + Σ c_i |u − v|^(q_i), with x(v) = ∇h(v) the support point.
+///
+/// An ellipsoid (or any body whose radii of curvature are at most ρ_max) has the single term
+/// (ρ_max/2, 2). A superquadric with an exponent e > 2 has no curvature bound at the centre of
+/// its flat face, but a term with the Hölder power q = e/(e − 1) < 2 instead
+/// ([`crate::superquadric`] derives it). Terms with c = 0 are unused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupportModulus {
+    pub terms: [(f64, f64); 3],
+}
+
+impl SupportModulus {
+    /// The modulus of a body whose radii of curvature are at most `rho_max`.
+    pub fn quadratic(rho_max: f64) -> Self {
+        SupportModulus {
+            terms: [(0.5 * rho_max, 2.0), (0.0, 2.0), (0.0, 2.0)],
+        }
+    }
+
+    /// The largest radius of curvature, where the modulus is that of bounded curvature alone.
+    pub fn curvature_radius(&self) -> Option<f64> {
+        let [(c, q), rest @ ..] = self.terms;
+        (q == 2.0 && rest.iter().all(|t| t.0 == 0.0)).then_some(2.0 * c)
+    }
 }
 
 /// Position of the centre and orientation: `rot` has the body axes as rows (Eq. 1), x' = rot (x − r) (Eq. 2).

@@ -41,7 +41,9 @@
 //!   four neighbours at a time on AVX2 ([`sphere::first_contact`]).
 //! - Lower bounds on contact times go beyond ḋ_max (Eq. 32): the support gap along a fixed
 //!   direction bounds the distance from below at all times and changes at a rate and acceleration
-//!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`]).
+//!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`];
+//!   for flat faces, whose curvature is unbounded, a Hölder bound on the support function,
+//!   [`geometry::SupportModulus`]).
 //!   They prune partners before any Newton–Raphson, and they let the search of Eq. (39) step over
 //!   intervals that are provably free of contact, e.g. just after two bodies collided.
 //! - The escape time from a bounding parallelepiped uses the ellipsoid's support function, exact

@@ -1,6 +1,6 @@
 //! Free motion of a rigid body with an isotropic inertia tensor (Eqs. 3–6) and the collision rule (Eqs. 40–41).
 
-use crate::geometry::{M3, Pose, Surface, V3};
+use crate::geometry::{M3, Pose, SupportModulus, Surface, V3};
 
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,53 +115,184 @@ pub fn support_acceleration_bound(w: &V3, n: &V3, l: f64, rho_max: f64) -> f64 {
     turn * (turn * rho_max + w.norm() * l)
 }
 
-/// One body as seen by [`gap_safe_time`]: its motion, the offset of its support point from its
-/// centre (lab frame), its bounding radius L and its largest radius of curvature ρ_max.
-pub struct GapSide<'a> {
-    pub body: &'a Body,
-    pub offset: V3,
-    pub l: f64,
-    pub rho_max: f64,
-}
-
-impl<'a> GapSide<'a> {
-    /// Body `body` of shape `s` with its support point `offset` from its centre.
-    pub fn new<S: Surface>(s: &S, body: &'a Body, offset: V3) -> Self {
-        GapSide {
-            body,
-            offset,
-            l: s.bounding_radius(),
-            rho_max: s.max_curvature_radius(),
+/// The bound on h(u(τ)) − h(u₀) − ḣ(0)τ for a body of modulus `m` whose body-frame direction u
+/// turns uniformly at `turn` = |u̇| about the axis of its angular velocity (|ü| = |w|·turn), as
+/// powers of τ appended to `out`: with |u − u₀| ≤ turn·τ (a chord is no longer than its arc) and
+/// x(u₀)·(u − u₀ − u̇₀τ) ≤ L·½|ü|τ² (Taylor, |x(u₀)| ≤ L), the excess is at most
+/// ½L|w|·turn·τ² + Σ c_i (turn·τ)^(q_i).
+fn push_powers(m: &SupportModulus, turn: f64, w: f64, l: f64, out: &mut Powers) {
+    if turn == 0.0 {
+        return;
+    }
+    out.push(0.5 * l * w * turn, 2.0);
+    for &(c, q) in &m.terms {
+        if c > 0.0 {
+            out.push(c * turn.powf(q), q);
         }
     }
 }
 
+/// P(τ) = Σ a_j τ^(q_j) with a_j > 0 and 1 < q_j ≤ 2, at most seven terms (like powers merged).
+#[derive(Clone, Copy, Debug, Default)]
+struct Powers {
+    len: usize,
+    terms: [(f64, f64); 7],
+}
+
+impl Powers {
+    fn push(&mut self, a: f64, q: f64) {
+        if let Some(t) = self.terms[..self.len].iter_mut().find(|t| t.1 == q) {
+            t.0 += a;
+        } else {
+            self.terms[self.len] = (a, q);
+            self.len += 1;
+        }
+    }
+    fn terms(&self) -> &[(f64, f64)] {
+        &self.terms[..self.len]
+    }
+}
+
+/// The largest τ found with g + ġτ − P(τ) > 0 on (0, τ], for g ≥ 0 (g = 0 needs ġ > 0).
+///
+/// φ(τ) = g + ġτ − P(τ) is concave (every q_j ≥ 1), so φ > 0 at 0 (or φ(0) = 0 with φ'(0) > 0)
+/// and at τ means φ > 0 on (0, τ]: only the returned τ is checked, however it was found. Newton's
+/// method from a point past the root descends onto it from above (the tangent of a concave
+/// function lies above it, so its zero is never short of the root); the result is that upper
+/// bound shrunk until φ is positive there. +∞ when φ never vanishes, 0 when no point is proved.
+fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
+    let terms = p.terms();
+    if terms.is_empty() {
+        return if rate < 0.0 {
+            gap / -rate
+        } else {
+            f64::INFINITY
+        };
+    }
+    let phi =
+        |tau: f64| gap + rate * tau - terms.iter().map(|&(a, q)| a * tau.powf(q)).sum::<f64>();
+    // A point where φ ≤ 0: each term alone overtakes g + ġτ there (a_j τ^q_j ≥ 2g and ≥ 2ġτ).
+    let mut hi = terms
+        .iter()
+        .map(|&(a, q)| {
+            let by_gap = (2.0 * gap / a).powf(1.0 / q);
+            let by_rate = (2.0 * rate.max(0.0) / a).powf(1.0 / (q - 1.0));
+            by_gap.max(by_rate)
+        })
+        .fold(f64::INFINITY, f64::min);
+    if rate < 0.0 {
+        hi = hi.min(gap / -rate);
+    }
+    if !(hi.is_finite() && hi > 0.0) {
+        return 0.0;
+    }
+    for _ in 0..50 {
+        let (mut value, mut slope) = (gap + rate * hi, rate);
+        for &(a, q) in terms {
+            let term = a * hi.powf(q);
+            value -= term;
+            slope -= q * term / hi;
+        }
+        if value >= 0.0 || slope >= 0.0 {
+            break;
+        }
+        let next = hi - value / slope;
+        let done = next >= hi * (1.0 - 1e-4);
+        hi = next.min(hi);
+        if done {
+            break;
+        }
+    }
+    let mut tau = hi * (1.0 - 1e-3);
+    for _ in 0..60 {
+        if phi(tau) > 0.0 {
+            return tau;
+        }
+        tau *= 0.5;
+    }
+    0.0
+}
+
+/// One body as seen by [`gap_safe_time`]: its motion, the offset of its support point from its
+/// centre (lab frame), its bounding radius L and the modulus of its support function there.
+pub struct GapSide<'a> {
+    pub body: &'a Body,
+    pub offset: V3,
+    pub l: f64,
+    pub modulus: SupportModulus,
+}
+
+impl<'a> GapSide<'a> {
+    /// Body `body` of shape `s`, turned by `rot` now (rows = body axes), with its support point
+    /// `offset` from its centre along the outward unit lab direction `out` (n for A, −n for B).
+    pub fn new<S: Surface>(s: &S, body: &'a Body, rot: &M3, offset: V3, out: &V3) -> Self {
+        GapSide {
+            body,
+            offset,
+            l: s.bounding_radius(),
+            modulus: s.support_modulus(&(rot * out)),
+        }
+    }
+}
+
+/// Which way in time a contact-free interval is sought from the present.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Towards {
+    Future,
+    Past,
+}
+
 /// How long the support gap `gap` ≥ 0 between A and B along the fixed unit direction `n` (from A
-/// to B) provably stays positive: the longer of the linear bound of [`gap_closing_rates`] and the
-/// quadratic one, g + ġτ − ½Mτ² with ġ the exact present rate (the support points' velocities along
-/// n) and M from [`support_acceleration_bound`]. Neither bound is in the paper.
+/// to B) provably stays positive, forwards in time from now: the longer of the linear bound of
+/// [`gap_closing_rates`] and g + ġτ − P(τ), with ġ the exact present rate (the support points'
+/// velocities along n) and P from each body's [`SupportModulus`]. Neither bound is in the paper.
+///
+/// Why g + ġτ − P(τ) bounds the gap: g(τ) = n·Δr(τ) − h_A(u_A(τ)) − h_B(u_B(τ)), the centres move
+/// linearly and each body-frame direction u turns uniformly about w at |u̇| = |w × n|, so each
+/// h(u(τ)) ≤ h(u₀) + ḣ(0)τ + (the powers of [`SupportModulus`]); ġ collects n·Δv and the ḣ(0).
+/// Where all moduli are quadratic this is g + ġτ − ½Mτ² with M from
+/// [`support_acceleration_bound`], solved in closed form.
 pub fn gap_safe_time(a: &GapSide, b: &GapSide, n: &V3, gap: f64) -> f64 {
+    gap_safe_time_towards(a, b, n, gap, Towards::Future)
+}
+
+/// [`gap_safe_time`] forwards or backwards in time: backwards, the bodies retrace their free
+/// flight (−v, −w), so every rate changes sign and every bound on its change stays.
+pub fn gap_safe_time_towards(a: &GapSide, b: &GapSide, n: &V3, gap: f64, towards: Towards) -> f64 {
     let (ba, bb) = (a.body, b.body);
-    let (closing, _) = gap_closing_rates(ba, bb, a.l, b.l, n);
+    let (forward, backward) = gap_closing_rates(ba, bb, a.l, b.l, n);
+    let (closing, sign) = match towards {
+        Towards::Future => (forward, 1.0),
+        Towards::Past => (backward, -1.0),
+    };
     let linear = if closing > 0.0 {
         gap / closing
     } else {
         f64::INFINITY
     };
-    let rate = n.dot(&((bb.v + bb.w.cross(&b.offset)) - (ba.v + ba.w.cross(&a.offset))));
-    let m = support_acceleration_bound(&ba.w, n, a.l, a.rho_max)
-        + support_acceleration_bound(&bb.w, n, b.l, b.rho_max);
-    let quadratic = if m.is_infinite() {
-        // No curvature bound (flat faces): the linear bound alone is rigorous.
-        0.0
-    } else if m > 0.0 {
-        (rate + (rate * rate + 2.0 * m * gap).sqrt()) / m
-    } else if rate < 0.0 {
-        gap / -rate
-    } else {
-        f64::INFINITY
+    let rate = sign * n.dot(&((bb.v + bb.w.cross(&b.offset)) - (ba.v + ba.w.cross(&a.offset))));
+    let curved = match (a.modulus.curvature_radius(), b.modulus.curvature_radius()) {
+        (Some(rho_a), Some(rho_b)) => {
+            let m = support_acceleration_bound(&ba.w, n, a.l, rho_a)
+                + support_acceleration_bound(&bb.w, n, b.l, rho_b);
+            if m > 0.0 {
+                (rate + (rate * rate + 2.0 * m * gap).sqrt()) / m
+            } else if rate < 0.0 {
+                gap / -rate
+            } else {
+                f64::INFINITY
+            }
+        }
+        _ => {
+            let mut p = Powers::default();
+            for side in [a, b] {
+                let w = side.body.w;
+                push_powers(&side.modulus, w.cross(n).norm(), w.norm(), side.l, &mut p);
+            }
+            positive_while(gap, rate, &p)
+        }
     };
-    linear.max(quadratic)
+    linear.max(curved)
 }
 
 /// Mass and isotropic moment of inertia; `inv_i` = 0 marks a body whose rotation is not simulated.

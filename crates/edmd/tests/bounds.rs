@@ -55,7 +55,7 @@ proptest! {
         prop_assume!(matches!(d, Some(d) if d.d > 0.0));
         let d = d.unwrap();
         let n = e.place(&pa).grad(&d.xa).normalize();
-        let safe = gap_safe_time(&GapSide::new(&e, &a, d.xa - pa.r), &GapSide::new(&e, &b, d.xb - pb.r), &n, d.d);
+        let safe = gap_safe_time(&GapSide::new(&e, &a, &pa.rot, d.xa - pa.r, &n), &GapSide::new(&e, &b, &pb.rot, d.xb - pb.r, &-n), &n, d.d);
         // Never shorter than the step of Eq. (39), d/ḋ_max.
         prop_assert!(safe >= d.d / ddot_max(&a, &b, e.bounding_radius(), e.bounding_radius()) * (1.0 - 1e-9));
         let scale = min_scale(&e, &a, &b, safe.min(3.0), 600);
@@ -140,7 +140,12 @@ fn touching_bodies_that_separate_are_safe_for_a_while_and_then_not() {
         t: 0.0,
     };
     let n = V3::new(1.0, 0.0, 0.0);
-    let safe = gap_safe_time(&GapSide::new(&e, &a, n), &GapSide::new(&e, &b, -n), &n, 0.0);
+    let safe = gap_safe_time(
+        &GapSide::new(&e, &a, &a.rot, n, &n),
+        &GapSide::new(&e, &b, &b.rot, -n, &-n),
+        &n,
+        0.0,
+    );
     assert!(safe > 0.005 && safe.is_finite(), "{safe}");
     assert!(min_scale(&e, &a, &b, safe, 2000) > 1.0 - 1e-12);
     // Spinning tips swing back within a quarter turn: the bound must stop before they could.
