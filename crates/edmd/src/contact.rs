@@ -122,7 +122,8 @@ pub fn predict<S: Surface>(
         let far = matches!(cur, Some(c) if c.d > p.eps_d);
         // Whether [t, t + dt] is proved free of contact, or only no longer than ε_d/ḋ_max.
         let mut proved = far;
-        let dt = match cur {
+        // The step, and how long after t no contact is possible (0 where unknown).
+        let (dt, safe_ahead) = match cur {
             Some(c) => {
                 // No contact is possible within `safe` of t: as rigorous as the d/ḋ_max of
                 // Eq. (39), usually longer, and infinite once the gap can no longer close.
@@ -131,13 +132,13 @@ pub fn predict<S: Surface>(
                     return None;
                 }
                 if far {
-                    (k * safe).min(t2 - t)
+                    ((k * safe).min(t2 - t), safe)
                 } else {
                     proved = safe >= p.eps_d / ddmax;
-                    safe.max(p.eps_d / ddmax)
+                    (safe.max(p.eps_d / ddmax), safe)
                 }
             }
-            None => p.eps_d / ddmax,
+            None => (p.eps_d / ddmax, 0.0),
         };
         let tn = t + dt;
         let failures_before = search.stats.failures;
@@ -146,8 +147,9 @@ pub fn predict<S: Surface>(
             // Two-sided bound (not in the paper): the gap cannot close within [t, tn] if the forward
             // bound from t and the backward bound from tn leave no common zero. Uncertified: redo it
             // with the plain step.
+            // The forward interval from t is `safe_ahead`, already computed for the step.
             let certified =
-                matches!((cur, next), (Some(c), Some(n)) if search.no_zero_between(t, &c, &n, dt));
+                matches!(next, Some(n) if search.covered_backwards(safe_ahead, t, &n, dt));
             if !certified {
                 // A long step may land deep in an overlap, where no distance exists: not a failure.
                 search.stats.failures = failures_before;
@@ -410,11 +412,16 @@ impl<S: Surface> Search<'_, S> {
     /// Whether d > 0 throughout [t0, t0 + dt] follows from d at both ends (`lo`, `hi`): the
     /// contact-free interval forwards from t0 and the one backwards from t0 + dt cover it.
     fn no_zero_between(&self, t0: f64, lo: &Distance, hi: &Distance, dt: f64) -> bool {
-        if lo.d <= 0.0 || hi.d <= 0.0 {
-            return false;
-        }
-        let forward = self.safe_time_towards(t0, lo, Towards::Future);
-        forward >= dt || forward + self.safe_time_towards(t0 + dt, hi, Towards::Past) >= dt
+        lo.d > 0.0
+            && hi.d > 0.0
+            && self.covered_backwards(self.safe_time_towards(t0, lo, Towards::Future), t0, hi, dt)
+    }
+
+    /// [`Search::no_zero_between`] once the contact-free interval `forward` after t0 is known:
+    /// it covers [t0, t0 + dt], or the one backwards from t0 + dt (where d is `hi`) covers the rest.
+    fn covered_backwards(&self, forward: f64, t0: f64, hi: &Distance, dt: f64) -> bool {
+        hi.d > 0.0
+            && (forward >= dt || forward + self.safe_time_towards(t0 + dt, hi, Towards::Past) >= dt)
     }
 
     /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart), is the first
