@@ -100,6 +100,13 @@ impl<X: Copy> Calendar<X> {
         }
     }
 
+    /// Asks for what scheduling an event of particle `a` will read, ahead of its use.
+    #[inline]
+    pub fn prefetch(&self, a: usize) {
+        crate::engine::prefetch(&self.pos[a]);
+        crate::engine::prefetch(&self.events[a]);
+    }
+
     /// Particle `a` has no event any more.
     pub fn cancel(&mut self, a: usize) {
         let i = self.pos[a];
@@ -159,6 +166,11 @@ impl<X: Copy> Calendar<X> {
     /// Puts `item` at the hole `i` or below it.
     fn sift_down(&mut self, mut i: usize, item: Entry) {
         while 4 * i + 1 < self.len {
+            // The next level's four groups are adjacent: asked for while this level is decided,
+            // so that the walk down does not wait on memory at every level.
+            for next in self.groups.iter().skip(4 * i + 2).take(4) {
+                crate::engine::prefetch(next);
+            }
             let c = &self.groups[i + 1].0;
             // The earliest child (the first among equal times) by arithmetic rather than
             // selects, which LLVM would make branches: which child it is is a coin flip.

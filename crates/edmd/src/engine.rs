@@ -35,10 +35,6 @@ trait Model {
     /// and time).
     const ROTATES: bool;
     fn surface(&self) -> Self::Shape;
-    /// The model's own copy of what it predicts from: all bodies at the start of a run, then each
-    /// body whose trajectory a collision changed.
-    fn track(&mut self, _bodies: &[Body]) {}
-    fn moved(&mut self, _i: usize, _body: &Body) {}
     /// The earliest collision of body `i` (advanced to the engine's present time) if it comes
     /// before `own`, the body's own event; otherwise `own`.
     fn first_collision(
@@ -57,11 +53,9 @@ trait Model {
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
 struct SphereModel {
     sigma: f64,
-    /// Every body's trajectory, one cache line each: a prediction reads these, not the bodies
-    /// (three lines each), and 10⁴ spheres' fit in the L2 cache.
-    trajectories: Vec<Trajectory>,
     /// Scratch: a neighbour list's trajectories with their images applied, contiguous for
-    /// [`sphere::first_contact`].
+    /// [`sphere::first_contact`]. A body's position, velocity and time are the first cache line
+    /// of its [`Body`], the only one the sphere path reads.
     gathered: Vec<Trajectory>,
 }
 
@@ -69,7 +63,6 @@ impl SphereModel {
     fn new(sigma: f64) -> Self {
         SphereModel {
             sigma,
-            trajectories: Vec::new(),
             gathered: Vec::new(),
         }
     }
@@ -83,12 +76,6 @@ impl Model for SphereModel {
     fn surface(&self) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
-    }
-    fn track(&mut self, bodies: &[Body]) {
-        self.trajectories = bodies.iter().map(Trajectory::of).collect();
-    }
-    fn moved(&mut self, i: usize, body: &Body) {
-        self.trajectories[i] = Trajectory::of(body);
     }
     #[inline]
     fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<()>) -> Event<()> {
@@ -206,8 +193,9 @@ struct Engine<M: Model> {
     /// Candidate partners: (estimate, lower bound, partner, image shift).
     order: Vec<(f64, f64, u32, [i32; 3])>,
     acc: Accounting,
-    /// The first contact search a solver could not resolve; the event loop stops on it.
-    unresolved: Option<EdmdError>,
+    /// The first error of the event loop (a contact search no solver could resolve, a list beyond
+    /// its limits); the loop stops on it.
+    failure: Option<EdmdError>,
     /// The collision sequence so far, carried from one engine of a run to the next.
     sequence: Fingerprint,
 }
@@ -227,15 +215,8 @@ struct Accounting {
 }
 
 impl<M: Model> Engine<M> {
-    fn new(
-        mut m: M,
-        l: f64,
-        bodies: Vec<Body>,
-        inv_i: f64,
-        scene: &Scene,
-    ) -> Result<Self, EdmdError> {
+    fn new(m: M, l: f64, bodies: Vec<Body>, inv_i: f64, scene: &Scene) -> Result<Self, EdmdError> {
         let n = bodies.len();
-        m.track(&bodies);
         let lb = m.surface().bounding_radius();
         let nb = match scene.neighbours {
             Neighbours::Ll => {
@@ -253,7 +234,7 @@ impl<M: Model> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl);
+                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl)?;
                 let escape_at = bodies
                     .iter()
                     .enumerate()
@@ -282,7 +263,7 @@ impl<M: Model> Engine<M> {
                 ke_trans,
                 ..Default::default()
             },
-            unresolved: None,
+            failure: None,
             sequence: Fingerprint::default(),
         };
         if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
@@ -352,7 +333,9 @@ impl<M: Model> Engine<M> {
         };
         // Rebuilds are rare (µs each): two clock reads time them for Eq. 73's split.
         let started = Instant::now();
-        lists.rebuild(&surf, i, &self.bodies[i]);
+        if let Err(e) = lists.rebuild(&surf, i, &self.bodies[i]) {
+            self.failure.get_or_insert(e.into());
+        }
         escape_at[i] = self.t + lists.region(i).escape_time(&surf, &self.bodies[i], *eps);
         self.acc.rebuild_s += started.elapsed().as_secs_f64();
         self.acc.rebuilds += 1;
@@ -395,7 +378,7 @@ impl<M: Model> Engine<M> {
                 }
                 Kind::CellCross { dim, up } => self.cross(ev.a as usize, dim as usize, up),
             }
-            if let Some(e) = self.unresolved.take() {
+            if let Some(e) = self.failure.take() {
                 return Err(e);
             }
         }
@@ -404,6 +387,17 @@ impl<M: Model> Engine<M> {
 
     fn collision(&mut self, ev: &Event<M::Extra>, shift: [i32; 3]) -> bool {
         let (a, b) = (ev.a as usize, ev.b as usize);
+        if let Neighbourhood::Nnl {
+            lists, escape_at, ..
+        } = &self.nb
+        {
+            lists.prefetch(a);
+            lists.prefetch(b);
+            prefetch(&escape_at[a]);
+            prefetch(&escape_at[b]);
+        }
+        self.cal.prefetch(a);
+        self.cal.prefetch(b);
         self.advance_body(a);
         self.advance_body(b);
         let offset = image_offset(shift, self.l);
@@ -419,8 +413,6 @@ impl<M: Model> Engine<M> {
         let imp = self.m.collide(ba, bb, &offset, &ev.extra);
         let ke_after = 0.5 * (ba.v.norm_squared() + bb.v.norm_squared());
         let separation = (bb.r + offset) - ba.r;
-        self.m.moved(a, &self.bodies[a]);
-        self.m.moved(b, &self.bodies[b]);
         self.count[a] = self.count[a].wrapping_add(1);
         self.count[b] = self.count[b].wrapping_add(1);
         let happened = if let Some(j) = imp {
@@ -437,6 +429,11 @@ impl<M: Model> Engine<M> {
         };
         self.update_escape(a);
         self.update_escape(b);
+        if let Neighbourhood::Nnl { lists, .. } = &self.nb {
+            for n in lists.of(a).iter().chain(lists.of(b)) {
+                prefetch(&self.bodies[n.j as usize]);
+            }
+        }
         self.predict_for(a);
         self.predict_for(b);
         happened
@@ -520,53 +517,55 @@ impl Engine<SphereModel> {
         let a = &self.bodies[i];
         let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
         let mut horizon = own.t - self.t;
-        let found =
-            match &self.nb {
-                Neighbourhood::Ll {
-                    cells,
-                    cell_of,
-                    img,
-                    img_offset,
-                } => {
-                    let mut partner = None;
-                    let around = cells.around(cell_of[i]);
-                    for (k, nbc) in around.iter().enumerate() {
-                        // Where i's image sits relative to the box j lives in, minus i itself.
-                        let origin =
-                            image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
-                        for &j in cells.members(nbc.cell) {
-                            let tj = &self.m.trajectories[j as usize];
-                            let (r, v) = (V3::from(tj.r), V3::from(tj.v));
-                            let dr = r + v * (self.t - tj.t0) - img_offset[j as usize] + origin;
-                            let tau = sphere::contact_time_or_inf(&dr, &(v - a.v), sigma2);
-                            partner = if tau < horizon { Some((k, j)) } else { partner };
-                            horizon = horizon.min(tau);
-                        }
+        let found = match &self.nb {
+            Neighbourhood::Ll {
+                cells,
+                cell_of,
+                img,
+                img_offset,
+            } => {
+                let mut partner = None;
+                let around = cells.around(cell_of[i]);
+                for (k, nbc) in around.iter().enumerate() {
+                    // Where i's image sits relative to the box j lives in, minus i itself.
+                    let origin =
+                        image_offset(nbc.shift.map(i32::from), self.l) + img_offset[i] - a.r;
+                    for &j in cells.members(nbc.cell) {
+                        let bj = &self.bodies[j as usize];
+                        let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
+                        let v = bj.v;
+                        let tau = sphere::contact_time_or_inf(&dr, &(v - a.v), sigma2);
+                        partner = if tau < horizon { Some((k, j)) } else { partner };
+                        horizon = horizon.min(tau);
                     }
-                    partner.map(|(k, j)| {
-                        let cell_shift = around[k].shift;
-                        (j, ll_shift(cell_shift, img[i], img[j as usize]))
-                    })
                 }
-                Neighbourhood::Nnl { lists, .. } => {
-                    let probe = Probe {
-                        r: a.r,
-                        v: a.v,
-                        now: self.t,
-                        sigma2,
-                    };
-                    let (trajectories, gathered) = (&self.m.trajectories, &mut self.m.gathered);
-                    gathered.clear();
-                    gathered.extend(lists.of(i).iter().map(|n| {
-                        trajectories[n.j as usize].shifted(&image_offset(n.shift, self.l))
-                    }));
-                    sphere::first_contact(gathered, &probe, horizon).map(|(p, tau)| {
-                        horizon = tau;
-                        let n = lists.of(i)[p];
-                        (n.j, n.shift)
-                    })
-                }
-            };
+                partner.map(|(k, j)| {
+                    let cell_shift = around[k].shift;
+                    (j, ll_shift(cell_shift, img[i], img[j as usize]))
+                })
+            }
+            Neighbourhood::Nnl { lists, .. } => {
+                let probe = Probe {
+                    r: a.r,
+                    v: a.v,
+                    now: self.t,
+                    sigma2,
+                };
+                let (bodies, gathered) = (&self.bodies, &mut self.m.gathered);
+                gathered.clear();
+                gathered.extend(
+                    lists
+                        .of(i)
+                        .iter()
+                        .map(|n| Trajectory::of(&bodies[n.j as usize], &n.offset(self.l))),
+                );
+                sphere::first_contact(gathered, &probe, horizon).map(|(p, tau)| {
+                    horizon = tau;
+                    let n = lists.of(i)[p];
+                    (n.j, n.shift())
+                })
+            }
+        };
         match found {
             Some((j, shift)) => Event {
                 t: self.t + horizon,
@@ -610,7 +609,7 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
                 }
             }
             Neighbourhood::Nnl { lists, .. } => {
-                cand.extend(lists.of(i).iter().map(|n| (n.j, n.shift)))
+                cand.extend(lists.of(i).iter().map(|n| (n.j, n.shift())))
             }
         }
         let lb = self.m.surface().bounding_radius();
@@ -648,9 +647,9 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
             b.r += image_offset(shift, self.l);
             let failures = self.m.stats.failures;
             let hit = self.m.predict(a, &b, best.t - self.t);
-            if self.m.stats.failures > failures && self.unresolved.is_none() {
+            if self.m.stats.failures > failures && self.failure.is_none() {
                 let arr = |v: V3| [v.x, v.y, v.z];
-                self.unresolved = Some(EdmdError::Unresolved(Box::new(crate::UnresolvedContact {
+                self.failure = Some(EdmdError::Unresolved(Box::new(crate::UnresolvedContact {
                     quantity: self.m.stats.failed.unwrap_or("contact time"),
                     a: i,
                     b: ju,
@@ -678,6 +677,18 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
         self.scratch = cand;
         best
     }
+}
+
+/// Asks for the cache line holding `x` ahead of its use: a hint, without effect on any result.
+#[inline(always)]
+pub(crate) fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE is part of every x86_64 CPU, and a prefetch reads nothing the program sees.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            (x as *const T).cast(),
+        )
+    };
 }
 
 /// Image shift of j as seen from i with unwrapped positions: the cell shift plus the image counters.

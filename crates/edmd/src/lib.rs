@@ -105,6 +105,8 @@ pub enum EdmdError {
     /// a contact it could not resolve.
     #[error("{0}")]
     Unresolved(Box<UnresolvedContact>),
+    #[error(transparent)]
+    ListLimit(#[from] lists::ListLimit),
 }
 
 /// The pair and state of a contact search no solver could resolve.

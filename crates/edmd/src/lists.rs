@@ -21,14 +21,43 @@ use crate::rigid::Body;
 /// A neighbour: its index and the image shift (in box lengths) that puts it next to the body.
 pub type Neighbour = (u32, [i32; 3]);
 
-/// An entry of a list: the neighbour, and where its mirror is in the neighbour's list
-/// (`lists[i][p] = (j, s, q)` ⇔ `lists[j][q] = (i, −s, p)`), so that a rebuild drops a body from
-/// its old neighbours' lists without searching them. One allocation per body holds both.
+/// An entry of a list: the neighbour, the image shift that puts it next to the body, and where
+/// its mirror is in the neighbour's list (`lists[i][p] = (j, s, q)` ⇔ `lists[j][q] = (i, −s, p)`),
+/// so that a rebuild drops a body from its old neighbours' lists without searching them.
+///
+/// 12 bytes, not the 20 of `u32` indices and `i32` shifts: the lists are most of the memory the
+/// sphere path touches. Positions are unwrapped, so a shift grows with the boxes two bodies
+/// have travelled apart; 32767 boxes is beyond any run (and refused with [`ListLimit`], not
+/// wrapped), as is a list of more than 65535 entries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Link {
     pub j: u32,
-    back: u32,
-    pub shift: [i32; 3],
+    back: u16,
+    shift: [i16; 3],
+}
+
+impl Link {
+    pub fn shift(&self) -> [i32; 3] {
+        self.shift.map(i32::from)
+    }
+
+    /// The shift as a displacement in a box of side `l`: [`image_offset`] of [`Link::shift`].
+    #[inline]
+    pub fn offset(&self, l: f64) -> V3 {
+        let [x, y, z] = self.shift.map(|k| f64::from(k) * l);
+        V3::new(x, y, z)
+    }
+}
+
+/// A list that the compact [`Link`] cannot hold: the run stops with it.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum ListLimit {
+    #[error(
+        "bodies {i} and {j} are {shift:?} periodic boxes apart, beyond the ±32767 a neighbour list records (positions are kept unwrapped)"
+    )]
+    Shift { i: u32, j: u32, shift: [i32; 3] },
+    #[error("body {i} has more than 65535 neighbours in its list; lower delta_nnl")]
+    Length { i: u32 },
 }
 
 /// The region a body may not leave until its list is rebuilt, fixed when it is built.
@@ -49,7 +78,7 @@ pub trait Region: Copy {
 
 pub struct Lists<R: Region> {
     regions: Vec<R>,
-    lists: Vec<Vec<Link>>,
+    lists: Rows,
     /// Scratch for [`Lists::rebuild`].
     found: Vec<Neighbour>,
     delta: f64,
@@ -66,7 +95,12 @@ pub struct Lists<R: Region> {
 impl<R: Region> Lists<R> {
     /// Regions around every body with margin `delta` (Δ_NNL) and all lists, in a periodic box of
     /// side `l`.
-    pub fn build<S: Surface>(s: &S, bodies: &[Body], l: f64, delta: f64) -> Self {
+    pub fn build<S: Surface>(
+        s: &S,
+        bodies: &[Body],
+        l: f64,
+        delta: f64,
+    ) -> Result<Self, ListLimit> {
         let regions: Vec<R> = bodies.iter().map(|b| R::around(s, b, delta)).collect();
         let reach = R::reach(s, delta);
         let grid = Cells::new(l, reach).map(|cells| {
@@ -81,8 +115,9 @@ impl<R: Region> Lists<R> {
             }
             grid
         });
+        let n = regions.len();
         let mut lists = Lists {
-            lists: vec![Vec::new(); regions.len()],
+            lists: Rows::new(n, 0),
             found: Vec::new(),
             regions,
             delta,
@@ -91,45 +126,81 @@ impl<R: Region> Lists<R> {
             grid,
             single_image: l > 2.0 * reach,
         };
+        // Every pair first, so that the lists get the room their longest one needs at once.
+        let mut pairs = Vec::new();
         let mut found = Vec::new();
-        for i in 0..lists.regions.len() {
+        let mut degree = vec![0usize; n];
+        for i in 0..n {
             found.clear();
             lists.find(i, |j| j > i, &mut found);
             for &(j, s) in &found {
-                lists.link(i, j as usize, s);
+                degree[i] += 1;
+                degree[j as usize] += 1;
+                pairs.push((i, j as usize, s));
             }
         }
-        lists
+        let longest = degree.iter().copied().max().unwrap_or(0);
+        lists.lists = Rows::new(n, longest + longest / 4 + 4);
+        for (i, j, s) in pairs {
+            lists.link(i, j, s)?;
+        }
+        Ok(lists)
     }
 
-    /// Lists j in i's list with shift `s`, and i in j's with −s.
-    fn link(&mut self, i: usize, j: usize, s: [i32; 3]) {
-        let (p, q) = (self.lists[i].len() as u32, self.lists[j].len() as u32);
-        self.lists[i].push(Link {
-            j: j as u32,
-            back: q,
-            shift: s,
-        });
-        self.lists[j].push(Link {
-            j: i as u32,
-            back: p,
-            shift: s.map(|x| -x),
-        });
+    /// Lists j in i's list with shift `s`, and i in j's with −s; nothing if either cannot be held.
+    #[inline]
+    fn link(&mut self, i: usize, j: usize, s: [i32; 3]) -> Result<(), ListLimit> {
+        // ±32767, so that the mirror's −s fits too.
+        if s.iter().any(|x| x.unsigned_abs() > i16::MAX as u32) {
+            return Err(ListLimit::Shift {
+                i: i as u32,
+                j: j as u32,
+                shift: s,
+            });
+        }
+        let shift = s.map(|x| x as i16);
+        let (p, q) = (self.lists.room_at(i)?, self.lists.room_at(j)?);
+        self.lists.push(
+            i,
+            Link {
+                j: j as u32,
+                back: q,
+                shift,
+            },
+        );
+        self.lists.push(
+            j,
+            Link {
+                j: i as u32,
+                back: p,
+                shift: shift.map(|x| -x),
+            },
+        );
+        Ok(())
     }
 
     /// Removes entry `q` of j's list, moving its last entry into the gap (and telling that entry's
     /// mirror where it went).
-    fn unlink_entry(&mut self, j: usize, q: usize) {
-        let last = self.lists[j].len() - 1;
-        self.lists[j].swap_remove(q);
-        if q != last {
-            let moved = self.lists[j][q];
-            self.lists[moved.j as usize][moved.back as usize].back = q as u32;
+    fn unlink_entry(&mut self, j: usize, q: u16) {
+        if let Some(moved) = self.lists.swap_remove(j, q) {
+            self.lists.get_mut(moved.j as usize, moved.back).back = q;
         }
     }
 
     pub fn of(&self, i: usize) -> &[Link] {
-        &self.lists[i]
+        self.lists.row(i)
+    }
+
+    /// Asks for the first two cache lines of list `i` and for its region ahead of their use.
+    #[inline]
+    pub fn prefetch(&self, i: usize) {
+        let start = i * self.lists.room;
+        for k in [start, start + 5] {
+            if let Some(x) = self.lists.items.get(k) {
+                crate::engine::prefetch(x);
+            }
+        }
+        crate::engine::prefetch(&self.regions[i]);
     }
 
     pub fn region(&self, i: usize) -> &R {
@@ -137,14 +208,24 @@ impl<R: Region> Lists<R> {
     }
 
     /// A new region around body `i` (at the present time), and the lists updated to match.
-    pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, body: &Body) {
+    pub fn rebuild<S: Surface>(&mut self, s: &S, i: usize, body: &Body) -> Result<(), ListLimit> {
+        // The mirrors and the last entries of their lists, which take their places, are in as
+        // many lists as i has neighbours: asked for all at once, not one after the other.
+        for n in self.lists.row(i) {
+            let j = n.j as usize;
+            let room = self.lists.room;
+            crate::engine::prefetch(&self.lists.items[j * room + usize::from(n.back)]);
+            crate::engine::prefetch(
+                &self.lists.items[j * room + usize::from(self.lists.len[j]) - 1],
+            );
+        }
         // Mirrors first: removing one may move another mirror of i (two images of i in one list),
         // which updates the `back` of i's entries as it goes.
-        for p in 0..self.lists[i].len() {
-            let Link { j, back, .. } = self.lists[i][p];
-            self.unlink_entry(j as usize, back as usize);
+        for p in 0..self.lists.row(i).len() {
+            let Link { j, back, .. } = self.lists.row(i)[p];
+            self.unlink_entry(j as usize, back);
         }
-        self.lists[i].clear();
+        self.lists.clear(i);
         // Rebuilds are frequent for spheres: no allocation in them.
         let mut found = std::mem::take(&mut self.found);
         found.clear();
@@ -154,10 +235,11 @@ impl<R: Region> Lists<R> {
             grid.place(i, self.regions[i].centre(), self.l);
         }
         self.find(i, |j| j != i, &mut found);
-        for &(j, shift) in &found {
-            self.link(i, j as usize, shift);
-        }
+        let linked = found
+            .iter()
+            .try_for_each(|&(j, shift)| self.link(i, j as usize, shift));
         self.found = found;
+        linked
     }
 
     /// Appends to `found` the regions, among those of bodies `j` with `take(j)`, that overlap
@@ -196,6 +278,12 @@ impl<R: Region> Lists<R> {
         // As `Grid::place` wrapped it, to the bit.
         let wrapped_i = a.centre() - image_offset(img_i, self.l);
         let around = grid.cells.around(grid.cell_of[i]);
+        // The 27 cells' members lie wherever their allocations are: asked for all at once.
+        for nbc in &around {
+            if let Some(m) = grid.cells.members(nbc.cell).first() {
+                crate::engine::prefetch(m);
+            }
+        }
         let mut hits = std::mem::take(&mut grid.hits);
         let mut n = 0;
         for (k, nbc) in around.iter().enumerate() {
@@ -217,6 +305,92 @@ impl<R: Region> Lists<R> {
             }
         }
         grid.hits = hits;
+    }
+}
+
+/// Every body's list in one allocation with the same room for each: a list is found by its
+/// index, without reading a header first, and the lists of neighbouring bodies lie side by side
+/// (bodies are numbered along a Z curve). A list that outgrows its room gives every list half as
+/// much room again, which is rare: list lengths are bounded by the density.
+struct Rows {
+    room: usize,
+    len: Vec<u16>,
+    items: Vec<Link>,
+}
+
+const VACANT: Link = Link {
+    j: u32::MAX,
+    back: u16::MAX,
+    shift: [0; 3],
+};
+
+impl Rows {
+    fn new(n: usize, room: usize) -> Self {
+        Rows {
+            room,
+            len: vec![0; n],
+            items: vec![VACANT; n * room],
+        }
+    }
+
+    #[inline]
+    fn row(&self, i: usize) -> &[Link] {
+        let start = i * self.room;
+        &self.items[start..start + usize::from(self.len[i])]
+    }
+
+    #[inline]
+    fn get_mut(&mut self, i: usize, p: u16) -> &mut Link {
+        debug_assert!(p < self.len[i]);
+        &mut self.items[i * self.room + usize::from(p)]
+    }
+
+    /// Where the next entry of list `i` goes, if a list can be that long.
+    #[inline]
+    fn room_at(&self, i: usize) -> Result<u16, ListLimit> {
+        let len = self.len[i];
+        if len == u16::MAX {
+            return Err(ListLimit::Length { i: i as u32 });
+        }
+        Ok(len)
+    }
+
+    #[inline]
+    fn push(&mut self, i: usize, link: Link) {
+        let len = usize::from(self.len[i]);
+        if len == self.room {
+            self.grow();
+        }
+        self.items[i * self.room + len] = link;
+        self.len[i] += 1;
+    }
+
+    /// Removes entry `q` of list `i`; the entry moved into its place, if one was.
+    #[inline]
+    fn swap_remove(&mut self, i: usize, q: u16) -> Option<Link> {
+        let last = self.len[i] - 1;
+        let start = i * self.room;
+        self.items
+            .swap(start + usize::from(q), start + usize::from(last));
+        self.len[i] = last;
+        (q != last).then(|| self.items[start + usize::from(q)])
+    }
+
+    fn clear(&mut self, i: usize) {
+        self.len[i] = 0;
+    }
+
+    /// Half as much room again for every list (at least one entry more).
+    fn grow(&mut self) {
+        let room = (self.room + self.room / 2).max(self.room + 1);
+        let mut items = vec![VACANT; self.len.len() * room];
+        for (i, &len) in self.len.iter().enumerate() {
+            let len = usize::from(len);
+            items[i * room..i * room + len]
+                .copy_from_slice(&self.items[i * self.room..i * self.room + len]);
+        }
+        self.room = room;
+        self.items = items;
     }
 }
 
@@ -246,7 +420,7 @@ impl Member for Centre {
 impl Grid {
     /// Bins centre `c` of region `i` (not yet in any cell).
     fn place(&mut self, i: usize, c: &V3, l: f64) {
-        let img = [0, 1, 2].map(|k| (c[k] / l).floor() as i32);
+        let img = [0, 1, 2].map(|k| floor_i32(c[k] / l));
         let wrapped = c - image_offset(img, l);
         // Rounding may leave a wrapped coordinate a hair outside [0, l): it belongs to the edge
         // cell it touches, never to the opposite side of the box.
@@ -265,6 +439,15 @@ impl Grid {
         self.cell_of[i] = cell;
         self.img[i] = img;
     }
+}
+
+/// ⌊x⌋ for |x| < 2³¹, inline: without SSE4.1 in the target, `f64::floor` is a call into libm,
+/// and every rebuild bins a centre.
+#[inline]
+fn floor_i32(x: f64) -> i32 {
+    debug_assert!(x.abs() < 2f64.powi(31));
+    let t = x as i32;
+    t - i32::from(x < f64::from(t))
 }
 
 const ALL_27: [[i32; 3]; 27] = {
@@ -337,7 +520,7 @@ mod tests {
 
     fn listed<R: Region>(l: &Lists<R>) -> Vec<(usize, usize, [i32; 3])> {
         let mut all: Vec<_> = (0..l.regions.len())
-            .flat_map(|i| l.of(i).iter().map(move |n| (i, n.j as usize, n.shift)))
+            .flat_map(|i| l.of(i).iter().map(move |n| (i, n.j as usize, n.shift())))
             .collect();
         all.sort();
         all
@@ -354,14 +537,14 @@ mod tests {
         may: impl Fn(&R, &R, &V3) -> bool,
     ) -> Lists<R> {
         let n = b.len();
-        let mut lists = Lists::<R>::build(s, &b, l, delta);
+        let mut lists = Lists::<R>::build(s, &b, l, delta).expect("lists within limits");
         same(&lists, &must, &may, "after the build");
         let mut rng = crate::rng::Rng::new(11);
         for step in 0..200 {
             let i = step * 7 % n;
             b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
             b[i].rot = rotate(&b[i].rot, &V3::new(1.0, rng.uniform(), 0.0), 0.3);
-            lists.rebuild(s, i, &b[i]);
+            lists.rebuild(s, i, &b[i]).expect("lists within limits");
         }
         assert!(!listed(&lists).is_empty());
         same(&lists, &must, &may, "after the rebuilds");
@@ -374,12 +557,12 @@ mod tests {
         may: impl Fn(&R, &R, &V3) -> bool,
         when: &str,
     ) {
-        for (i, list) in lists.lists.iter().enumerate() {
-            for (p, n) in list.iter().enumerate() {
-                let mirror = lists.lists[n.j as usize][n.back as usize];
+        for i in 0..lists.regions.len() {
+            for (p, n) in lists.of(i).iter().enumerate() {
+                let mirror = lists.of(n.j as usize)[usize::from(n.back)];
                 assert_eq!(
                     (mirror.j, mirror.back, mirror.shift),
-                    (i as u32, p as u32, n.shift.map(|x| -x)),
+                    (i as u32, p as u16, n.shift.map(|x| -x)),
                     "{when}: mirror of {i} → {}",
                     n.j
                 );
@@ -393,6 +576,97 @@ mod tests {
             missing.is_empty() && extra.is_empty(),
             "{when}: missing {missing:?}, extra {extra:?}"
         );
+    }
+
+    /// Bodies spread out, then 40 of them gathered in one spot, rebuilt one by one: their lists
+    /// outgrow the room the build gave them, and still match brute force with every mirror.
+    #[test]
+    fn lists_that_outgrow_their_room_keep_every_entry_and_mirror() {
+        let e = Ellipsoid::new(0.5, 0.5, 0.5);
+        let l = 12.0;
+        let mut b = bodies(200, l, 9);
+        let mut lists = Lists::<Ball>::build(&e, &b, l, 0.2).expect("lists within limits");
+        let room = lists.lists.room;
+        let mut rng = crate::rng::Rng::new(4);
+        for (k, i) in (0..200).step_by(5).enumerate() {
+            b[i].r = V3::new(6.0, 6.0, 6.0) + V3::new(rng.uniform(), rng.uniform(), 0.0) * 0.5;
+            b[i].r.z += 0.01 * k as f64;
+            lists.rebuild(&e, i, &b[i]).expect("lists within limits");
+        }
+        assert!(lists.lists.room > room, "room {room} was never outgrown");
+        let reach = 2.0 * (0.5 + 0.2);
+        let within = |k: f64| move |a: &Ball, b: &Ball, shift: &V3| (b.c + shift - a.c).norm() <= k;
+        same(
+            &lists,
+            within(reach * (1.0 - 1e-12)),
+            within(reach * (1.0 + 1e-12)),
+            "after outgrowing",
+        );
+    }
+
+    /// A shift beyond ±32767 boxes is refused, naming the bodies, not wrapped; one inside is kept.
+    #[test]
+    fn shifts_beyond_the_compact_range_are_refused() {
+        let e = Ellipsoid::new(0.5, 0.5, 0.5);
+        let l = 7.0;
+        for (boxes, fits) in [
+            (32767.0, true),
+            (-32767.0, true),
+            (32768.0, false),
+            (-32768.0, false),
+        ] {
+            let mut b = bodies(2, l, 1);
+            b[0].r = V3::new(1.0, 1.0, 1.0);
+            b[1].r = V3::new(1.5 + boxes * l, 1.0, 1.0);
+            match Lists::<Ball>::build(&e, &b, l, 0.2) {
+                Ok(lists) => {
+                    assert!(fits, "{boxes} boxes apart were linked");
+                    // The image of body 1 beside body 0 is `boxes` boxes back.
+                    assert_eq!(lists.of(0)[0].shift(), [-(boxes as i32), 0, 0]);
+                }
+                Err(err) => {
+                    assert!(!fits, "{boxes} boxes apart were refused: {err}");
+                    let ListLimit::Shift { i, j, shift } = err else {
+                        panic!("{err}")
+                    };
+                    assert_eq!((i, j, shift[0].abs()), (0, 1, boxes.abs() as i32));
+                    assert!(err.to_string().contains("32767"));
+                }
+            }
+        }
+    }
+
+    /// A list holds at most 65535 entries: the next one is refused and nothing is written.
+    #[test]
+    fn a_list_stops_at_65535_entries() {
+        let mut rows = Rows::new(2, 4);
+        for p in 0..u16::MAX {
+            assert_eq!(rows.room_at(0), Ok(p));
+            rows.push(
+                0,
+                Link {
+                    j: 1,
+                    back: 0,
+                    shift: [0; 3],
+                },
+            );
+        }
+        assert_eq!(rows.room_at(0), Err(ListLimit::Length { i: 0 }));
+        assert_eq!(rows.row(0).len(), usize::from(u16::MAX));
+        assert_eq!(rows.room_at(1), Ok(0));
+    }
+
+    #[test]
+    fn floor_i32_is_floor() {
+        let edges = [
+            0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 3.0, -3.0, 1e9, -1e9, 2.5e-300, -2.5e-300,
+        ];
+        for x in edges
+            .into_iter()
+            .flat_map(|x: f64| [x, x.next_up(), x.next_down()])
+        {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x:e}");
+        }
     }
 
     #[test]

@@ -51,25 +51,15 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
-    pub fn of(body: &Body) -> Self {
+    /// The trajectory of `body` seen through the image displacement `offset`.
+    #[inline]
+    pub fn of(body: &Body, offset: &V3) -> Self {
+        let r = body.r + offset;
         Trajectory {
-            r: [body.r.x, body.r.y, body.r.z],
+            r: [r.x, r.y, r.z],
             t0: body.t,
             v: [body.v.x, body.v.y, body.v.z],
             pad: 0.0,
-        }
-    }
-
-    /// The same trajectory seen through the image displacement `offset`.
-    #[inline]
-    pub fn shifted(&self, offset: &V3) -> Self {
-        Trajectory {
-            r: [
-                self.r[0] + offset.x,
-                self.r[1] + offset.y,
-                self.r[2] + offset.z,
-            ],
-            ..*self
         }
     }
 }
