@@ -37,8 +37,9 @@
 //!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4. Spheres,
 //!   which do not rotate, get a ball instead of a box (the centre may wander Δ_NNL), with an exact
 //!   escape time and no 15-axis test. Lists hold indices; a sphere prediction gathers the list's
-//!   trajectories (one cache line per body, kept by the model) into a contiguous batch and takes
-//!   four neighbours at a time on AVX2 ([`sphere::first_contact`]).
+//!   trajectories (the first cache line of each neighbour's [`rigid::Body`]: position, velocity,
+//!   time) into a contiguous batch and takes four neighbours at a time on AVX2
+//!   ([`sphere::first_contact`]).
 //! - Lower bounds on contact times go beyond ḋ_max (Eq. 32): the support gap along a fixed
 //!   direction bounds the distance from below at all times and changes at a rate and acceleration
 //!   that depend on that direction ([`rigid::gap_closing_rates`], [`rigid::support_acceleration_bound`];

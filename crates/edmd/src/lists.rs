@@ -12,7 +12,10 @@
 //! relative to the unwrapped positions and stays valid while both bodies keep moving.
 //!
 //! Lists hold indices, not copies of the neighbours: a collision then writes two bodies, not the
-//! lists of all their neighbours, and the memory per particle halves (59 → 28 MB at N = 16384).
+//! lists of all their neighbours. They live in one arena with the same room for every body, in
+//! 12-byte entries ([`Link`]), found by index without a header to read first; a rebuild asks for
+//! all the lines it will touch (mirrors, cell members) before it touches the first (what that
+//! gained is in ARCHITECTURE.md).
 
 use crate::cells::{Cells, Member};
 use crate::geometry::{Surface, V3, image_offset, round_nearest};
