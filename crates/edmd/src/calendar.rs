@@ -107,6 +107,19 @@ impl<X: Copy> Calendar<X> {
         crate::engine::prefetch(&self.events[a]);
     }
 
+    /// Asks for the events that may come after the earliest one: those of the root's children,
+    /// one of which is the earliest once the root's particle has been scheduled anew.
+    #[inline]
+    pub fn prefetch_next(&self) {
+        if let Some(children) = self.groups.get(1) {
+            for c in &children.0 {
+                if let Some(e) = self.events.get(c.a as usize) {
+                    crate::engine::prefetch(e);
+                }
+            }
+        }
+    }
+
     /// Particle `a` has no event any more.
     pub fn cancel(&mut self, a: usize) {
         let i = self.pos[a];

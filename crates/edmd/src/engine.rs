@@ -365,6 +365,7 @@ impl<M: Model> Engine<M> {
         while self.acc.collisions < target {
             // Every branch schedules `ev.a` anew (or cancels it), which replaces this event.
             let ev = *self.cal.first().ok_or(EdmdError::Stalled)?;
+            self.cal.prefetch_next();
             self.t = ev.t.max(self.t);
             match ev.kind {
                 Kind::BoxEscape => self.rebuild_box(ev.a as usize),
