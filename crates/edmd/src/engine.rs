@@ -364,7 +364,7 @@ impl<M: Model> Engine<M> {
         let target = self.acc.collisions + n;
         while self.acc.collisions < target {
             // Every branch schedules `ev.a` anew (or cancels it), which replaces this event.
-            let ev = *self.cal.first().ok_or(EdmdError::Stalled)?;
+            let ev = self.cal.first().ok_or(EdmdError::Stalled)?;
             self.cal.prefetch_next();
             self.t = ev.t.max(self.t);
             match ev.kind {
