@@ -1,7 +1,7 @@
 //! Linked cells in a periodic cubic box (Sec. 2.6). With at least 3 cells per side the 27 cells
 //! around a particle are distinct, so each neighbouring cell fixes one periodic image.
 
-use crate::geometry::V3;
+use crate::geometry::{V3, floor_i32};
 
 /// What a cell holds: a particle index, possibly with data kept beside it for the loops over
 /// neighbouring cells.
@@ -47,7 +47,7 @@ impl<T: Member> Cells<T> {
     }
 
     pub fn coords_of(&self, r: &V3) -> [usize; 3] {
-        let c = |x: f64| ((x / self.side).floor() as isize).rem_euclid(self.m as isize) as usize;
+        let c = |x: f64| (floor_i32(x / self.side) as isize).rem_euclid(self.m as isize) as usize;
         [c(r.x), c(r.y), c(r.z)]
     }
 
@@ -195,7 +195,7 @@ impl Near {
     }
 
     fn coords(&self, p: &V3) -> [usize; 3] {
-        let c = |x: f64| ((x / self.side).floor() as isize).rem_euclid(self.m as isize) as usize;
+        let c = |x: f64| (floor_i32(x / self.side) as isize).rem_euclid(self.m as isize) as usize;
         [c(p.x), c(p.y), c(p.z)]
     }
 

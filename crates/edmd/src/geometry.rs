@@ -13,6 +13,15 @@ pub fn round_nearest(x: f64) -> f64 {
     (x + MAGIC) - MAGIC
 }
 
+/// ⌊x⌋ for |x| < 2³¹, inline: without SSE4.1 in the target, `f64::floor` is a call into libm,
+/// and every list rebuild and Monte Carlo move bins a point in a cell.
+#[inline]
+pub fn floor_i32(x: f64) -> i32 {
+    debug_assert!(x.abs() < 2f64.powi(31));
+    let t = x as i32;
+    t - i32::from(x < f64::from(t))
+}
+
 /// The displacement of the periodic image `s` (in box lengths) of a box of side `l`.
 pub fn image_offset(s: [i32; 3], l: f64) -> V3 {
     V3::new(s[0] as f64, s[1] as f64, s[2] as f64) * l
@@ -111,6 +120,19 @@ pub trait Placed {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn floor_i32_is_floor() {
+        let edges = [
+            0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 3.0, -3.0, 1e9, -1e9, 2.5e-300, -2.5e-300,
+        ];
+        for x in edges
+            .into_iter()
+            .flat_map(|x: f64| [x, x.next_up(), x.next_down()])
+        {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x:e}");
+        }
+    }
 
     proptest! {
         #[test]

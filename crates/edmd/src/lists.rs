@@ -18,7 +18,7 @@
 //! gained is in ARCHITECTURE.md).
 
 use crate::cells::{Cells, Member};
-use crate::geometry::{Surface, V3, image_offset, round_nearest};
+use crate::geometry::{Surface, V3, floor_i32, image_offset, round_nearest};
 use crate::rigid::Body;
 
 /// A neighbour: its index and the image shift (in box lengths) that puts it next to the body.
@@ -444,15 +444,6 @@ impl Grid {
     }
 }
 
-/// ⌊x⌋ for |x| < 2³¹, inline: without SSE4.1 in the target, `f64::floor` is a call into libm,
-/// and every rebuild bins a centre.
-#[inline]
-fn floor_i32(x: f64) -> i32 {
-    debug_assert!(x.abs() < 2f64.powi(31));
-    let t = x as i32;
-    t - i32::from(x < f64::from(t))
-}
-
 const ALL_27: [[i32; 3]; 27] = {
     let mut all = [[0; 3]; 27];
     let mut k = 0;
@@ -657,19 +648,6 @@ mod tests {
         assert_eq!(rows.room_at(0), Err(ListLimit::Length { i: 0 }));
         assert_eq!(rows.row(0).len(), usize::from(u16::MAX));
         assert_eq!(rows.room_at(1), Ok(0));
-    }
-
-    #[test]
-    fn floor_i32_is_floor() {
-        let edges = [
-            0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 3.0, -3.0, 1e9, -1e9, 2.5e-300, -2.5e-300,
-        ];
-        for x in edges
-            .into_iter()
-            .flat_map(|x: f64| [x, x.next_up(), x.next_down()])
-        {
-            assert_eq!(floor_i32(x), x.floor() as i32, "{x:e}");
-        }
     }
 
     #[test]
