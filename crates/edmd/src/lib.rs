@@ -15,7 +15,7 @@
 //!   stops the run with [`EdmdError::Unresolved`], naming the pair.
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
-//! - [`calendar`]: one event per particle in a binary heap that knows where each particle's is.
+//! - [`calendar`]: one event per particle in a 4-ary heap that knows where each particle's is.
 //! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
