@@ -3,7 +3,7 @@
 
 use crate::geometry::{M3, Surface, V3};
 use crate::lists::Region;
-use crate::rigid::{Body, support_acceleration_bound};
+use crate::rigid::{Body, positive_for, support_acceleration_bound};
 
 /// Oriented bounding parallelepiped, immobile between two rebuilds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -160,17 +160,6 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
         tau += dt;
     }
     tau
-}
-
-/// How long g(τ) ≥ g + ġτ − ½Mτ² stays positive, for g > 0.
-fn positive_for(gap: f64, rate: f64, accel: f64) -> f64 {
-    if accel > 0.0 {
-        (rate + (rate * rate + 2.0 * accel * gap).sqrt()) / accel
-    } else if rate < 0.0 {
-        gap / -rate
-    } else {
-        f64::INFINITY
-    }
 }
 
 #[cfg(test)]

@@ -275,13 +275,7 @@ pub fn gap_safe_time_towards(a: &GapSide, b: &GapSide, n: &V3, gap: f64, towards
         (Some(rho_a), Some(rho_b)) => {
             let m = support_acceleration_bound(&ba.w, n, a.l, rho_a)
                 + support_acceleration_bound(&bb.w, n, b.l, rho_b);
-            if m > 0.0 {
-                (rate + (rate * rate + 2.0 * m * gap).sqrt()) / m
-            } else if rate < 0.0 {
-                gap / -rate
-            } else {
-                f64::INFINITY
-            }
+            positive_for(gap, rate, m)
         }
         _ => {
             let mut p = Powers::default();
@@ -293,6 +287,17 @@ pub fn gap_safe_time_towards(a: &GapSide, b: &GapSide, n: &V3, gap: f64, towards
         }
     };
     linear.max(curved)
+}
+
+/// How long g(τ) ≥ g + ġτ − ½Mτ² stays positive, for g > 0.
+pub(crate) fn positive_for(gap: f64, rate: f64, accel: f64) -> f64 {
+    if accel > 0.0 {
+        (rate + (rate * rate + 2.0 * accel * gap).sqrt()) / accel
+    } else if rate < 0.0 {
+        gap / -rate
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Mass and isotropic moment of inertia; `inv_i` = 0 marks a body whose rotation is not simulated.
