@@ -138,8 +138,8 @@ impl<X: Copy> Calendar<X> {
     /// Asks for what scheduling an event of particle `a` will read, ahead of its use.
     #[inline]
     pub fn prefetch(&self, a: usize) {
-        crate::engine::prefetch(&self.pos[a]);
-        crate::engine::prefetch(&self.events[a]);
+        crate::prefetch(&self.pos[a]);
+        crate::prefetch(&self.events[a]);
     }
 
     /// Asks for the events that may come after the earliest one: those of the root's children,
@@ -149,7 +149,7 @@ impl<X: Copy> Calendar<X> {
         if let Some(children) = self.groups.get(1) {
             for c in &children.0 {
                 if let Some(e) = self.events.get(c.a as usize) {
-                    crate::engine::prefetch(e);
+                    crate::prefetch(e);
                 }
             }
         }
@@ -220,7 +220,7 @@ impl<X: Copy> Calendar<X> {
             // The next level's four groups are adjacent: asked for while this level is decided,
             // so that the walk down does not wait on memory at every level.
             for next in self.groups.iter().skip(4 * i + 2).take(4) {
-                crate::engine::prefetch(next);
+                crate::prefetch(next);
             }
             let c = &self.groups[i + 1].0;
             // The earliest child (the first among equal times) by arithmetic rather than

@@ -5,7 +5,6 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::EdmdError;
 use crate::ball::Ball;
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::{Cells, Near};
@@ -21,6 +20,7 @@ use crate::rng::Rng;
 use crate::scene::{Neighbours, Scene, ShapeKind};
 use crate::sequence::Fingerprint;
 use crate::sphere::{self, Probe, Trajectory};
+use crate::{EdmdError, prefetch};
 
 /// What one particle kind costs to simulate: the analytic sphere, or the general rigid body.
 trait Model {
@@ -678,18 +678,6 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
         self.scratch = cand;
         best
     }
-}
-
-/// Asks for the cache line holding `x` ahead of its use: a hint, without effect on any result.
-#[inline(always)]
-pub(crate) fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: SSE is part of every x86_64 CPU, and a prefetch reads nothing the program sees.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (x as *const T).cast(),
-        )
-    };
 }
 
 /// Image shift of j as seen from i with unwrapped positions: the cell shift plus the image counters.

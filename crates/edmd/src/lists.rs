@@ -200,10 +200,10 @@ impl<R: Region> Lists<R> {
         let start = i * self.lists.room;
         for k in [start, start + 5] {
             if let Some(x) = self.lists.items.get(k) {
-                crate::engine::prefetch(x);
+                crate::prefetch(x);
             }
         }
-        crate::engine::prefetch(&self.regions[i]);
+        crate::prefetch(&self.regions[i]);
     }
 
     pub fn region(&self, i: usize) -> &R {
@@ -217,10 +217,8 @@ impl<R: Region> Lists<R> {
         for n in self.lists.row(i) {
             let j = n.j as usize;
             let room = self.lists.room;
-            crate::engine::prefetch(&self.lists.items[j * room + usize::from(n.back)]);
-            crate::engine::prefetch(
-                &self.lists.items[j * room + usize::from(self.lists.len[j]) - 1],
-            );
+            crate::prefetch(&self.lists.items[j * room + usize::from(n.back)]);
+            crate::prefetch(&self.lists.items[j * room + usize::from(self.lists.len[j]) - 1]);
         }
         // Mirrors first: removing one may move another mirror of i (two images of i in one list),
         // which updates the `back` of i's entries as it goes.
@@ -284,7 +282,7 @@ impl<R: Region> Lists<R> {
         // The 27 cells' members lie wherever their allocations are: asked for all at once.
         for nbc in &around {
             if let Some(m) = grid.cells.members(nbc.cell).first() {
-                crate::engine::prefetch(m);
+                crate::prefetch(m);
             }
         }
         let mut hits = std::mem::take(&mut grid.hits);
