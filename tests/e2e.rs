@@ -39,7 +39,11 @@ impl Cluster {
         let token_file = dir.path().join("token");
         std::fs::write(&token_file, "e2e-secret-token\n").unwrap();
         let db = dir.path().join("campaign.db");
-        Cluster { dir, db, token_file }
+        Cluster {
+            dir,
+            db,
+            token_file,
+        }
     }
 
     fn path(&self, name: &str) -> PathBuf {
@@ -57,9 +61,19 @@ impl Cluster {
 
     /// `extra` may override the short default lease (1 s, so killed workers are noticed quickly).
     fn coordinator_with(&self, listen: &str, extra: &[&str]) -> (Proc, String) {
-        let lease: &[&str] = if extra.contains(&"--lease-secs") { &[] } else { &["--lease-secs", "1"] };
+        let lease: &[&str] = if extra.contains(&"--lease-secs") {
+            &[]
+        } else {
+            &["--lease-secs", "1"]
+        };
         let mut child = Command::new(SWEEP)
-            .args(["coordinator", "--listen", listen, "--db", self.db.to_str().unwrap()])
+            .args([
+                "coordinator",
+                "--listen",
+                listen,
+                "--db",
+                self.db.to_str().unwrap(),
+            ])
             .args(["--token-file", self.token(), "--max-attempts", "5"])
             .args(lease)
             .args(extra)
@@ -68,8 +82,14 @@ impl Cluster {
             .spawn()
             .unwrap();
         let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-        let addr = line.trim().strip_prefix("listening on ").unwrap_or_else(|| panic!("unexpected: {line:?}")).to_string();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let addr = line
+            .trim()
+            .strip_prefix("listening on ")
+            .unwrap_or_else(|| panic!("unexpected: {line:?}"))
+            .to_string();
         (Proc(child), format!("http://{addr}"))
     }
 
@@ -79,15 +99,26 @@ impl Cluster {
 
     fn worker_with(&self, url: &str, core: &str, token_file: Option<&str>, extra: &[&str]) -> Proc {
         let mut cmd = Command::new(SWEEP);
-        cmd.args(["worker", "--coordinator", url, "--cores", core]).args(extra).env_remove("SWEEP_TOKEN");
+        cmd.args(["worker", "--coordinator", url, "--cores", core])
+            .args(extra)
+            .env_remove("SWEEP_TOKEN");
         if let Some(token) = token_file {
             cmd.args(["--token-file", token]);
         }
-        Proc(cmd.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap())
+        Proc(
+            cmd.stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap(),
+        )
     }
 
     fn sweep(&self, args: &[&str]) -> Output {
-        Command::new(SWEEP).args(args).env_remove("SWEEP_TOKEN").output().unwrap()
+        Command::new(SWEEP)
+            .args(args)
+            .env_remove("SWEEP_TOKEN")
+            .output()
+            .unwrap()
     }
 
     fn plan(&self, name: &str, text: &str) -> String {
@@ -97,14 +128,39 @@ impl Cluster {
     }
 
     fn submit(&self, url: &str, plan: &str) -> serde_json::Value {
-        let out = self.sweep(&["submit", plan, "--coordinator", url, "--token-file", self.token(), "--format", "json"]);
-        assert!(out.status.success(), "submit: {}", String::from_utf8_lossy(&out.stderr));
+        let out = self.sweep(&[
+            "submit",
+            plan,
+            "--coordinator",
+            url,
+            "--token-file",
+            self.token(),
+            "--format",
+            "json",
+        ]);
+        assert!(
+            out.status.success(),
+            "submit: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         serde_json::from_slice(&out.stdout).unwrap()
     }
 
     fn status(&self, url: &str) -> serde_json::Value {
-        let out = self.sweep(&["status", "--coordinator", url, "--token-file", self.token(), "--format", "json"]);
-        assert!(out.status.success(), "status: {}", String::from_utf8_lossy(&out.stderr));
+        let out = self.sweep(&[
+            "status",
+            "--coordinator",
+            url,
+            "--token-file",
+            self.token(),
+            "--format",
+            "json",
+        ]);
+        assert!(
+            out.status.success(),
+            "status: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()["status"].clone()
     }
 
@@ -115,7 +171,10 @@ impl Cluster {
             if status["done"] == total {
                 return;
             }
-            assert!(started.elapsed() < within, "not done in {within:?}: {status}");
+            assert!(
+                started.elapsed() < within,
+                "not done in {within:?}: {status}"
+            );
             std::thread::sleep(Duration::from_millis(200));
         }
     }
@@ -124,25 +183,48 @@ impl Cluster {
     fn registered_workers(&self, url: &str) -> Vec<serde_json::Value> {
         let started = Instant::now();
         loop {
-            let out = self.sweep(&["workers", "--coordinator", url, "--token-file", self.token(), "--format", "json"]);
+            let out = self.sweep(&[
+                "workers",
+                "--coordinator",
+                url,
+                "--token-file",
+                self.token(),
+                "--format",
+                "json",
+            ]);
             assert!(out.status.success());
             let workers: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
             if !workers.is_empty() {
                 return workers;
             }
-            assert!(started.elapsed() < Duration::from_secs(20), "no worker registered");
+            assert!(
+                started.elapsed() < Duration::from_secs(20),
+                "no worker registered"
+            );
             std::thread::sleep(Duration::from_millis(50));
         }
     }
 
     /// Result rows per job id, read from the database (read-only, while the coordinator runs).
     fn rows_per_job(&self) -> HashMap<String, usize> {
-        let out = self.sweep(&["export", "--db", self.db.to_str().unwrap(), "--format", "json"]);
-        assert!(out.status.success(), "export: {}", String::from_utf8_lossy(&out.stderr));
+        let out = self.sweep(&[
+            "export",
+            "--db",
+            self.db.to_str().unwrap(),
+            "--format",
+            "json",
+        ]);
+        assert!(
+            out.status.success(),
+            "export: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
         let mut counts = HashMap::new();
         for row in rows {
-            *counts.entry(row["job_id"].as_str().unwrap().to_string()).or_default() += 1;
+            *counts
+                .entry(row["job_id"].as_str().unwrap().to_string())
+                .or_default() += 1;
         }
         counts
     }
@@ -151,10 +233,26 @@ impl Cluster {
 impl Cluster {
     /// The first column of the first row of a read-only query, as an integer.
     fn count(&self, sql: &str) -> u64 {
-        let out = self.sweep(&["query", sql, "--db", self.db.to_str().unwrap(), "--format", "json"]);
-        assert!(out.status.success(), "query: {}", String::from_utf8_lossy(&out.stderr));
-        let rows: Vec<serde_json::Map<String, serde_json::Value>> = serde_json::from_slice(&out.stdout).unwrap();
-        rows[0].values().next().and_then(serde_json::Value::as_u64).unwrap()
+        let out = self.sweep(&[
+            "query",
+            sql,
+            "--db",
+            self.db.to_str().unwrap(),
+            "--format",
+            "json",
+        ]);
+        assert!(
+            out.status.success(),
+            "query: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let rows: Vec<serde_json::Map<String, serde_json::Value>> =
+            serde_json::from_slice(&out.stdout).unwrap();
+        rows[0]
+            .values()
+            .next()
+            .and_then(serde_json::Value::as_u64)
+            .unwrap()
     }
 }
 
@@ -165,7 +263,10 @@ fn noop_plan(count: u32, duration_ms: u32) -> String {
 fn assert_exactly_once(cluster: &Cluster, total: usize) {
     let rows = cluster.rows_per_job();
     assert_eq!(rows.len(), total, "jobs with results");
-    assert!(rows.values().all(|&n| n == 1), "a job has several result rows: {rows:?}");
+    assert!(
+        rows.values().all(|&n| n == 1),
+        "a job has several result rows: {rows:?}"
+    );
 }
 
 #[test]
@@ -232,8 +333,15 @@ fn workers_without_the_right_token_are_refused_and_run_nothing() {
     for token in [Some(wrong.to_str().unwrap()), None] {
         let worker = cluster.worker(&url, "0", token);
         let out = worker_output(worker, Duration::from_secs(20));
-        assert!(!out.status.success(), "a worker with token {token:?} kept running");
-        assert!(String::from_utf8_lossy(&out.stderr).contains("refused"), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            !out.status.success(),
+            "a worker with token {token:?} kept running"
+        );
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("refused"),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
     assert_eq!(cluster.status(&url)["done"], 0);
     assert!(cluster.rows_per_job().is_empty());
@@ -253,30 +361,63 @@ fn worker_output(mut worker: Proc, within: Duration) -> Output {
     if let Some(pipe) = worker.0.stderr.take() {
         let _ = std::io::Read::read_to_string(&mut BufReader::new(pipe), &mut stderr);
     }
-    Output { status: worker.0.wait().unwrap(), stdout: Vec::new(), stderr: stderr.into_bytes() }
+    Output {
+        status: worker.0.wait().unwrap(),
+        stdout: Vec::new(),
+        stderr: stderr.into_bytes(),
+    }
 }
 
 #[test]
 fn a_bad_plan_is_refused_remotely_with_the_local_message_and_writes_nothing() {
     let cluster = Cluster::new();
     let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
-    let plan = cluster.plan("bad.toml", "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nacceptance = 1.5\n");
+    let plan = cluster.plan(
+        "bad.toml",
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nacceptance = 1.5\n",
+    );
     let local = cluster.sweep(&["plan", &plan]);
-    let remote = cluster.sweep(&["submit", &plan, "--coordinator", &url, "--token-file", cluster.token()]);
+    let remote = cluster.sweep(&[
+        "submit",
+        &plan,
+        "--coordinator",
+        &url,
+        "--token-file",
+        cluster.token(),
+    ]);
     assert!(!local.status.success() && !remote.status.success());
-    let (local, remote) = (String::from_utf8_lossy(&local.stderr), String::from_utf8_lossy(&remote.stderr));
+    let (local, remote) = (
+        String::from_utf8_lossy(&local.stderr),
+        String::from_utf8_lossy(&remote.stderr),
+    );
     assert!(local.contains("acceptance"), "{local}");
-    assert_eq!(local, remote, "the remote refusal differs from the local one");
-    assert_eq!(cluster.status(&url)["total"], 0, "a refused plan left jobs behind");
+    assert_eq!(
+        local, remote,
+        "the remote refusal differs from the local one"
+    );
+    assert_eq!(
+        cluster.status(&url)["total"],
+        0,
+        "a refused plan left jobs behind"
+    );
 }
 
 #[test]
 fn a_coordinator_will_not_listen_off_loopback_without_a_token() {
     let cluster = Cluster::new();
-    let out = cluster.sweep(&["coordinator", "--listen", "0.0.0.0:0", "--db", cluster.db.to_str().unwrap()]);
+    let out = cluster.sweep(&[
+        "coordinator",
+        "--listen",
+        "0.0.0.0:0",
+        "--db",
+        cluster.db.to_str().unwrap(),
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
-    assert!(!Path::new(&cluster.db).exists(), "the database was created anyway");
+    assert!(
+        !Path::new(&cluster.db).exists(),
+        "the database was created anyway"
+    );
 }
 
 /// TLS end to end: a CA made here, a coordinator serving its certificate, a worker and the admin
@@ -294,28 +435,60 @@ fn a_campaign_runs_over_tls() {
         .unwrap()
         .signed_by(&key, &Issuer::new(ca_params, ca_key))
         .unwrap();
-    let (ca, cert_file, key_file) = (cluster.path("ca.pem"), cluster.path("cert.pem"), cluster.path("key.pem"));
+    let (ca, cert_file, key_file) = (
+        cluster.path("ca.pem"),
+        cluster.path("cert.pem"),
+        cluster.path("key.pem"),
+    );
     std::fs::write(&ca, ca_cert.pem()).unwrap();
     std::fs::write(&cert_file, cert.pem()).unwrap();
     std::fs::write(&key_file, key.serialize_pem()).unwrap();
 
     let (_coordinator, url) = cluster.coordinator_with(
         "127.0.0.1:0",
-        &["--tls-cert", cert_file.to_str().unwrap(), "--tls-key", key_file.to_str().unwrap()],
+        &[
+            "--tls-cert",
+            cert_file.to_str().unwrap(),
+            "--tls-key",
+            key_file.to_str().unwrap(),
+        ],
     );
     let url = url.replace("http://", "https://");
     let ca = ca.to_str().unwrap();
     let tls = |args: &[&str]| {
         let mut all = args.to_vec();
-        all.extend(["--coordinator", &url, "--token-file", cluster.token(), "--ca", ca, "--format", "json"]);
+        all.extend([
+            "--coordinator",
+            &url,
+            "--token-file",
+            cluster.token(),
+            "--ca",
+            ca,
+            "--format",
+            "json",
+        ]);
         cluster.sweep(&all)
     };
     let plan = cluster.plan("p.toml", &noop_plan(20, 1));
     let submitted = tls(&["submit", &plan]);
-    assert!(submitted.status.success(), "{}", String::from_utf8_lossy(&submitted.stderr));
+    assert!(
+        submitted.status.success(),
+        "{}",
+        String::from_utf8_lossy(&submitted.stderr)
+    );
     let _worker = Proc(
         Command::new(SWEEP)
-            .args(["worker", "--coordinator", &url, "--cores", "0", "--token-file", cluster.token(), "--ca", ca])
+            .args([
+                "worker",
+                "--coordinator",
+                &url,
+                "--cores",
+                "0",
+                "--token-file",
+                cluster.token(),
+                "--ca",
+                ca,
+            ])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -324,7 +497,11 @@ fn a_campaign_runs_over_tls() {
     let started = Instant::now();
     loop {
         let out = tls(&["status"]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         if status["status"]["done"] == 20 {
             break;
@@ -334,7 +511,13 @@ fn a_campaign_runs_over_tls() {
     }
     assert_exactly_once(&cluster, 20);
     // Without the CA the certificate is not trusted; over plain HTTP/2 the TLS server does not answer.
-    let untrusted = cluster.sweep(&["status", "--coordinator", &url, "--token-file", cluster.token()]);
+    let untrusted = cluster.sweep(&[
+        "status",
+        "--coordinator",
+        &url,
+        "--token-file",
+        cluster.token(),
+    ]);
     assert!(!untrusted.status.success());
 }
 
@@ -345,21 +528,34 @@ fn a_terminated_worker_finishes_its_job_and_returns_the_rest() {
     let cluster = Cluster::new();
     let (_coordinator, url) = cluster.coordinator_with("127.0.0.1:0", &["--lease-secs", "60"]);
     cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(10, 300)));
-    let mut worker = cluster.worker_with(&url, "0", Some(cluster.token()), &["--lease-batch", "10"]);
+    let mut worker =
+        cluster.worker_with(&url, "0", Some(cluster.token()), &["--lease-batch", "10"]);
     let started = Instant::now();
     while cluster.status(&url)["running"].as_u64().unwrap() < 10 {
-        assert!(started.elapsed() < Duration::from_secs(30), "never leased the batch");
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "never leased the batch"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     std::thread::sleep(Duration::from_millis(400));
     let pid = worker.0.id().to_string();
-    assert!(Command::new("kill").args(["-TERM", &pid]).status().unwrap().success());
+    assert!(
+        Command::new("kill")
+            .args(["-TERM", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
     let exited = Instant::now();
     let code = loop {
         if let Some(code) = worker.0.try_wait().unwrap() {
             break code;
         }
-        assert!(exited.elapsed() < Duration::from_secs(10), "the worker ignored SIGTERM");
+        assert!(
+            exited.elapsed() < Duration::from_secs(10),
+            "the worker ignored SIGTERM"
+        );
         std::thread::sleep(Duration::from_millis(20));
     };
     assert!(code.success(), "unclean exit: {code:?}");
@@ -382,18 +578,38 @@ fn cancel_stops_queued_work_and_workers_are_listed() {
     let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
     let submitted = cluster.submit(&url, &cluster.plan("p.toml", &noop_plan(25, 0)));
     let campaign = submitted["campaign"].as_str().unwrap().to_string();
-    let out = cluster.sweep(&["cancel", &campaign, "--coordinator", &url, "--token-file", cluster.token(), "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = cluster.sweep(&[
+        "cancel",
+        &campaign,
+        "--coordinator",
+        &url,
+        "--token-file",
+        cluster.token(),
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let cancelled: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(cancelled["cancelled"], 25);
     let _worker = cluster.worker(&url, "0", Some(cluster.token()));
     let listed = cluster.registered_workers(&url);
     assert_eq!(listed.len(), 1);
     assert_eq!(listed[0]["cores"], serde_json::json!([0]));
-    assert!(!listed[0]["cpu_model"].as_str().unwrap().is_empty(), "provenance missing");
+    assert!(
+        !listed[0]["cpu_model"].as_str().unwrap().is_empty(),
+        "provenance missing"
+    );
     std::thread::sleep(Duration::from_millis(500));
     let status = cluster.status(&url);
-    assert_eq!((status["cancelled"].as_u64(), status["done"].as_u64()), (Some(25), Some(0)), "{status}");
+    assert_eq!(
+        (status["cancelled"].as_u64(), status["done"].as_u64()),
+        (Some(25), Some(0)),
+        "{status}"
+    );
     assert!(cluster.rows_per_job().is_empty(), "a cancelled job ran");
 }
 
@@ -405,10 +621,28 @@ fn a_core_count_takes_the_first_cores_of_the_affinity_mask() {
     let (_coordinator, url) = cluster.coordinator("127.0.0.1:0");
     let spawn = |count: &str| {
         let mut cmd = Command::new(SWEEP);
-        cmd.args(["worker", "--coordinator", &url, "--token-file", cluster.token(), "--core-count", count]);
-        Proc(cmd.env_remove("SWEEP_TOKEN").stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap())
+        cmd.args([
+            "worker",
+            "--coordinator",
+            &url,
+            "--token-file",
+            cluster.token(),
+            "--core-count",
+            count,
+        ]);
+        Proc(
+            cmd.env_remove("SWEEP_TOKEN")
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap(),
+        )
     };
-    let mask: Vec<usize> = core_affinity::get_core_ids().unwrap().into_iter().map(|c| c.id).collect();
+    let mask: Vec<usize> = core_affinity::get_core_ids()
+        .unwrap()
+        .into_iter()
+        .map(|c| c.id)
+        .collect();
     let _worker = spawn("1");
     let listed = cluster.registered_workers(&url);
     assert_eq!(listed[0]["cores"], serde_json::json!([mask[0]]));
@@ -418,7 +652,13 @@ fn a_core_count_takes_the_first_cores_of_the_affinity_mask() {
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
-    assert!(stderr.starts_with(&format!("error: --core-count {too_many}: only {} cores", mask.len())), "{stderr}");
+    assert!(
+        stderr.starts_with(&format!(
+            "error: --core-count {too_many}: only {} cores",
+            mask.len()
+        )),
+        "{stderr}"
+    );
 }
 
 /// An EDMD sweep goes through a coordinator and a worker like any plan, and the figures and the
@@ -436,17 +676,47 @@ fn an_edmd_sweep_through_a_coordinator_feeds_the_edmd_reports() {
     assert_eq!(submitted["new_jobs"], 5);
     cluster.wait_done(&url, 5, Duration::from_secs(120));
     let db = cluster.db.to_str().unwrap();
-    let out = cluster.sweep(&["report", "fig10", "--db", db, "--length-unit", "sigma", "--format", "json"]);
-    assert!(out.status.success(), "fig10: {}", String::from_utf8_lossy(&out.stderr));
+    let out = cluster.sweep(&[
+        "report",
+        "fig10",
+        "--db",
+        db,
+        "--length-unit",
+        "sigma",
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "fig10: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let fig10: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let xs: Vec<f64> = fig10["curves"][0]["points"].as_array().unwrap().iter().map(|p| p["x"].as_f64().unwrap()).collect();
+    let xs: Vec<f64> = fig10["curves"][0]["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["x"].as_f64().unwrap())
+        .collect();
     assert_eq!(xs, vec![0.02, 0.06, 0.2], "{fig10}");
-    assert!(fig10["curves"][0]["minimum"]["x"].as_f64().is_some(), "{fig10}");
+    assert!(
+        fig10["curves"][0]["minimum"]["x"].as_f64().is_some(),
+        "{fig10}"
+    );
     let out = cluster.sweep(&["report", "accuracy", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "accuracy: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "accuracy: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(study["knobs"][0]["knob"], "eps_d", "{study}");
-    let values: Vec<f64> = study["knobs"][0]["settings"].as_array().unwrap().iter().map(|s| s["value"].as_f64().unwrap()).collect();
+    let values: Vec<f64> = study["knobs"][0]["settings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["value"].as_f64().unwrap())
+        .collect();
     assert_eq!(values, vec![1e-6, 1e-5, 1e-4], "tightest first: {study}");
 }
 
@@ -464,11 +734,17 @@ fn long_jobs_run_one_per_slot_at_a_time() {
     let started = Instant::now();
     loop {
         let status = cluster.status(&url);
-        assert!(status["running"].as_u64().unwrap() <= 2, "more jobs running than slots: {status}");
+        assert!(
+            status["running"].as_u64().unwrap() <= 2,
+            "more jobs running than slots: {status}"
+        );
         if status["done"] == 12 {
             break;
         }
-        assert!(started.elapsed() < Duration::from_secs(60), "not done: {status}");
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "not done: {status}"
+        );
         std::thread::sleep(Duration::from_millis(30));
     }
     assert_exactly_once(&cluster, 12);
@@ -476,8 +752,14 @@ fn long_jobs_run_one_per_slot_at_a_time() {
         "SELECT count(*) FROM jobs AS a JOIN jobs AS b ON a.lease_owner = b.lease_owner AND a.id < b.id
          WHERE a.started_at < b.finished_at AND b.started_at < a.finished_at",
     );
-    assert_eq!(overlapping, 0, "a single-slot worker held two leases at once");
-    assert_eq!(cluster.count("SELECT count(*) FROM jobs WHERE attempts <> 1"), 0);
+    assert_eq!(
+        overlapping, 0,
+        "a single-slot worker held two leases at once"
+    );
+    assert_eq!(
+        cluster.count("SELECT count(*) FROM jobs WHERE attempts <> 1"),
+        0
+    );
 }
 
 /// kill -9 of a worker holding hundreds of leases (no-op jobs: its paced leases are large, and
@@ -497,7 +779,10 @@ fn a_worker_killed_holding_a_large_adaptive_lease_loses_nothing() {
     }
     doomed.kill9();
     let status = cluster.status(&url);
-    let (held, done) = (status["running"].as_u64().unwrap(), status["done"].as_u64().unwrap());
+    let (held, done) = (
+        status["running"].as_u64().unwrap(),
+        status["done"].as_u64().unwrap(),
+    );
     assert!(held >= 100, "the killed worker held only {held} leases");
     let _survivor = cluster.worker(&url, "1", Some(cluster.token()));
     cluster.wait_done(&url, JOBS, Duration::from_secs(120));
@@ -507,15 +792,29 @@ fn a_worker_killed_holding_a_large_adaptive_lease_loses_nothing() {
     let reported_late = cluster.count("SELECT count(*) FROM results WHERE core_id = 0") - done;
     let lost = held - reported_late;
     let re_leased = cluster.count("SELECT count(*) FROM jobs WHERE attempts >= 2");
-    assert!(re_leased >= lost, "{lost} leases lost with the worker, {re_leased} jobs leased again");
+    assert!(
+        re_leased >= lost,
+        "{lost} leases lost with the worker, {re_leased} jobs leased again"
+    );
 }
 
 /// One HTTP/1.1 request on a fresh connection to the status page: (status, head, body).
-fn http(addr: &str, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> (u16, String, String) {
+fn http(
+    addr: &str,
+    method: &str,
+    path: &str,
+    headers: &[(&str, &str)],
+    body: &str,
+) -> (u16, String, String) {
     use std::io::{Read, Write};
     let mut stream = std::net::TcpStream::connect(addr).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
-    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n", body.len());
+    stream
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
+    let mut request = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n",
+        body.len()
+    );
     for (k, v) in headers {
         request.push_str(&format!("{k}: {v}\r\n"));
     }
@@ -525,7 +824,11 @@ fn http(addr: &str, method: &str, path: &str, headers: &[(&str, &str)], body: &s
     let mut response = String::new();
     stream.read_to_string(&mut response).unwrap();
     let (head, body) = response.split_once("\r\n\r\n").unwrap_or((&response, ""));
-    let status = head.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let status = head
+        .split(' ')
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
     (status, head.to_string(), body.to_string())
 }
 
@@ -536,20 +839,48 @@ fn http_json(addr: &str, path: &str) -> serde_json::Value {
 }
 
 /// A coordinator with `--http`: its gRPC URL and the page's address, both read from its stdout.
-fn coordinator_with_page(cluster: &Cluster, http_listen: &str, token: bool) -> (Proc, String, String) {
+fn coordinator_with_page(
+    cluster: &Cluster,
+    http_listen: &str,
+    token: bool,
+) -> (Proc, String, String) {
     let mut cmd = Command::new(SWEEP);
-    cmd.args(["coordinator", "--listen", "127.0.0.1:0", "--db", cluster.db.to_str().unwrap()])
-        .args(["--lease-secs", "4", "--max-attempts", "2", "--http", http_listen])
-        .env_remove("SWEEP_TOKEN");
+    cmd.args([
+        "coordinator",
+        "--listen",
+        "127.0.0.1:0",
+        "--db",
+        cluster.db.to_str().unwrap(),
+    ])
+    .args([
+        "--lease-secs",
+        "4",
+        "--max-attempts",
+        "2",
+        "--http",
+        http_listen,
+    ])
+    .env_remove("SWEEP_TOKEN");
     if token {
         cmd.args(["--token-file", cluster.token()]);
     }
-    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::null()).spawn().unwrap();
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
     let mut next = || lines.next().expect("a line").unwrap();
-    let grpc = next().strip_prefix("listening on ").expect("listening on …").to_string();
+    let grpc = next()
+        .strip_prefix("listening on ")
+        .expect("listening on …")
+        .to_string();
     let page = next();
-    let page = page.strip_prefix("status page on http://").unwrap_or_else(|| panic!("{page:?}")).trim_end_matches('/').to_string();
+    let page = page
+        .strip_prefix("status page on http://")
+        .unwrap_or_else(|| panic!("{page:?}"))
+        .trim_end_matches('/')
+        .to_string();
     (Proc(child), format!("http://{grpc}"), page)
 }
 
@@ -564,8 +895,14 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
     let (_coordinator, url, page) = coordinator_with_page(&cluster, "127.0.0.1:0", true);
     let (status, head, body) = http(&page, "GET", "/", &[], "");
     assert_eq!(status, 200, "{head}");
-    assert!(body.contains("<title>sweep: status</title>") && body.contains("src=\"/page.js\""), "{body}");
-    assert!(!body.contains("http://") && !body.contains("https://"), "the page fetches nothing from elsewhere");
+    assert!(
+        body.contains("<title>sweep: status</title>") && body.contains("src=\"/page.js\""),
+        "{body}"
+    );
+    assert!(
+        !body.contains("http://") && !body.contains("https://"),
+        "the page fetches nothing from elsewhere"
+    );
     let (status, _, script) = http(&page, "GET", "/page.js", &[], "");
     assert_eq!(status, 200);
     assert!(script.contains("/api/snapshot") && !script.contains("https://"));
@@ -581,17 +918,37 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
 
     // No workers yet: a cancel without the token, or with a wrong one, changes nothing.
     let store_status = |campaign: &str| -> serde_json::Value {
-        let out = cluster.sweep(&["status", "--db", &db, "--campaign", campaign, "--format", "json"]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let out = cluster.sweep(&[
+            "status",
+            "--db",
+            &db,
+            "--campaign",
+            campaign,
+            "--format",
+            "json",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         serde_json::from_slice(&out.stdout).unwrap()
     };
     let before = store_status(&id);
     let cancel = format!("/api/campaigns/{id}/cancel");
-    for headers in [&[][..], &[("Authorization", "Bearer wrong-token")][..], &[("Cookie", "sweep_session=abc")][..]] {
+    for headers in [
+        &[][..],
+        &[("Authorization", "Bearer wrong-token")][..],
+        &[("Cookie", "sweep_session=abc")][..],
+    ] {
         let (status, _, body) = http(&page, "POST", &cancel, headers, "");
         assert_eq!(status, 401, "{headers:?}: {body}");
     }
-    assert_eq!(http(&page, "GET", &cancel, &[], "").0, 405, "a GET changes nothing either");
+    assert_eq!(
+        http(&page, "GET", &cancel, &[], "").0,
+        405,
+        "a GET changes nothing either"
+    );
     let after = store_status(&id);
     assert_eq!(after, before, "nothing changed");
     assert_eq!(after["status"]["queued"], total);
@@ -604,7 +961,10 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
         if s["done"].as_u64().unwrap() + s["failed"].as_u64().unwrap() == total {
             break;
         }
-        assert!(started.elapsed() < Duration::from_secs(120), "not finished: {s}");
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "not finished: {s}"
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
     // The page samples every second or so: wait for it to see the end.
@@ -614,14 +974,20 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
         if campaigns[0]["progress"] == 1.0 && campaigns[0]["status"]["running"] == 0 {
             break campaigns;
         }
-        assert!(started.elapsed() < Duration::from_secs(20), "the page never reached 100 %: {campaigns}");
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the page never reached 100 %: {campaigns}"
+        );
         std::thread::sleep(Duration::from_millis(200));
     };
     let expected = store_status(&id);
     let shown = &campaigns.as_array().unwrap()[0];
     assert_eq!(campaigns.as_array().unwrap().len(), 1);
     assert_eq!(shown["campaign"], expected["campaign"]);
-    assert_eq!(shown["status"], expected["status"], "the counts of `sweep status --format json`");
+    assert_eq!(
+        shown["status"], expected["status"],
+        "the counts of `sweep status --format json`"
+    );
     assert_eq!(shown["timing"], expected["timing"]);
     assert_eq!(shown["status"]["done"], 18);
     assert_eq!(shown["status"]["failed"], 2);
@@ -633,7 +999,10 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
     let workers = workers.as_array().unwrap();
     assert_eq!(workers.len(), 2);
     for expected in &listed {
-        let shown = workers.iter().find(|w| w["id"] == expected["id"]).expect("every worker is listed");
+        let shown = workers
+            .iter()
+            .find(|w| w["id"] == expected["id"])
+            .expect("every worker is listed");
         for (key, value) in expected.as_object().unwrap() {
             if key != "last_seen_at" {
                 assert_eq!(&shown[key], value, "worker field {key}");
@@ -643,54 +1012,134 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
         assert_eq!(shown["stale"], false);
         assert!(!shown["cpu_model"].as_str().unwrap().is_empty());
     }
-    let done_by_workers: u64 = workers.iter().map(|w| w["jobs_done"].as_u64().unwrap()).sum();
+    let done_by_workers: u64 = workers
+        .iter()
+        .map(|w| w["jobs_done"].as_u64().unwrap())
+        .sum();
     assert_eq!(done_by_workers, 18, "every done job is some worker's");
 
     // Failures: both attempts of both failing jobs, each with its worker and reason.
     let failures = http_json(&page, "/api/failures");
     let failures = failures.as_array().unwrap();
-    assert_eq!(failures.len() as u64, cluster.count("SELECT count(*) FROM job_failures"));
+    assert_eq!(
+        failures.len() as u64,
+        cluster.count("SELECT count(*) FROM job_failures")
+    );
     assert_eq!(failures.len(), 4, "{failures:?}");
     for f in failures {
         assert!(listed.iter().any(|w| w["id"] == f["worker"]), "{f}");
-        assert!(f["reason"].as_str().unwrap().contains("injected failure"), "{f}");
+        assert!(
+            f["reason"].as_str().unwrap().contains("injected failure"),
+            "{f}"
+        );
     }
 
     // Figures: what `sweep report` writes, byte for byte.
     let figures = http_json(&page, "/api/figures");
-    let names: Vec<&str> = figures.as_array().unwrap().iter().map(|f| f["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = figures
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["name"].as_str().unwrap())
+        .collect();
     assert_eq!(names, ["table1", "fig2"]);
     let (status, head, svg) = http(&page, "GET", "/api/figures/fig2.svg", &[], "");
     assert_eq!(status, 200, "{svg}");
-    assert!(head.to_ascii_lowercase().contains("content-type: image/svg+xml"), "{head}");
-    assert!(svg.trim_start().starts_with("<svg"), "{}", &svg[..svg.len().min(200)]);
+    assert!(
+        head.to_ascii_lowercase()
+            .contains("content-type: image/svg+xml"),
+        "{head}"
+    );
+    assert!(
+        svg.trim_start().starts_with("<svg"),
+        "{}",
+        &svg[..svg.len().min(200)]
+    );
     let out_svg = cluster.path("fig2.svg");
-    let out = cluster.sweep(&["report", "fig2", "--db", &db, "--out", out_svg.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::read_to_string(&out_svg).unwrap() == svg, "the page's Fig. 2 is `sweep report fig2`'s");
+    let out = cluster.sweep(&[
+        "report",
+        "fig2",
+        "--db",
+        &db,
+        "--out",
+        out_svg.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read_to_string(&out_svg).unwrap() == svg,
+        "the page's Fig. 2 is `sweep report fig2`'s"
+    );
     let table = http_json(&page, "/api/tables/table1.json");
     let out = cluster.sweep(&["report", "table1", "--db", &db, "--format", "json"]);
-    assert_eq!(table, serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap());
-    assert_eq!(table.as_array().unwrap().len(), 6, "one row per algorithm at one R*");
+    assert_eq!(
+        table,
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    );
+    assert_eq!(
+        table.as_array().unwrap().len(),
+        6,
+        "one row per algorithm at one R*"
+    );
 
     // With the token (the login form's cookie), a cancel works: a second campaign, long jobs.
-    let second = cluster.submit(&url, &cluster.plan("long.toml", "name = \"long\"\n[[noop]]\ncount = 30\nduration_ms = 400\n"));
+    let second = cluster.submit(
+        &url,
+        &cluster.plan(
+            "long.toml",
+            "name = \"long\"\n[[noop]]\ncount = 30\nduration_ms = 400\n",
+        ),
+    );
     let second = second["campaign"].as_str().unwrap().to_string();
-    let (status, head, _) = http(&page, "POST", "/login", &[("Content-Type", "application/x-www-form-urlencoded")], "token=e2e-secret-token");
+    let (status, head, _) = http(
+        &page,
+        "POST",
+        "/login",
+        &[("Content-Type", "application/x-www-form-urlencoded")],
+        "token=e2e-secret-token",
+    );
     assert_eq!(status, 303, "{head}");
-    let cookie = head.lines().find_map(|l| l.strip_prefix("set-cookie: ")).expect("a cookie").to_string();
-    assert!(cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"), "{cookie}");
+    let cookie = head
+        .lines()
+        .find_map(|l| l.strip_prefix("set-cookie: "))
+        .expect("a cookie")
+        .to_string();
+    assert!(
+        cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"),
+        "{cookie}"
+    );
     let session = cookie.split(';').next().unwrap();
-    let (status, _, body) = http(&page, "POST", &format!("/api/campaigns/{second}/cancel"), &[("Cookie", session)], "");
+    let (status, _, body) = http(
+        &page,
+        "POST",
+        &format!("/api/campaigns/{second}/cancel"),
+        &[("Cookie", session)],
+        "",
+    );
     assert_eq!(status, 200, "{body}");
-    let cancelled = serde_json::from_str::<serde_json::Value>(&body).unwrap()["cancelled"].as_u64().unwrap();
+    let cancelled = serde_json::from_str::<serde_json::Value>(&body).unwrap()["cancelled"]
+        .as_u64()
+        .unwrap();
     assert!(cancelled > 0, "{body}");
     let s = store_status(&second);
     assert_eq!(s["status"]["cancelled"], cancelled);
     assert_eq!(s["status"]["queued"], 0);
     // The bearer header works as well (nothing left to cancel).
-    let (status, _, body) = http(&page, "POST", &format!("/api/campaigns/{second}/cancel"), &[("Authorization", "Bearer e2e-secret-token")], "");
-    assert_eq!((status, body.contains("\"cancelled\":0")), (200, true), "{body}");
+    let (status, _, body) = http(
+        &page,
+        "POST",
+        &format!("/api/campaigns/{second}/cancel"),
+        &[("Authorization", "Bearer e2e-secret-token")],
+        "",
+    );
+    assert_eq!(
+        (status, body.contains("\"cancelled\":0")),
+        (200, true),
+        "{body}"
+    );
 }
 
 /// A non-loopback address of this machine (the one a route to the outside would leave from), if
@@ -707,24 +1156,53 @@ fn non_loopback_address() -> Option<std::net::IpAddr> {
 #[test]
 fn the_status_page_off_loopback_needs_the_token() {
     let cluster = Cluster::new();
-    let out = cluster.sweep(&["coordinator", "--listen", "127.0.0.1:0", "--db", cluster.db.to_str().unwrap(), "--http", "0.0.0.0:0"]);
+    let out = cluster.sweep(&[
+        "coordinator",
+        "--listen",
+        "127.0.0.1:0",
+        "--db",
+        cluster.db.to_str().unwrap(),
+        "--http",
+        "0.0.0.0:0",
+    ]);
     assert!(!out.status.success());
     let message = String::from_utf8_lossy(&out.stderr);
-    assert!(message.contains("--http 0.0.0.0:0") && message.contains("without a token"), "{message}");
+    assert!(
+        message.contains("--http 0.0.0.0:0") && message.contains("without a token"),
+        "{message}"
+    );
 
     let Some(ip) = non_loopback_address() else {
-        eprintln!("no non-loopback address on this machine: the remote-client case is covered by crates/dashboard/tests/policy.rs only");
+        eprintln!(
+            "no non-loopback address on this machine: the remote-client case is covered by crates/dashboard/tests/policy.rs only"
+        );
         return;
     };
     let (_coordinator, _url, page) = coordinator_with_page(&cluster, &format!("{ip}:0"), true);
-    for path in ["/api/campaigns", "/api/workers", "/api/failures", "/api/snapshot", "/api/figures/fig2.svg", "/page.js"] {
+    for path in [
+        "/api/campaigns",
+        "/api/workers",
+        "/api/failures",
+        "/api/snapshot",
+        "/api/figures/fig2.svg",
+        "/page.js",
+    ] {
         let (status, _, body) = http(&page, "GET", path, &[], "");
         assert_eq!(status, 401, "GET {path}: {body}");
     }
     let (status, head, _) = http(&page, "GET", "/", &[], "");
-    assert_eq!(status, 303, "the page sends a browser to the login form: {head}");
+    assert_eq!(
+        status, 303,
+        "the page sends a browser to the login form: {head}"
+    );
     assert_eq!(http(&page, "GET", "/login", &[], "").0, 200);
-    let (status, _, body) = http(&page, "GET", "/api/campaigns", &[("Authorization", "Bearer e2e-secret-token")], "");
+    let (status, _, body) = http(
+        &page,
+        "GET",
+        "/api/campaigns",
+        &[("Authorization", "Bearer e2e-secret-token")],
+        "",
+    );
     assert_eq!((status, body.as_str()), (200, "[]"));
 }
 
@@ -733,21 +1211,39 @@ fn the_status_page_off_loopback_needs_the_token() {
 fn chromium(args: &[&str], profile: &Path) -> Output {
     let browser = std::env::var("SWEEP_CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
     let out = Command::new(&browser)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run"])
-        .args(["--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+        ])
+        .args([
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+        ])
         .arg(format!("--user-data-dir={}", profile.display()))
         // Virtual time runs the page's polls and waits for their fetches before the DOM is taken.
         .args(["--window-size=1400,1700", "--virtual-time-budget=5000"])
         .args(args)
         .output()
-        .unwrap_or_else(|e| panic!("{browser}: {e} (apt-get install chromium, or set SWEEP_CHROMIUM)"));
-    assert!(out.status.success(), "{browser}: {}", String::from_utf8_lossy(&out.stderr));
+        .unwrap_or_else(|e| {
+            panic!("{browser}: {e} (apt-get install chromium, or set SWEEP_CHROMIUM)")
+        });
+    assert!(
+        out.status.success(),
+        "{browser}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     out
 }
 
 /// The markup of the element carrying `data-figure="NAME"`, up to the next figure.
 fn figure_markup<'a>(dom: &'a str, name: &str) -> &'a str {
-    let start = dom.find(&format!("data-figure=\"{name}\"")).unwrap_or_else(|| panic!("no figure {name} in the page"));
+    let start = dom
+        .find(&format!("data-figure=\"{name}\""))
+        .unwrap_or_else(|| panic!("no figure {name} in the page"));
     let rest = &dom[start..];
     let end = rest[1..].find("data-figure=").map_or(rest.len(), |i| i + 1);
     &rest[..end]
@@ -778,47 +1274,94 @@ fn the_status_page_in_a_browser() {
     cluster.submit(&url, &cluster.plan("browser.toml", plan));
     let _w0 = cluster.worker(&url, "0", Some(cluster.token()));
     let _w1 = cluster.worker(&url, "1", Some(cluster.token()));
-    let finished = |s: &serde_json::Value| s["done"].as_u64().unwrap() + s["failed"].as_u64().unwrap();
+    let finished =
+        |s: &serde_json::Value| s["done"].as_u64().unwrap() + s["failed"].as_u64().unwrap();
     let started = Instant::now();
     while finished(&cluster.status(&url)) < 3 {
-        assert!(started.elapsed() < Duration::from_secs(60), "no job finished");
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no job finished"
+        );
         std::thread::sleep(Duration::from_millis(100));
     }
 
     let start_png = shots.join("status-page-start.png");
     let at = Instant::now();
-    chromium(&[&format!("--screenshot={}", start_png.display()), &page_url], &cluster.path("profile-start"));
+    chromium(
+        &[&format!("--screenshot={}", start_png.display()), &page_url],
+        &cluster.path("profile-start"),
+    );
     let start_shot_s = at.elapsed().as_secs_f64();
-    let dom = String::from_utf8(chromium(&["--dump-dom", &page_url], &cluster.path("profile-start-dom")).stdout).unwrap();
-    assert!(dom.contains("data-progress=\""), "the page shows the campaign's progress: {dom}");
-    assert!(!dom.contains("data-progress=\"100.0\""), "the campaign is not over yet: the start is seen");
+    let dom = String::from_utf8(
+        chromium(
+            &["--dump-dom", &page_url],
+            &cluster.path("profile-start-dom"),
+        )
+        .stdout,
+    )
+    .unwrap();
+    assert!(
+        dom.contains("data-progress=\""),
+        "the page shows the campaign's progress: {dom}"
+    );
+    assert!(
+        !dom.contains("data-progress=\"100.0\""),
+        "the campaign is not over yet: the start is seen"
+    );
 
     let started = Instant::now();
     while finished(&cluster.status(&url)) < total {
-        assert!(started.elapsed() < Duration::from_secs(120), "campaign not finished");
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "campaign not finished"
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
     // The page samples the store every second or so; the browser's own polls then catch up.
     let done_total = loop {
         let snapshot = http_json(&page, "/api/snapshot");
-        if snapshot["campaigns"][0]["progress"] == 1.0 && snapshot["campaigns"][0]["status"]["running"] == 0 {
+        if snapshot["campaigns"][0]["progress"] == 1.0
+            && snapshot["campaigns"][0]["status"]["running"] == 0
+        {
             break snapshot["done_total"].as_u64().unwrap();
         }
-        assert!(started.elapsed() < Duration::from_secs(140), "the page never reached 100 %");
+        assert!(
+            started.elapsed() < Duration::from_secs(140),
+            "the page never reached 100 %"
+        );
         std::thread::sleep(Duration::from_millis(200));
     };
-    let dom = String::from_utf8(chromium(&["--dump-dom", &page_url], &cluster.path("profile-end-dom")).stdout).unwrap();
-    assert!(dom.contains("data-progress=\"100.0\""), "the page reached 100 %: {dom}");
+    let dom = String::from_utf8(
+        chromium(&["--dump-dom", &page_url], &cluster.path("profile-end-dom")).stdout,
+    )
+    .unwrap();
+    assert!(
+        dom.contains("data-progress=\"100.0\""),
+        "the page reached 100 %: {dom}"
+    );
     let fig2 = figure_markup(&dom, "fig2");
     assert!(fig2.contains("<svg"), "Fig. 2 is drawn inline: {fig2}");
-    assert!(fig2.contains(&format!("data-drawn-at=\"{done_total}\"")), "Fig. 2 as of the last job: {fig2}");
-    assert!(figure_markup(&dom, "table1").contains("ocsi_batch"), "Table 1 is shown");
+    assert!(
+        fig2.contains(&format!("data-drawn-at=\"{done_total}\"")),
+        "Fig. 2 as of the last job: {fig2}"
+    );
+    assert!(
+        figure_markup(&dom, "table1").contains("ocsi_batch"),
+        "Table 1 is shown"
+    );
     assert!(dom.contains("injected failure"), "the failures are listed");
     let end_png = shots.join("status-page-end.png");
-    chromium(&[&format!("--screenshot={}", end_png.display()), &page_url], &cluster.path("profile-end"));
+    chromium(
+        &[&format!("--screenshot={}", end_png.display()), &page_url],
+        &cluster.path("profile-end"),
+    );
     for png in [&start_png, &end_png] {
         let bytes = std::fs::read(png).unwrap();
-        assert!(bytes.starts_with(b"\x89PNG") && bytes.len() > 10_000, "{}", png.display());
+        assert!(
+            bytes.starts_with(b"\x89PNG") && bytes.len() > 10_000,
+            "{}",
+            png.display()
+        );
     }
     eprintln!(
         "browser test: screenshots {} and {}; one Chromium load {start_shot_s:.1} s; whole test {:.1} s",

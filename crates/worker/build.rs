@@ -18,7 +18,9 @@ const SOURCES: [&str; 5] = ["crates", "proto", "migrations", "Cargo.toml", "Carg
 
 fn output(cmd: &str, args: &[&str]) -> Option<String> {
     let out = Command::new(cmd).args(args).output().ok()?;
-    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
 /// The repository's git directory and its common directory (they differ in a linked worktree,
@@ -73,18 +75,28 @@ fn main() {
     let version = output(&rustc, &["--version"]).unwrap_or_else(|| "unknown".into());
     println!("cargo:rustc-env=SWEEP_RUSTC={version}");
 
-    let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR")).join("../..");
+    let root =
+        PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"))
+            .join("../..");
     let (commit, watched) = match git_dirs(&root) {
         Some((git_dir, common)) => head_commit(&git_dir, &common),
         None => (None, Vec::new()),
     };
     let commit = commit.map_or_else(|| "unknown".to_string(), |c| c.chars().take(12).collect());
     let dirty = commit != "unknown"
-        && output("git", &["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
-    println!("cargo:rustc-env=SWEEP_GIT_COMMIT={commit}{}", if dirty { "-dirty" } else { "" });
+        && output("git", &["status", "--porcelain", "--untracked-files=no"])
+            .is_some_and(|s| !s.is_empty());
+    println!(
+        "cargo:rustc-env=SWEEP_GIT_COMMIT={commit}{}",
+        if dirty { "-dirty" } else { "" }
+    );
     // Only paths that exist: cargo reruns the script on every build for a missing one.
     let sources = SOURCES.iter().map(|source| root.join(source));
-    for path in watched.into_iter().chain(sources).filter(|path| path.exists()) {
+    for path in watched
+        .into_iter()
+        .chain(sources)
+        .filter(|path| path.exists())
+    {
         println!("cargo:rerun-if-changed={}", path.display());
     }
 }

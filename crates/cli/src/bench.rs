@@ -123,9 +123,18 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
     if let Some(core) = args.core {
         system::pin_current_thread(core)?;
     }
-    let progress = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(spec.repeats as u64) };
-    progress.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} repeats, {elapsed}")?);
-    progress.set_message(format!("L*={} W*={} R*={} {}", spec.l_star, spec.w_star, spec.r_star, spec.precision));
+    let progress = if format == Format::Json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(spec.repeats as u64)
+    };
+    progress.set_style(ProgressStyle::with_template(
+        "{msg} [{bar:30}] {pos}/{len} repeats, {elapsed}",
+    )?);
+    progress.set_message(format!(
+        "L*={} W*={} R*={} {}",
+        spec.l_star, spec.w_star, spec.r_star, spec.precision
+    ));
     let mut calibration = overlap::Calibration::default();
     let report = overlap::run_point(&spec, &mut calibration, &mut |_| progress.inc(1))
         .map_err(flag_error)
@@ -192,7 +201,10 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                         format!("{:.3}", r.ns_per_check),
                         format!(
                             "{:.2}",
-                            (r.ci95_hi_ns_per_check - r.ci95_lo_ns_per_check) / 2.0 / r.ns_per_check * 100.0
+                            (r.ci95_hi_ns_per_check - r.ci95_lo_ns_per_check)
+                                / 2.0
+                                / r.ns_per_check
+                                * 100.0
                         ),
                         format!("{:.3}", r.plain_ns_per_check),
                         format!("{:.2}", r.ns_per_check / out.stream_ns_per_config),
@@ -201,7 +213,15 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                 })
                 .collect();
             print_table(
-                &["algorithm", "mean_ms", "ns/check", "±95% (%)", "plain ns/check", "x stream", "acceptance"],
+                &[
+                    "algorithm",
+                    "mean_ms",
+                    "ns/check",
+                    "±95% (%)",
+                    "plain ns/check",
+                    "x stream",
+                    "acceptance",
+                ],
                 &rows,
             );
             println!(
@@ -210,7 +230,8 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                 out.generation_ms,
                 out.timed_ms,
                 out.arrays_bytes as f64 / 1e6,
-                out.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MB", b as f64 / 1e6)),
+                out.peak_rss_bytes
+                    .map_or("n/a".into(), |b| format!("{:.1} MB", b as f64 / 1e6)),
                 out.isa
             );
             println!(
@@ -221,7 +242,9 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
                 out.block_configurations,
                 out.wall_s,
                 out.reruns,
-                out.disturbance.as_deref().map_or(String::new(), |d| format!(" · DISTURBED: {d}"))
+                out.disturbance
+                    .as_deref()
+                    .map_or(String::new(), |d| format!(" · DISTURBED: {d}"))
             );
             Ok(())
         }

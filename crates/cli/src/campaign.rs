@@ -14,7 +14,8 @@ pub struct Campaign {
 }
 
 pub fn read_plan_file(path: &Path) -> anyhow::Result<(String, String)> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     Ok((text, path.display().to_string()))
 }
 
@@ -37,6 +38,14 @@ pub fn from_plan(text: &str, file_name: &str) -> Result<Campaign, jobs::PlanErro
     let mut ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
     ids.sort_unstable();
     let digest = blake3::hash(format!("{}\n{}", plan.name, ids.join("\n")).as_bytes());
-    let campaign = NewCampaign { id: digest.to_hex()[..16].to_string(), name: plan.name.clone(), plan_text: text.to_string() };
-    Ok(Campaign { plan, campaign, jobs })
+    let campaign = NewCampaign {
+        id: digest.to_hex()[..16].to_string(),
+        name: plan.name.clone(),
+        plan_text: text.to_string(),
+    };
+    Ok(Campaign {
+        plan,
+        campaign,
+        jobs,
+    })
 }

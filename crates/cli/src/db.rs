@@ -13,7 +13,9 @@ use crate::local::report_status;
 use crate::output::{Format, print_json, print_table, print_text, write_csv};
 
 pub(crate) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
-    Ok(tokio::runtime::Builder::new_current_thread().enable_all().build()?)
+    Ok(tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?)
 }
 
 /// Opens `db` read-only: reading never creates, migrates or changes the file.
@@ -60,7 +62,8 @@ pub fn status(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
             report_status(campaign.unwrap_or("(all)"), &status, Some(&quality), format)
         }),
         (None, Some(url)) => {
-            let client = crate::remote::ClientArgs::new(url.clone(), args.auth.clone(), args.ca.clone());
+            let client =
+                crate::remote::ClientArgs::new(url.clone(), args.auth.clone(), args.ca.clone());
             crate::remote::remote_status(&client, campaign, format)
         }
         (None, None) => bail!("give --db FILE or --coordinator URL"),
@@ -146,7 +149,11 @@ fn visit_row(r: store::OverlapRow, statistic: Statistic) -> (OverlapRow, Option<
         ..OverlapRow::default()
     };
     // ms per ns/check: the set's size, or for old rows the ratio the store averaged.
-    let to_ms = if ns_per_check > 0.0 { mean_ms / ns_per_check } else { checks_ms };
+    let to_ms = if ns_per_check > 0.0 {
+        mean_ms / ns_per_check
+    } else {
+        checks_ms
+    };
     (with_interval(row, estimate, to_ms), estimate)
 }
 
@@ -172,7 +179,11 @@ fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
         return only.clone();
     }
     // Every visit of a point has the same set size, hence the same ms per ns/check.
-    let to_ms = if first.ns_per_check > 0.0 { first.mean_ms / first.ns_per_check } else { 0.0 };
+    let to_ms = if first.ns_per_check > 0.0 {
+        first.mean_ms / first.ns_per_check
+    } else {
+        0.0
+    };
     let estimates: Vec<Estimate> = visits
         .iter()
         .map(|(row, estimate, _)| {
@@ -189,7 +200,10 @@ fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
     let n = visits.len() as f64;
     let mean = |f: fn(&OverlapRow) -> f64| visits.iter().map(|(r, _, _)| f(r)).sum::<f64>() / n;
     let any_flag = |f: fn(&OverlapRow) -> Option<bool>| {
-        visits.iter().filter_map(|(r, _, _)| f(r)).reduce(|a, b| a || b)
+        visits
+            .iter()
+            .filter_map(|(r, _, _)| f(r))
+            .reduce(|a, b| a || b)
     };
     let row = OverlapRow {
         mean_ms: mean(|r| r.mean_ms),
@@ -197,7 +211,10 @@ fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
         acceptance: mean(|r| r.acceptance),
         repeats: visits.iter().map(|(r, _, _)| r.repeats).sum(),
         disturbed: any_flag(|r| r.disturbed),
-        reruns: visits.iter().filter_map(|(r, _, _)| r.reruns).reduce(|a, b| a + b),
+        reruns: visits
+            .iter()
+            .filter_map(|(r, _, _)| r.reruns)
+            .reduce(|a, b| a + b),
         statistic: report::join_statistics(visits.iter().map(|(r, _, _)| r.statistic.as_str())),
         visits: visits.len() as u32,
         ..first.clone()
@@ -208,7 +225,10 @@ fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
 pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     if crate::edmd_report::NAMES.contains(&args.name.as_str()) {
         if args.statistic.is_some() {
-            bail!("--statistic applies to table1, table2, fig2 and fig3, not to {}", args.name);
+            bail!(
+                "--statistic applies to table1, table2, fig2 and fig3, not to {}",
+                args.name
+            );
         }
         return crate::edmd_report::report(args, format);
     }
@@ -217,7 +237,9 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "table2" => ("table", "f64"),
         "fig2" => ("figure", "f32"),
         "fig3" => ("figure", "f64"),
-        other => bail!("report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy)"),
+        other => bail!(
+            "report `{other}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy)"
+        ),
     };
     let statistic = args.statistic.unwrap_or(match kind {
         "table" => Statistic::FOR_TABLES,
@@ -229,13 +251,17 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         anyhow::Ok(report_rows(rows, statistic))
     })?;
     if kind == "figure" {
-        let json_out = args.out.as_deref().filter(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")));
+        let json_out = args.out.as_deref().filter(|o| {
+            o.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        });
         if json_out.is_some() || (args.out.is_none() && format == Format::Json) {
             let points = report::fig2_points(&rows, precision)?;
             let text = serde_json::to_string_pretty(&points)? + "\n";
             match json_out {
                 Some(out) => {
-                    std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
+                    std::fs::write(out, text)
+                        .with_context(|| format!("cannot write {}", out.display()))?;
                     eprintln!("wrote {}", out.display());
                 }
                 None => print_text(&text)?,
@@ -243,15 +269,27 @@ pub fn report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
             return Ok(());
         }
         let out = args.out.as_deref().with_context(|| {
-            format!("report {}: give --out FILE.png, FILE.svg or FILE.json (or --format json)", args.name)
+            format!(
+                "report {}: give --out FILE.png, FILE.svg or FILE.json (or --format json)",
+                args.name
+            )
         })?;
-        report::fig2(&rows, precision, out, report::Fig2Options { show_ci: args.ci })?;
+        report::fig2(
+            &rows,
+            precision,
+            out,
+            report::Fig2Options { show_ci: args.ci },
+        )?;
         eprintln!("wrote {}", out.display());
         return Ok(());
     }
     let table = report::table1(&rows, precision);
     if table.is_empty() {
-        bail!("report {}: no {precision} overlap results in {}", args.name, args.db.display());
+        bail!(
+            "report {}: no {precision} overlap results in {}",
+            args.name,
+            args.db.display()
+        );
     }
     match &args.out {
         Some(out) => {
@@ -288,17 +326,41 @@ fn cell(value: &serde_json::Value) -> String {
 }
 
 pub fn query(args: &QueryArgs, format: Format) -> anyhow::Result<()> {
-    let result = runtime()?.block_on(async { anyhow::Ok(open_read_only(&args.db).await?.query_read_only(&args.sql).await?) })?;
+    let result = runtime()?.block_on(async {
+        anyhow::Ok(
+            open_read_only(&args.db)
+                .await?
+                .query_read_only(&args.sql)
+                .await?,
+        )
+    })?;
     match format {
         Format::Json => {
-            let objects: Vec<serde_json::Map<String, serde_json::Value>> =
-                result.rows.iter().map(|row| result.columns.iter().cloned().zip(row.iter().cloned()).collect()).collect();
+            let objects: Vec<serde_json::Map<String, serde_json::Value>> = result
+                .rows
+                .iter()
+                .map(|row| {
+                    result
+                        .columns
+                        .iter()
+                        .cloned()
+                        .zip(row.iter().cloned())
+                        .collect()
+                })
+                .collect();
             print_json(&objects)
         }
-        Format::Csv => write_csv(&result.columns, result.rows.iter().map(|r| r.iter().map(cell).collect())),
+        Format::Csv => write_csv(
+            &result.columns,
+            result.rows.iter().map(|r| r.iter().map(cell).collect()),
+        ),
         Format::Table => {
             let header: Vec<&str> = result.columns.iter().map(String::as_str).collect();
-            let rows: Vec<Vec<String>> = result.rows.iter().map(|r| r.iter().map(cell).collect()).collect();
+            let rows: Vec<Vec<String>> = result
+                .rows
+                .iter()
+                .map(|r| r.iter().map(cell).collect())
+                .collect();
             print_table(&header, &rows);
             Ok(())
         }
@@ -313,7 +375,8 @@ pub struct ExportArgs {
 
 /// One row per result record: the identifying columns first, then the union of all fields.
 pub fn export(args: &ExportArgs, format: Format) -> anyhow::Result<()> {
-    let rows = runtime()?.block_on(async { anyhow::Ok(open_read_only(&args.db).await?.export().await?) })?;
+    let rows = runtime()?
+        .block_on(async { anyhow::Ok(open_read_only(&args.db).await?.export().await?) })?;
     let flat: Vec<serde_json::Map<String, serde_json::Value>> = rows
         .into_iter()
         .map(|row| {
@@ -332,9 +395,22 @@ pub fn export(args: &ExportArgs, format: Format) -> anyhow::Result<()> {
         Format::Json => print_json(&flat),
         Format::Csv | Format::Table => {
             let fixed = ["job_id", "campaign", "kind", "attempt", "worker", "core_id"];
-            let extra: BTreeSet<&String> = flat.iter().flat_map(|r| r.keys()).filter(|k| !fixed.contains(&k.as_str())).collect();
-            let columns: Vec<String> = fixed.iter().map(|s| s.to_string()).chain(extra.into_iter().cloned()).collect();
-            let rows = flat.iter().map(|r| columns.iter().map(|c| r.get(c).map(cell).unwrap_or_default()).collect());
+            let extra: BTreeSet<&String> = flat
+                .iter()
+                .flat_map(|r| r.keys())
+                .filter(|k| !fixed.contains(&k.as_str()))
+                .collect();
+            let columns: Vec<String> = fixed
+                .iter()
+                .map(|s| s.to_string())
+                .chain(extra.into_iter().cloned())
+                .collect();
+            let rows = flat.iter().map(|r| {
+                columns
+                    .iter()
+                    .map(|c| r.get(c).map(cell).unwrap_or_default())
+                    .collect()
+            });
             write_csv(&columns, rows)
         }
     }
@@ -347,7 +423,9 @@ mod tests {
     /// A stored row of the point at `l_star`, visit `visit`: two sets of 50 blocks, every block
     /// `ns` ± 0.5 %.
     fn stored(l_star: f64, visit: u32, ns: f64) -> store::OverlapRow {
-        let set: Vec<f64> = (0..50).map(|k| ns * if k % 2 == 0 { 1.005 } else { 0.995 }).collect();
+        let set: Vec<f64> = (0..50)
+            .map(|k| ns * if k % 2 == 0 { 1.005 } else { 0.995 })
+            .collect();
         store::OverlapRow {
             job_id: format!("{l_star}-{visit}"),
             l_star,
@@ -372,7 +450,12 @@ mod tests {
 
     #[test]
     fn a_points_visits_pool_into_one_row_and_a_single_visit_is_left_alone() {
-        let rows = vec![stored(1.0, 0, 10.0), stored(1.0, 1, 11.0), stored(1.0, 2, 12.0), stored(2.0, 0, 20.0)];
+        let rows = vec![
+            stored(1.0, 0, 10.0),
+            stored(1.0, 1, 11.0),
+            stored(1.0, 2, 12.0),
+            stored(2.0, 0, 20.0),
+        ];
         let single = visit_row(stored(2.0, 0, 20.0), Statistic::Mean).0;
         let report = report_rows(rows, Statistic::Mean);
         assert_eq!(report.len(), 2);
@@ -384,10 +467,22 @@ mod tests {
         assert!((pooled.mean_ms - 11.0).abs() < 1e-9);
         // Between visits: t(2) · 1 / √3 (s = 1 for 10, 11, 12), far wider than any visit's own.
         let half = 4.303 / 3f64.sqrt();
-        let (lo, hi) = (pooled.ci95_lo_ns_per_check.expect("lo"), pooled.ci95_hi_ns_per_check.expect("hi"));
-        assert!((hi - 11.0 - half).abs() < 1e-6 && (11.0 - lo - half).abs() < 1e-6, "{lo} {hi}");
-        assert!((pooled.ci95_hi_ms.expect("ms") - hi).abs() < 1e-9, "1 ms per ns/check here");
-        assert_eq!((pooled.repeats, pooled.reruns, pooled.disturbed), (6, Some(3), Some(true)));
+        let (lo, hi) = (
+            pooled.ci95_lo_ns_per_check.expect("lo"),
+            pooled.ci95_hi_ns_per_check.expect("hi"),
+        );
+        assert!(
+            (hi - 11.0 - half).abs() < 1e-6 && (11.0 - lo - half).abs() < 1e-6,
+            "{lo} {hi}"
+        );
+        assert!(
+            (pooled.ci95_hi_ms.expect("ms") - hi).abs() < 1e-9,
+            "1 ms per ns/check here"
+        );
+        assert_eq!(
+            (pooled.repeats, pooled.reruns, pooled.disturbed),
+            (6, Some(3), Some(true))
+        );
         assert_eq!(pooled.statistic, "mean");
     }
 }

@@ -23,19 +23,29 @@ pub struct EdmdArgs {
 
 pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
     let name = args.scene.display().to_string();
-    let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {name}"))?;
+    let text =
+        std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {name}"))?;
     let scene = Scene::from_toml_str(&text).with_context(|| name.clone())?;
     // τ_c is a CPU time per collision: the run must not migrate between cores.
     let core = match args.core {
         Some(core) => core,
-        None => *system::available_cores()?.first().context("no core available")?,
+        None => *system::available_cores()?
+            .first()
+            .context("no core available")?,
     };
     system::pin_current_thread(core)?;
     let total = scene.equilibrate + scene.collisions;
-    let bar = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(total) };
-    bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} collisions, ETA {eta}")?);
+    let bar = if format == Format::Json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total)
+    };
+    bar.set_style(ProgressStyle::with_template(
+        "{msg} [{bar:30}] {pos}/{len} collisions, ETA {eta}",
+    )?);
     bar.set_message(format!("{:?} N={} φ={}", scene.shape, scene.n, scene.phi));
-    let (report, state) = edmd::run_with_state(&scene, &mut |done| bar.set_position(done)).with_context(|| name.clone())?;
+    let (report, state) = edmd::run_with_state(&scene, &mut |done| bar.set_position(done))
+        .with_context(|| name.clone())?;
     bar.finish_and_clear();
     if let Some(dump) = &args.dump {
         let json = serde_json::to_string_pretty(&state)?;
@@ -47,7 +57,11 @@ pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
             let value = serde_json::to_value(&report)?;
             let rows: Vec<Vec<String>> = value
                 .as_object()
-                .map(|o| o.iter().map(|(k, v)| vec![k.clone(), v.to_string()]).collect())
+                .map(|o| {
+                    o.iter()
+                        .map(|(k, v)| vec![k.clone(), v.to_string()])
+                        .collect()
+                })
                 .unwrap_or_default();
             print_table(&["quantity", "value"], &rows);
             Ok(())

@@ -45,10 +45,19 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     let campaign = from_plan(&text, &name)?;
     let cores = system::cores_or_all(&args.cores)?;
     system::start_thread_pool()?;
-    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
     let coordinator = runtime.block_on(async {
-        let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
-        let config = Config { lease_for: LOCAL_LEASE, max_attempts: 3, ..Config::default() };
+        let store = Store::open(&args.db)
+            .await
+            .with_context(|| format!("cannot open {}", args.db.display()))?;
+        let config = Config {
+            lease_for: LOCAL_LEASE,
+            max_attempts: 3,
+            ..Config::default()
+        };
         anyhow::Ok(Coordinator::new(store, config, Arc::new(SystemClock))?)
     })?;
     let submitted = runtime.block_on(coordinator.submit(&campaign.campaign, &campaign.jobs))?;
@@ -68,7 +77,9 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         }
         anyhow::Ok(())
     })?;
-    runtime.block_on(coordinator.register(&worker::provenance::worker_info(worker_id.clone(), &cores)))?;
+    runtime.block_on(
+        coordinator.register(&worker::provenance::worker_info(worker_id.clone(), &cores)),
+    )?;
     let reaper = {
         let _guard = runtime.enter();
         coordinator.spawn_reaper(Duration::from_secs(1))
@@ -80,7 +91,10 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     if let Some((_, url)) = &page {
         eprintln!("status page on {url}");
     }
-    let queue = Arc::new(Embedded { coordinator: coordinator.clone(), worker_id });
+    let queue = Arc::new(Embedded {
+        coordinator: coordinator.clone(),
+        worker_id,
+    });
     let options = WorkerOptions {
         cores,
         heartbeat_every: LOCAL_LEASE / 4,
@@ -90,8 +104,14 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     };
     let slots = Slots::start(queue, options, runtime.handle().clone())?;
 
-    let bar = if format == Format::Json { ProgressBar::hidden() } else { ProgressBar::new(campaign.jobs.len() as u64) };
-    bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} points, {elapsed} elapsed, ETA {eta}")?);
+    let bar = if format == Format::Json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(campaign.jobs.len() as u64)
+    };
+    bar.set_style(ProgressStyle::with_template(
+        "{msg} [{bar:30}] {pos}/{len} points, {elapsed} elapsed, ETA {eta}",
+    )?);
     bar.set_message(campaign.plan.name.clone());
     let id = submitted.campaign_id.clone();
     let mut halted = None;
@@ -115,7 +135,9 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         }
     })?;
     if interrupted {
-        bar.suspend(|| eprintln!("interrupted: finishing the jobs in hand, then stopping (rerun to resume)"));
+        bar.suspend(|| {
+            eprintln!("interrupted: finishing the jobs in hand, then stopping (rerun to resume)")
+        });
     }
     slots.stop();
     slots.join();
@@ -137,18 +159,33 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
             "timing": quality,
         }))?,
         _ => {
-            println!("{} new points, {} already known", submitted.new_jobs, submitted.already_known);
+            println!(
+                "{} new points, {} already known",
+                submitted.new_jobs, submitted.already_known
+            );
             report_status(&id, &status, Some(&quality), format)?;
         }
     }
     if let Some(reason) = halted {
-        anyhow::bail!("the worker stopped ({reason}) with {} of {} points left", status.queued + status.running, status.total);
+        anyhow::bail!(
+            "the worker stopped ({reason}) with {} of {} points left",
+            status.queued + status.running,
+            status.total
+        );
     }
     if interrupted {
-        anyhow::bail!("interrupted with {} of {} points left", status.queued + status.running, status.total);
+        anyhow::bail!(
+            "interrupted with {} of {} points left",
+            status.queued + status.running,
+            status.total
+        );
     }
     if status.failed > 0 {
-        anyhow::bail!("{} points failed: see `sweep status --db {}`", status.failed, args.db.display());
+        anyhow::bail!(
+            "{} points failed: see `sweep status --db {}`",
+            status.failed,
+            args.db.display()
+        );
     }
     Ok(())
 }
@@ -172,7 +209,12 @@ pub fn report_status(
         _ => {
             println!(
                 "campaign {campaign}: {} points: {} done, {} failed, {} queued, {} running, {} cancelled",
-                status.total, status.done, status.failed, status.queued, status.running, status.cancelled
+                status.total,
+                status.done,
+                status.failed,
+                status.queued,
+                status.running,
+                status.cancelled
             );
             if let Some(q) = quality.filter(|q| q.checked > 0) {
                 println!(

@@ -18,7 +18,11 @@ use clap::{Parser, Subcommand};
 use crate::output::Format;
 
 #[derive(Parser)]
-#[command(name = "sweep", version, about = "Benchmark campaigns for hard-body collision algorithms")]
+#[command(
+    name = "sweep",
+    version,
+    about = "Benchmark campaigns for hard-body collision algorithms"
+)]
 struct Cli {
     /// How results are printed: an aligned table, JSON, or CSV (export, query, report); logs go to stderr.
     #[arg(long, global = true, value_enum, default_value_t = Format::Table)]
@@ -67,7 +71,10 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // clap's first line names the flag and the cause; the usage hint after it is noise.
             let message = e.to_string();
-            eprintln!("{}", message.lines().next().unwrap_or("error: invalid arguments"));
+            eprintln!(
+                "{}",
+                message.lines().next().unwrap_or("error: invalid arguments")
+            );
             return std::process::ExitCode::from(2);
         }
     };

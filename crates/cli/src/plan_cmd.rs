@@ -42,7 +42,11 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
     match format {
         Format::Json => print_json(&summary),
         _ => {
-            let kinds: Vec<String> = summary.by_kind.iter().map(|(k, n)| format!("{n} {k}")).collect();
+            let kinds: Vec<String> = summary
+                .by_kind
+                .iter()
+                .map(|(k, n)| format!("{n} {k}"))
+                .collect();
             println!(
                 "{}: {} points ({}), campaign {}, estimated {:.0} s of job time{}",
                 summary.name,
@@ -50,7 +54,11 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
                 kinds.join(", "),
                 summary.campaign,
                 summary.estimate_s,
-                if summary.exclusive { ", exclusive timing" } else { "" }
+                if summary.exclusive {
+                    ", exclusive timing"
+                } else {
+                    ""
+                }
             );
             Ok(())
         }

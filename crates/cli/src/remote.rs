@@ -29,14 +29,20 @@ pub struct AuthArgs {
     #[arg(long)]
     token_file: Option<PathBuf>,
     /// The bearer token itself (prefer --token-file: the environment of a process can be read).
-    #[arg(long = "token", env = "SWEEP_TOKEN", hide_env_values = true, hide = true)]
+    #[arg(
+        long = "token",
+        env = "SWEEP_TOKEN",
+        hide_env_values = true,
+        hide = true
+    )]
     token: Option<String>,
 }
 
 impl AuthArgs {
     pub(crate) fn token(&self) -> anyhow::Result<Option<Token>> {
         let secret = match (&self.token_file, &self.token) {
-            (Some(file), _) => std::fs::read_to_string(file).with_context(|| format!("--token-file {}", file.display()))?,
+            (Some(file), _) => std::fs::read_to_string(file)
+                .with_context(|| format!("--token-file {}", file.display()))?,
             (None, Some(secret)) => secret.clone(),
             (None, None) => return Ok(None),
         };
@@ -58,24 +64,41 @@ pub struct ClientArgs {
 
 impl ClientArgs {
     pub fn new(coordinator: String, auth: AuthArgs, ca: Option<PathBuf>) -> Self {
-        Self { coordinator, auth, ca }
+        Self {
+            coordinator,
+            auth,
+            ca,
+        }
     }
 
     fn ca_pem(&self) -> anyhow::Result<Option<Vec<u8>>> {
-        self.ca.as_ref().map(|p| std::fs::read(p).with_context(|| format!("--ca {}", p.display()))).transpose()
+        self.ca
+            .as_ref()
+            .map(|p| std::fs::read(p).with_context(|| format!("--ca {}", p.display())))
+            .transpose()
     }
 
     /// A client whose calls give up after `timeout`.
-    async fn admin(&self, timeout: Duration) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
+    async fn admin(
+        &self,
+        timeout: Duration,
+    ) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
         let mut endpoint = Endpoint::from_shared(self.coordinator.clone())
             .with_context(|| format!("--coordinator {}", self.coordinator))?
             .connect_timeout(Duration::from_secs(5))
             .timeout(timeout);
         if let Some(ca) = self.ca_pem()? {
-            endpoint = endpoint.tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))?;
+            endpoint = endpoint
+                .tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))?;
         }
-        let channel = endpoint.connect().await.with_context(|| format!("cannot reach {}", self.coordinator))?;
-        Ok(AdminClient::with_interceptor(channel, WithToken::new(self.auth.token()?)))
+        let channel = endpoint
+            .connect()
+            .await
+            .with_context(|| format!("cannot reach {}", self.coordinator))?;
+        Ok(AdminClient::with_interceptor(
+            channel,
+            WithToken::new(self.auth.token()?),
+        ))
     }
 }
 
@@ -88,13 +111,18 @@ const SUBMIT_TIMEOUT: Duration = Duration::from_secs(600);
 fn rpc_error(status: tonic::Status) -> anyhow::Error {
     match status.code() {
         tonic::Code::InvalidArgument => anyhow::anyhow!("{}", status.message()),
-        tonic::Code::Unauthenticated => anyhow::anyhow!("refused by the coordinator: {}", status.message()),
+        tonic::Code::Unauthenticated => {
+            anyhow::anyhow!("refused by the coordinator: {}", status.message())
+        }
         code => anyhow::anyhow!("coordinator: {code:?}: {}", status.message()),
     }
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
-    Ok(tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?)
+    Ok(tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?)
 }
 
 #[derive(Args)]
@@ -125,24 +153,49 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
     let token = args.auth.token()?;
     let tls = crate::status_page::read_tls(args.tls_cert.as_deref(), args.tls_key.as_deref())?;
     if token.is_none() && !args.listen.ip().is_loopback() {
-        bail!("--listen {}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)", args.listen);
+        bail!(
+            "--listen {}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)",
+            args.listen
+        );
     }
     let expand: ExpandPlan = Arc::new(|text: &str, file: &str| {
-        from_plan(text, file).map(|c| (c.campaign, c.jobs)).map_err(|e| e.to_string())
+        from_plan(text, file)
+            .map(|c| (c.campaign, c.jobs))
+            .map_err(|e| e.to_string())
     });
     runtime()?.block_on(async {
-        let store = Store::open(&args.db).await.with_context(|| format!("cannot open {}", args.db.display()))?;
-        let config = Config { lease_for: Duration::from_secs(args.lease_secs.max(1)), max_attempts: args.max_attempts, ..Config::default() };
+        let store = Store::open(&args.db)
+            .await
+            .with_context(|| format!("cannot open {}", args.db.display()))?;
+        let config = Config {
+            lease_for: Duration::from_secs(args.lease_secs.max(1)),
+            max_attempts: args.max_attempts,
+            ..Config::default()
+        };
         let coordinator = Coordinator::new(store, config, Arc::new(SystemClock))?;
-        let listener = tokio::net::TcpListener::bind(args.listen).await.with_context(|| format!("--listen {}", args.listen))?;
+        let listener = tokio::net::TcpListener::bind(args.listen)
+            .await
+            .with_context(|| format!("--listen {}", args.listen))?;
         // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.
         println!("listening on {}", listener.local_addr()?);
-        let page = crate::status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
+        let page =
+            crate::status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
         if let Some((_, url)) = &page {
             println!("status page on {url}");
         }
-        let options = ServeOptions { listen: args.listen, token, tls };
-        let served = coordinator::grpc::serve(coordinator.clone(), expand, options, listener, shutdown_signal()).await;
+        let options = ServeOptions {
+            listen: args.listen,
+            token,
+            tls,
+        };
+        let served = coordinator::grpc::serve(
+            coordinator.clone(),
+            expand,
+            options,
+            listener,
+            shutdown_signal(),
+        )
+        .await;
         if let Some((task, _)) = page {
             task.abort();
         }
@@ -203,7 +256,12 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
     let info = worker::provenance::worker_info(worker_id.clone(), &cores);
     let remote = {
         let _guard = runtime.enter();
-        Remote::new(&args.client.coordinator, args.client.auth.token()?, args.client.ca_pem()?, worker_id)?
+        Remote::new(
+            &args.client.coordinator,
+            args.client.auth.token()?,
+            args.client.ca_pem()?,
+            worker_id,
+        )?
     };
     // Register with backoff: a worker may start before its coordinator.
     let lease_for = runtime.block_on(async {
@@ -254,7 +312,10 @@ pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
     let (text, name) = read_plan_file(&args.plan)?;
     let response = runtime()?.block_on(async {
         let mut admin = args.client.admin(SUBMIT_TIMEOUT).await?;
-        let request = pb::SubmitRequest { plan_toml: text, file_name: name };
+        let request = pb::SubmitRequest {
+            plan_toml: text,
+            file_name: name,
+        };
         anyhow::Ok(admin.submit(request).await.map_err(rpc_error)?.into_inner())
     })?;
     match format {
@@ -265,16 +326,25 @@ pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
         })),
         _ => {
             println!("{}", response.campaign_id);
-            eprintln!("{} new points, {} already known", response.new_jobs, response.already_known);
+            eprintln!(
+                "{} new points, {} already known",
+                response.new_jobs, response.already_known
+            );
             Ok(())
         }
     }
 }
 
-pub fn remote_status(client: &ClientArgs, campaign: Option<&str>, format: Format) -> anyhow::Result<()> {
+pub fn remote_status(
+    client: &ClientArgs,
+    campaign: Option<&str>,
+    format: Format,
+) -> anyhow::Result<()> {
     let s = runtime()?.block_on(async {
         let mut admin = client.admin(ADMIN_TIMEOUT).await?;
-        let request = pb::StatusRequest { campaign_id: campaign.unwrap_or_default().to_string() };
+        let request = pb::StatusRequest {
+            campaign_id: campaign.unwrap_or_default().to_string(),
+        };
         anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
     })?;
     let status = coordinator::grpc::convert::status_from_wire(&s);
@@ -291,11 +361,22 @@ pub struct CancelArgs {
 pub fn cancel(args: &CancelArgs, format: Format) -> anyhow::Result<()> {
     let cancelled = runtime()?.block_on(async {
         let mut admin = args.client.admin(ADMIN_TIMEOUT).await?;
-        let request = pb::CancelRequest { campaign_id: args.campaign.clone() };
-        anyhow::Ok(admin.cancel(request).await.map_err(rpc_error)?.into_inner().cancelled)
+        let request = pb::CancelRequest {
+            campaign_id: args.campaign.clone(),
+        };
+        anyhow::Ok(
+            admin
+                .cancel(request)
+                .await
+                .map_err(rpc_error)?
+                .into_inner()
+                .cancelled,
+        )
     })?;
     match format {
-        Format::Json => print_json(&serde_json::json!({ "campaign": args.campaign, "cancelled": cancelled })),
+        Format::Json => {
+            print_json(&serde_json::json!({ "campaign": args.campaign, "cancelled": cancelled }))
+        }
         _ => {
             println!("cancelled {cancelled} queued points of {}", args.campaign);
             Ok(())
@@ -312,7 +393,14 @@ pub struct WorkersArgs {
 pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
     let workers = runtime()?.block_on(async {
         let mut admin = args.client.admin(ADMIN_TIMEOUT).await?;
-        anyhow::Ok(admin.workers(pb::WorkersRequest {}).await.map_err(rpc_error)?.into_inner().workers)
+        anyhow::Ok(
+            admin
+                .workers(pb::WorkersRequest {})
+                .await
+                .map_err(rpc_error)?
+                .into_inner()
+                .workers,
+        )
     })?;
     let rows: Vec<serde_json::Value> = workers
         .iter()
@@ -332,7 +420,13 @@ pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
                 .map(|e| {
                     let w = e.worker.clone().unwrap_or_default();
                     let cores: Vec<String> = w.cores.iter().map(u32::to_string).collect();
-                    vec![w.id, cores.join(","), e.running.to_string(), w.cpu_model, w.git_commit]
+                    vec![
+                        w.id,
+                        cores.join(","),
+                        e.running.to_string(),
+                        w.cpu_model,
+                        w.git_commit,
+                    ]
                 })
                 .collect();
             print_table(&["worker", "cores", "running", "cpu", "commit"], &table);

@@ -6,17 +6,22 @@ use tracing_subscriber::EnvFilter;
 /// Logs to stderr, filtered by `RUST_LOG` (default: warnings).
 pub fn init_logging() {
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
-    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
 }
 
 /// Starts rayon's global pool before any thread is pinned: threads inherit the affinity of the
 /// thread that spawns them, and the untimed generation must keep every core.
 pub fn start_thread_pool() -> anyhow::Result<()> {
-    rayon::ThreadPoolBuilder::new().build_global().or_else(|e| {
-        // Already started (e.g. by an earlier call): fine, it was started unpinned.
-        tracing::debug!("rayon pool: {e}");
-        Ok::<_, anyhow::Error>(())
-    })?;
+    rayon::ThreadPoolBuilder::new()
+        .build_global()
+        .or_else(|e| {
+            // Already started (e.g. by an earlier call): fine, it was started unpinned.
+            tracing::debug!("rayon pool: {e}");
+            Ok::<_, anyhow::Error>(())
+        })?;
     rayon::broadcast(|_| ());
     Ok(())
 }
@@ -65,8 +70,15 @@ pub fn cores_or_all(list: &Option<CoreList>) -> anyhow::Result<Vec<usize>> {
 /// is an error, not a silent oversubscription of the cores that timings run on.
 pub fn first_cores(available: &[usize], count: usize) -> anyhow::Result<Vec<usize>> {
     if count > available.len() {
-        let list = available.iter().map(usize::to_string).collect::<Vec<_>>().join(",");
-        bail!("--core-count {count}: only {} cores are available to this process ({list})", available.len());
+        let list = available
+            .iter()
+            .map(usize::to_string)
+            .collect::<Vec<_>>()
+            .join(",");
+        bail!(
+            "--core-count {count}: only {} cores are available to this process ({list})",
+            available.len()
+        );
     }
     Ok(available[..count].to_vec())
 }
@@ -75,7 +87,11 @@ pub fn first_cores(available: &[usize], count: usize) -> anyhow::Result<Vec<usiz
 pub fn parse_core_list(s: &str) -> Result<CoreList, String> {
     let mut cores = Vec::new();
     for part in s.split(',').map(str::trim) {
-        let number = |x: &str| x.trim().parse::<usize>().map_err(|_| format!("`{x}` is not a core number"));
+        let number = |x: &str| {
+            x.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("`{x}` is not a core number"))
+        };
         match part.split_once('-') {
             Some((a, b)) => {
                 let (a, b) = (number(a)?, number(b)?);
@@ -113,6 +129,9 @@ mod tests {
     #[test]
     fn a_core_count_beyond_the_mask_is_refused_naming_the_flag_and_the_cores() {
         let message = first_cores(&[4, 5], 3).unwrap_err().to_string();
-        assert_eq!(message, "--core-count 3: only 2 cores are available to this process (4,5)");
+        assert_eq!(
+            message,
+            "--core-count 3: only 2 cores are available to this process (4,5)"
+        );
     }
 }

@@ -7,7 +7,10 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 fn sweep(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sweep")).args(args).output().expect("the sweep binary runs")
+    Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(args)
+        .output()
+        .expect("the sweep binary runs")
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> String {
@@ -18,23 +21,39 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
 
 fn run_plan(plan: &str, db: &str) -> serde_json::Value {
     let out = sweep(&["run", plan, "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "sweep run failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "sweep run failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("JSON status")
 }
 
 /// (job_id, attempt) of every exported record of kind noop.
 fn exported_noops(db: &str) -> Vec<(String, u64)> {
     let out = sweep(&["export", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     rows.iter()
         .filter(|r| r["kind"] == "noop")
-        .map(|r| (r["job_id"].as_str().unwrap().to_string(), r["attempt"].as_u64().unwrap()))
+        .map(|r| {
+            (
+                r["job_id"].as_str().unwrap().to_string(),
+                r["attempt"].as_u64().unwrap(),
+            )
+        })
         .collect()
 }
 
 fn export_ok(db: &str) -> bool {
-    Path::new(db).exists() && sweep(&["export", "--db", db, "--format", "json"]).status.success()
+    Path::new(db).exists()
+        && sweep(&["export", "--db", db, "--format", "json"])
+            .status
+            .success()
 }
 
 fn noop_plan(count: u32, duration_ms: u32) -> String {
@@ -58,7 +77,11 @@ fn a_rerun_schedules_nothing_and_an_extension_only_the_new_points() {
     assert_eq!(extended["new_jobs"], 10, "{extended}");
     let rows = exported_noops(&db);
     let ids: HashSet<&String> = rows.iter().map(|(id, _)| id).collect();
-    assert_eq!((rows.len(), ids.len()), (30, 30), "every point exactly once");
+    assert_eq!(
+        (rows.len(), ids.len()),
+        (30, 30),
+        "every point exactly once"
+    );
 }
 
 /// kill -9 in the middle of a run, then a rerun: every point has exactly one result row.
@@ -78,7 +101,9 @@ fn a_killed_run_resumes_without_duplicates_or_losses() {
     loop {
         std::thread::sleep(Duration::from_millis(50));
         // The file exists before its schema does: until the run has migrated it, export refuses.
-        let done = export_ok(&db).then(|| exported_noops(&db).len()).unwrap_or(0);
+        let done = export_ok(&db)
+            .then(|| exported_noops(&db).len())
+            .unwrap_or(0);
         if done >= 5 {
             break;
         }
@@ -114,8 +139,16 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         files
     };
     let before = snapshot(&db);
-    let overlap = |line: &str| format!("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 1000\n{line}\n");
-    let superquadric = |exponents: &str| format!("[[edmd]]\nshape = \"superquadric\"\nn = 8\nphi = 0.2\nx0 = 2\nexponents = {exponents}\n");
+    let overlap = |line: &str| {
+        format!(
+            "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 1000\n{line}\n"
+        )
+    };
+    let superquadric = |exponents: &str| {
+        format!(
+            "[[edmd]]\nshape = \"superquadric\"\nn = 8\nphi = 0.2\nx0 = 2\nexponents = {exponents}\n"
+        )
+    };
     let cases: Vec<(String, &str)> = vec![
         (overlap("acceptance = 1.5"), "acceptance"),
         (overlap("acceptance = 0"), "acceptance"),
@@ -126,17 +159,42 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         (overlap("seed = \"abc\""), "seed"),
         (overlap("ci_target = 2"), "ci_target"),
         (overlap("time_cap_s = 5"), "time_cap_s"),
-        ("[[overlap]]\nl_star = -1\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
-        ("[[overlap]]\nl_star = 1\nw_star = 0\nr_star = 0.5\n".into(), "w_star"),
-        ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = nan\n".into(), "r_star"),
-        ("[[overlap]]\nl_star = { from = 5, to = 1 }\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
-        ("[[overlap]]\nl_star = { from = 1, to = 5, step = 0 }\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
-        ("[[overlap]]\nl_star = []\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
+        (
+            "[[overlap]]\nl_star = -1\nw_star = 1\nr_star = 0.5\n".into(),
+            "l_star",
+        ),
+        (
+            "[[overlap]]\nl_star = 1\nw_star = 0\nr_star = 0.5\n".into(),
+            "w_star",
+        ),
+        (
+            "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = nan\n".into(),
+            "r_star",
+        ),
+        (
+            "[[overlap]]\nl_star = { from = 5, to = 1 }\nw_star = 1\nr_star = 0.5\n".into(),
+            "l_star",
+        ),
+        (
+            "[[overlap]]\nl_star = { from = 1, to = 5, step = 0 }\nw_star = 1\nr_star = 0.5\n"
+                .into(),
+            "l_star",
+        ),
+        (
+            "[[overlap]]\nl_star = []\nw_star = 1\nr_star = 0.5\n".into(),
+            "l_star",
+        ),
         ("[[overlap]]\nw_star = 1\nr_star = 0.5\n".into(), "l_star"),
-        ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 0\n".into(), "configurations"),
+        (
+            "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nconfigurations = 0\n".into(),
+            "configurations",
+        ),
         ("[[noop]]\ncount = -3\n".into(), "count"),
         ("[[noop]]\ncount = 3\nfail_rate = 2\n".into(), "fail_rate"),
-        ("[[noop]]\ncount = 3\nduration_ms = \"slow\"\n".into(), "duration_ms"),
+        (
+            "[[noop]]\ncount = 3\nduration_ms = \"slow\"\n".into(),
+            "duration_ms",
+        ),
         (superquadric("[[2, 2, 2], [2, 2]]"), "exponents"),
         (superquadric("[[2, 2, 2],\n [2, 1.5, 2]]"), "exponents"),
         (superquadric("[2, 2, \"p\"]"), "exponents"),
@@ -148,12 +206,24 @@ fn bad_plans_name_the_key_and_leave_the_database_untouched() {
         let out = sweep(&["run", &path, "--db", &db]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "accepted:\n{plan}");
-        assert!(err.contains(&format!("bad{i}.toml:")) && err.contains(key), "case {i}: `{key}` not named: {err}");
-        assert_eq!(err.trim_end().lines().count(), 1, "case {i}: not one line: {err}");
+        assert!(
+            err.contains(&format!("bad{i}.toml:")) && err.contains(key),
+            "case {i}: `{key}` not named: {err}"
+        );
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "case {i}: not one line: {err}"
+        );
         assert!(snapshot(&db) == before, "case {i} changed the database");
         // An exponents list is named at its own line: the second list of a sweep on line 7.
         if plan.contains("[2, 1.5, 2]") {
-            assert!(err.contains(&format!("bad{i}.toml:7:2: key `exponents`: each exponent must lie in")), "{err}");
+            assert!(
+                err.contains(&format!(
+                    "bad{i}.toml:7:2: key `exponents`: each exponent must lie in"
+                )),
+                "{err}"
+            );
         }
     }
 }
@@ -176,26 +246,52 @@ fn overlap_results_carry_their_uncertainty() {
     run_plan(&plan, db);
 
     let out = sweep(&["report", "fig2", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let points: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(points.len(), 4 * 2 + 1);
     for p in &points {
-        let (lo, ns, hi) = (p["ci95_lo_ns_per_check"].as_f64(), p["ns_per_check"].as_f64().unwrap(), p["ci95_hi_ns_per_check"].as_f64());
+        let (lo, ns, hi) = (
+            p["ci95_lo_ns_per_check"].as_f64(),
+            p["ns_per_check"].as_f64().unwrap(),
+            p["ci95_hi_ns_per_check"].as_f64(),
+        );
         assert!(lo.unwrap() <= ns && ns <= hi.unwrap(), "{p}");
         assert!(p["disturbed"].is_boolean() && p["reruns"].is_u64(), "{p}");
     }
 
     let out = sweep(&["report", "table1", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let table: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     for row in &table {
-        for key in ["r_star", "precision", "algorithm", "mean_ms", "ns_per_check", "points"] {
-            assert!(row.get(key).is_some(), "the contract's `{key}` is missing: {row}");
+        for key in [
+            "r_star",
+            "precision",
+            "algorithm",
+            "mean_ms",
+            "ns_per_check",
+            "points",
+        ] {
+            assert!(
+                row.get(key).is_some(),
+                "the contract's `{key}` is missing: {row}"
+            );
         }
         assert!(row["ci95_ms"].as_f64().is_some_and(|h| h > 0.0), "{row}");
     }
     let out = sweep(&["report", "table1", "--db", db]);
-    assert!(String::from_utf8_lossy(&out.stdout).contains(" ± "), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains(" ± "),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
 
     let out = sweep(&["status", "--db", db, "--format", "json"]);
     let status: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -213,15 +309,37 @@ fn overlap_results_carry_their_uncertainty() {
     ]);
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert!(rows.iter().all(|r| r["blocks"] == 20), "{rows:?}");
-    let out = sweep(&["query", "SELECT stop, repeats FROM overlap_measurements WHERE ci_target IS NOT NULL", "--db", db, "--format", "json"]);
+    let out = sweep(&[
+        "query",
+        "SELECT stop, repeats FROM overlap_measurements WHERE ci_target IS NOT NULL",
+        "--db",
+        db,
+        "--format",
+        "json",
+    ]);
     let capped: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(capped.len(), 1);
-    assert!(["precise", "time_cap"].contains(&capped[0]["stop"].as_str().unwrap()), "{capped:?}");
+    assert!(
+        ["precise", "time_cap"].contains(&capped[0]["stop"].as_str().unwrap()),
+        "{capped:?}"
+    );
     assert!(capped[0]["repeats"].as_u64().unwrap() >= 2);
 
     let svg = dir.path().join("fig2.svg");
-    let out = sweep(&["report", "fig2", "--db", db, "--ci", "--out", svg.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "report",
+        "fig2",
+        "--db",
+        db,
+        "--ci",
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<circle"));
 }
 
@@ -249,23 +367,49 @@ fn visits_run_visit_major_and_pool_in_the_reports() {
         "query",
         "SELECT (SELECT max(started_at) FROM jobs WHERE pass = 0) <= (SELECT min(started_at) FROM jobs WHERE pass = 1) AS ordered, \
          (SELECT count(*) FROM jobs WHERE pass = 1) AS second",
-        "--db", db, "--format", "json",
+        "--db",
+        db,
+        "--format",
+        "json",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let order: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!((order[0]["ordered"].as_i64(), order[0]["second"].as_i64()), (Some(1), Some(3)), "{order:?}");
+    assert_eq!(
+        (order[0]["ordered"].as_i64(), order[0]["second"].as_i64()),
+        (Some(1), Some(3)),
+        "{order:?}"
+    );
     let out = sweep(&["report", "fig2", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let points: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(points.len(), 3, "one row per point");
     for point in &points {
         assert_eq!(point["visits"], 2, "{point}");
         assert_eq!(point["repeats"], 4, "{point}");
-        let (lo, hi) = (point["ci95_lo_ns_per_check"].as_f64().unwrap(), point["ci95_hi_ns_per_check"].as_f64().unwrap());
-        assert!(lo <= point["ns_per_check"].as_f64().unwrap() && point["ns_per_check"].as_f64().unwrap() <= hi, "{point}");
+        let (lo, hi) = (
+            point["ci95_lo_ns_per_check"].as_f64().unwrap(),
+            point["ci95_hi_ns_per_check"].as_f64().unwrap(),
+        );
+        assert!(
+            lo <= point["ns_per_check"].as_f64().unwrap()
+                && point["ns_per_check"].as_f64().unwrap() <= hi,
+            "{point}"
+        );
     }
     let three = run_plan(&write(dir.path(), "v3.toml", &plan(3)), db);
-    assert_eq!((three["new_jobs"].as_u64(), three["already_known"].as_u64()), (Some(3), Some(6)), "{three}");
+    assert_eq!(
+        (three["new_jobs"].as_u64(), three["already_known"].as_u64()),
+        (Some(3), Some(6)),
+        "{three}"
+    );
 }
 
 #[test]
@@ -279,13 +423,28 @@ fn reports_estimate_by_the_statistic_asked_for() {
         "name = \"s\"\n[[overlap]]\nl_star = [1, 4]\nw_star = 1\nr_star = 5\nconfigurations = 20_000\nrepeats = 2\nalgorithms = [\"qri\", \"ocsi\"]\n",
     );
     run_plan(&plan, db);
-    let out = sweep(&["query", "SELECT l_star, algorithm, block_ns_per_check FROM overlap_timings", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "query",
+        "SELECT l_star, algorithm, block_ns_per_check FROM overlap_timings",
+        "--db",
+        db,
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let mut blocks: std::collections::HashMap<(i64, String), Vec<f64>> = Default::default();
     for row in serde_json::from_slice::<Vec<serde_json::Value>>(&out.stdout).unwrap() {
-        let these: Vec<f64> = serde_json::from_str(row["block_ns_per_check"].as_str().unwrap()).unwrap();
+        let these: Vec<f64> =
+            serde_json::from_str(row["block_ns_per_check"].as_str().unwrap()).unwrap();
         blocks
-            .entry((row["l_star"].as_i64().unwrap(), row["algorithm"].as_str().unwrap().to_owned()))
+            .entry((
+                row["l_star"].as_i64().unwrap(),
+                row["algorithm"].as_str().unwrap().to_owned(),
+            ))
             .or_default()
             .extend(these);
     }
@@ -307,7 +466,11 @@ fn reports_estimate_by_the_statistic_asked_for() {
     };
     let report = |args: &[&str]| -> Vec<serde_json::Value> {
         let out = sweep(&[&["report"], args, &["--db", db, "--format", "json"]].concat());
-        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         serde_json::from_slice(&out.stdout).unwrap()
     };
     for (args, statistic) in [
@@ -320,43 +483,101 @@ fn reports_estimate_by_the_statistic_asked_for() {
         assert_eq!(points.len(), 4);
         for p in &points {
             assert_eq!(p["statistic"], statistic, "{args:?}: {p}");
-            let values = &blocks[&(p["l_star"].as_f64().unwrap() as i64, p["algorithm"].as_str().unwrap().to_owned())];
+            let values = &blocks[&(
+                p["l_star"].as_f64().unwrap() as i64,
+                p["algorithm"].as_str().unwrap().to_owned(),
+            )];
             let want = expected(statistic, values);
             let got = p["ns_per_check"].as_f64().unwrap();
-            assert!((got / want - 1.0).abs() < 1e-9, "{args:?}: {got} for {want}: {p}");
-            assert!(p["ci95_lo_ns_per_check"].as_f64().unwrap() <= got && got <= p["ci95_hi_ns_per_check"].as_f64().unwrap());
+            assert!(
+                (got / want - 1.0).abs() < 1e-9,
+                "{args:?}: {got} for {want}: {p}"
+            );
+            assert!(
+                p["ci95_lo_ns_per_check"].as_f64().unwrap() <= got
+                    && got <= p["ci95_hi_ns_per_check"].as_f64().unwrap()
+            );
         }
     }
     // Table 1: the mean by default; each cell the mean over its points of their estimates.
-    for (args, statistic) in [(&["table1"][..], "mean"), (&["table1", "--statistic", "p5"][..], "p5")] {
+    for (args, statistic) in [
+        (&["table1"][..], "mean"),
+        (&["table1", "--statistic", "p5"][..], "p5"),
+    ] {
         let table = report(args);
         for row in &table {
             assert_eq!(row["statistic"], statistic, "{row}");
             let algorithm = row["algorithm"].as_str().unwrap().to_owned();
-            let want = [1, 4].iter().map(|&l| expected(statistic, &blocks[&(l, algorithm.clone())])).sum::<f64>() / 2.0;
-            assert!((row["ns_per_check"].as_f64().unwrap() / want - 1.0).abs() < 1e-9, "{row}");
+            let want = [1, 4]
+                .iter()
+                .map(|&l| expected(statistic, &blocks[&(l, algorithm.clone())]))
+                .sum::<f64>()
+                / 2.0;
+            assert!(
+                (row["ns_per_check"].as_f64().unwrap() / want - 1.0).abs() < 1e-9,
+                "{row}"
+            );
         }
     }
     let out = sweep(&["report", "table1", "--db", db, "--statistic", "median"]);
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("Each point's estimate (median): the median of its timed blocks."), "{text}");
+    assert!(
+        text.contains("Each point's estimate (median): the median of its timed blocks."),
+        "{text}"
+    );
     let csv = dir.path().join("t.csv");
-    assert!(sweep(&["report", "table1", "--db", db, "--out", csv.to_str().unwrap()]).status.success());
+    assert!(
+        sweep(&[
+            "report",
+            "table1",
+            "--db",
+            db,
+            "--out",
+            csv.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
     let csv = std::fs::read_to_string(&csv).unwrap();
-    assert!(csv.lines().next().unwrap().ends_with(",statistic") && csv.lines().nth(1).unwrap().ends_with(",mean"), "{csv}");
+    assert!(
+        csv.lines().next().unwrap().ends_with(",statistic")
+            && csv.lines().nth(1).unwrap().ends_with(",mean"),
+        "{csv}"
+    );
     let svg = dir.path().join("f.svg");
-    assert!(sweep(&["report", "fig2", "--db", db, "--out", svg.to_str().unwrap()]).status.success());
-    assert!(std::fs::read_to_string(&svg).unwrap().contains("p5 of the blocks"));
+    assert!(
+        sweep(&["report", "fig2", "--db", db, "--out", svg.to_str().unwrap()])
+            .status
+            .success()
+    );
+    assert!(
+        std::fs::read_to_string(&svg)
+            .unwrap()
+            .contains("p5 of the blocks")
+    );
 
     for (args, named) in [
-        (&["report", "table1", "--db", db, "--statistic", "p10"][..], "--statistic"),
-        (&["report", "fig7", "--db", db, "--statistic", "mean"][..], "--statistic"),
+        (
+            &["report", "table1", "--db", db, "--statistic", "p10"][..],
+            "--statistic",
+        ),
+        (
+            &["report", "fig7", "--db", db, "--statistic", "mean"][..],
+            "--statistic",
+        ),
     ] {
         let out = sweep(args);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{args:?} accepted");
         assert!(err.contains(named), "{args:?}: {err}");
-        assert_eq!(err.trim_end().lines().filter(|l| l.starts_with("error") || l.starts_with("Error")).count(), 1, "{args:?}: {err}");
+        assert_eq!(
+            err.trim_end()
+                .lines()
+                .filter(|l| l.starts_with("error") || l.starts_with("Error"))
+                .count(),
+            1,
+            "{args:?}: {err}"
+        );
     }
 }
 
@@ -371,8 +592,19 @@ fn an_edmd_sweep_lands_in_edmd_runs_and_draws_figure_7() {
         "name = \"fig7-small\"\n[[edmd]]\nshape = \"sphere\"\nn = 64\nphi = [0.2, 0.3]\ncollisions = 2000\nequilibrate = 200\n",
     );
     run_plan(&plan, db);
-    let out = sweep(&["query", "SELECT phi, tau_c_us > 0, overlaps FROM edmd_runs ORDER BY phi", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "query",
+        "SELECT phi, tau_c_us > 0, overlaps FROM edmd_runs ORDER BY phi",
+        "--db",
+        db,
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(rows.len(), 2, "{rows:?}");
     for (row, phi) in rows.iter().zip([0.2, 0.3]) {
@@ -383,16 +615,34 @@ fn an_edmd_sweep_lands_in_edmd_runs_and_draws_figure_7() {
 
     let png = dir.path().join("fig7.png");
     let out = sweep(&["report", "fig7", "--db", db, "--out", png.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
 
     // A database without EDMD results: a clear error and no file.
     let empty = dir.path().join("noops.db");
-    run_plan(&write(dir.path(), "noops.toml", &noop_plan(3, 0)), empty.to_str().unwrap());
+    run_plan(
+        &write(dir.path(), "noops.toml", &noop_plan(3, 0)),
+        empty.to_str().unwrap(),
+    );
     let nothing = dir.path().join("none.png");
-    let out = sweep(&["report", "fig7", "--db", empty.to_str().unwrap(), "--out", nothing.to_str().unwrap()]);
+    let out = sweep(&[
+        "report",
+        "fig7",
+        "--db",
+        empty.to_str().unwrap(),
+        "--out",
+        nothing.to_str().unwrap(),
+    ]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no EDMD results"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("no EDMD results"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(!nothing.exists());
 }
 
@@ -406,22 +656,48 @@ fn edmd_reports_name_missing_points_then_draw_once_the_plan_is_extended() {
     let db = db.to_str().unwrap();
     let nnl = "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = [0.5, 2.0]\nneighbours = \"nnl\"\ndelta_nnl = 0.06\n\
                eps_d = [1e-6, 1e-5]\ncollisions = 400\nequilibrate = 40\n";
-    run_plan(&write(dir.path(), "a.toml", &format!("name = \"figures\"\n{nnl}")), db);
+    run_plan(
+        &write(dir.path(), "a.toml", &format!("name = \"figures\"\n{nnl}")),
+        db,
+    );
 
     let png = dir.path().join("fig8.png");
     let out = sweep(&["report", "fig8", "--db", db, "--out", png.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "fig8 drew without a sweep over X0");
-    assert!(err.contains("ellipsoid LL runs at φ = 0.3 over three or more X0"), "{err}");
+    assert!(
+        err.contains("ellipsoid LL runs at φ = 0.3 over three or more X0"),
+        "{err}"
+    );
     assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
     assert!(!png.exists(), "an empty figure was written");
 
     let ll = "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = [0.5, 1.0, 2.0]\nneighbours = [\"ll\", \"nnl\"]\n\
               delta_nnl = 0.06\neps_d = 1e-5\ncollisions = 400\nequilibrate = 40\n";
-    let extended = run_plan(&write(dir.path(), "b.toml", &format!("name = \"figures\"\n{nnl}\n{ll}")), db);
+    let extended = run_plan(
+        &write(
+            dir.path(),
+            "b.toml",
+            &format!("name = \"figures\"\n{nnl}\n{ll}"),
+        ),
+        db,
+    );
     assert_eq!(extended["new_jobs"], 4, "{extended}");
-    let out = sweep(&["report", "fig8", "--db", db, "--out", png.to_str().unwrap(), "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "report",
+        "fig8",
+        "--db",
+        db,
+        "--out",
+        png.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
     let fig8: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let ratios = fig8["ratios"][0]["points"].as_array().unwrap();
@@ -430,46 +706,126 @@ fn edmd_reports_name_missing_points_then_draw_once_the_plan_is_extended() {
 
     let svg = dir.path().join("fig9.svg");
     let out = sweep(&["report", "fig9", "--db", db, "--out", svg.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::read_to_string(&svg).unwrap().contains("smallest semi-axis"));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read_to_string(&svg)
+            .unwrap()
+            .contains("smallest semi-axis")
+    );
     let md = dir.path().join("accuracy.md");
-    let out = sweep(&["report", "accuracy", "--db", db, "--out", md.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::read_to_string(&md).unwrap().contains("**Recommended: eps_d = "));
+    let out = sweep(&[
+        "report",
+        "accuracy",
+        "--db",
+        db,
+        "--out",
+        md.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read_to_string(&md)
+            .unwrap()
+            .contains("**Recommended: eps_d = ")
+    );
 
     // The EDMD family alone: the overlap one is named missing; every setting is compared with the
     // tightest run's collision sequence, and Eq. 73 is split in time.
     let out = sweep(&["report", "accuracy", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("missing: overlap points with `verdict_check`"));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("missing: overlap points with `verdict_check`")
+    );
     let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let runs = study["knobs"][0]["state_points"][0]["runs"].as_array().unwrap();
+    let runs = study["knobs"][0]["state_points"][0]["runs"]
+        .as_array()
+        .unwrap();
     let reference = &runs[0];
-    assert!(reference["identical_collisions"].as_u64().unwrap() > 0, "{study}");
-    assert_eq!(reference["identical_collisions"], reference["compared_collisions"], "the reference is itself");
-    assert!(runs[1]["identical_collisions"].as_u64().unwrap() <= runs[1]["compared_collisions"].as_u64().unwrap());
-    assert!(runs.iter().all(|r| r["update_share"].as_f64().is_some_and(|s| s > 0.0 && s < 1.0)), "{study}");
+    assert!(
+        reference["identical_collisions"].as_u64().unwrap() > 0,
+        "{study}"
+    );
+    assert_eq!(
+        reference["identical_collisions"], reference["compared_collisions"],
+        "the reference is itself"
+    );
+    assert!(
+        runs[1]["identical_collisions"].as_u64().unwrap()
+            <= runs[1]["compared_collisions"].as_u64().unwrap()
+    );
+    assert!(
+        runs.iter().all(|r| r["update_share"]
+            .as_f64()
+            .is_some_and(|s| s > 0.0 && s < 1.0)),
+        "{study}"
+    );
 
     // Then overlap points with a checking set: the report has both families.
     let overlap = "[[overlap]]\nl_star = 2\nw_star = 3\nr_star = 0.5\nconfigurations = 20000\nrepeats = 1\n\
                    precision = [\"f32\", \"f64\"]\nalgorithms = [\"ocsi\", \"ocsi_batch\"]\nverdict_check = 4000\n";
-    let extended = run_plan(&write(dir.path(), "c.toml", &format!("name = \"figures\"\n{nnl}\n{ll}\n{overlap}")), db);
+    let extended = run_plan(
+        &write(
+            dir.path(),
+            "c.toml",
+            &format!("name = \"figures\"\n{nnl}\n{ll}\n{overlap}"),
+        ),
+        db,
+    );
     assert_eq!(extended["new_jobs"], 2, "{extended}");
     let out = sweep(&["report", "accuracy", "--db", db, "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let study: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let settings = study["overlap"]["settings"].as_array().unwrap();
     assert_eq!(settings.len(), 4, "{study}");
-    assert!(settings.iter().all(|s| s["bulk"].as_u64().unwrap() + s["shell"].as_u64().unwrap() == 4000), "{study}");
+    assert!(
+        settings
+            .iter()
+            .all(|s| s["bulk"].as_u64().unwrap() + s["shell"].as_u64().unwrap() == 4000),
+        "{study}"
+    );
     let wrong = |precision: &str| -> u64 {
-        settings.iter().filter(|s| s["precision"] == precision).map(|s| s["shell_wrong"].as_u64().unwrap()).sum()
+        settings
+            .iter()
+            .filter(|s| s["precision"] == precision)
+            .map(|s| s["shell_wrong"].as_u64().unwrap())
+            .sum()
     };
     assert!(wrong("f32") > wrong("f64"), "{study}");
-    assert!(study["overlap"]["recommended"]["algorithm"].is_string(), "{study}");
+    assert!(
+        study["overlap"]["recommended"]["algorithm"].is_string(),
+        "{study}"
+    );
     assert!(study["missing"].as_array().unwrap().is_empty(), "{study}");
     let png = dir.path().join("accuracy.png");
-    let out = sweep(&["report", "accuracy", "--db", db, "--out", png.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "report",
+        "accuracy",
+        "--db",
+        db,
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
 
     // A reader that closes the pipe at once (`| head`) ends the report quietly, not in a panic.
@@ -482,9 +838,20 @@ fn edmd_reports_name_missing_points_then_draw_once_the_plan_is_extended() {
     drop(child.stdout.take());
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{out:?}");
-    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("panicked"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 
-    let out = sweep(&["query", "SELECT count(*) AS runs, min(wall_s > 0 AND cpu_s > 0 AND cpu_s <= wall_s * 1.05) AS timed FROM edmd_runs", "--db", db, "--format", "json"]);
+    let out = sweep(&[
+        "query",
+        "SELECT count(*) AS runs, min(wall_s > 0 AND cpu_s > 0 AND cpu_s <= wall_s * 1.05) AS timed FROM edmd_runs",
+        "--db",
+        db,
+        "--format",
+        "json",
+    ]);
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(rows[0]["runs"], 8, "{rows:?}");
     assert_eq!(rows[0]["timed"], 1, "{rows:?}");
@@ -510,7 +877,10 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
                 ..edmd::Scene::new(shape, 512, 0.256)
             };
             for p in [2.0, 3.0, 4.0, 6.0, 8.0, 10.0] {
-                let superquadric = edmd::Scene { exponents: Some([2.0, 2.0, p]), ..scene(edmd::ShapeKind::Superquadric) };
+                let superquadric = edmd::Scene {
+                    exponents: Some([2.0, 2.0, p]),
+                    ..scene(edmd::ShapeKind::Superquadric)
+                };
                 points.push((superquadric, base * p / 2.0));
             }
             if with_ellipsoids {
@@ -522,11 +892,25 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
         .iter()
         .map(|(scene, _)| {
             let spec = jobs::JobSpec::Edmd(scene.clone());
-            store::NewJob { id: spec.id(), kind: spec.kind().into(), params_json: spec.canonical_json(), estimate_s: 1.0, exclusive: false, pass: spec.pass() }
+            store::NewJob {
+                id: spec.id(),
+                kind: spec.kind().into(),
+                params_json: spec.canonical_json(),
+                estimate_s: 1.0,
+                exclusive: false,
+                pass: spec.pass(),
+            }
         })
         .collect();
-    let tau: std::collections::HashMap<String, f64> = jobs.iter().zip(&points).map(|(job, (_, tau))| (job.id.clone(), *tau)).collect();
-    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    let tau: std::collections::HashMap<String, f64> = jobs
+        .iter()
+        .zip(&points)
+        .map(|(job, (_, tau))| (job.id.clone(), *tau))
+        .collect();
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
     runtime.block_on(async {
         let store = store::Store::open(path).await.unwrap();
         let worker = store::WorkerInfo {
@@ -573,8 +957,21 @@ fn fig13_is_drawn_from_the_database_and_names_what_it_lacks() {
     fig13_database(&db, true);
     let db = db.to_str().unwrap();
     let png = dir.path().join("fig13.png");
-    let out = sweep(&["report", "fig13", "--db", db, "--out", png.to_str().unwrap(), "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "report",
+        "fig13",
+        "--db",
+        db,
+        "--out",
+        png.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
     let figure: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(figure["tau_c"], "τ_c (µs, CPU time)", "{figure}");
@@ -583,41 +980,94 @@ fn fig13_is_drawn_from_the_database_and_names_what_it_lacks() {
     let curves = figure["curves"].as_array().unwrap();
     assert_eq!(curves.len(), 4, "{figure}");
     for curve in curves {
-        let base = if curve["neighbours"] == "ll" { 100.0 } else { 60.0 };
+        let base = if curve["neighbours"] == "ll" {
+            100.0
+        } else {
+            60.0
+        };
         let points = curve["points"].as_array().unwrap();
         assert_eq!(points.len(), 6, "{curve}");
         for point in points {
             let p = point["x"].as_f64().unwrap();
-            assert!((point["tau_c_us"].as_f64().unwrap() - base * p / 2.0).abs() < 1e-9, "{curve}");
+            assert!(
+                (point["tau_c_us"].as_f64().unwrap() - base * p / 2.0).abs() < 1e-9,
+                "{curve}"
+            );
         }
     }
     let ratios = figure["ellipsoid_ratios"].as_array().unwrap();
     assert_eq!(ratios.len(), 4, "{figure}");
-    assert!(ratios.iter().all(|r| (r["ratio"].as_f64().unwrap() - 5.0).abs() < 1e-9), "{figure}");
+    assert!(
+        ratios
+            .iter()
+            .all(|r| (r["ratio"].as_f64().unwrap() - 5.0).abs() < 1e-9),
+        "{figure}"
+    );
 
     let svg = dir.path().join("fig13.svg");
-    let out = sweep(&["report", "fig13", "--db", db, "--out", svg.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::read_to_string(&svg).unwrap().contains("τ_c(p = 2)/τ_c(HE) = 5.00"));
+    let out = sweep(&[
+        "report",
+        "fig13",
+        "--db",
+        db,
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read_to_string(&svg)
+            .unwrap()
+            .contains("τ_c(p = 2)/τ_c(HE) = 5.00")
+    );
 
     // Superquadrics without their reference ellipsoids: drawn, the four references named.
     let partial = dir.path().join("partial.db");
     fig13_database(&partial, false);
-    let out = sweep(&["report", "fig13", "--db", partial.to_str().unwrap(), "--format", "json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sweep(&[
+        "report",
+        "fig13",
+        "--db",
+        partial.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.matches("missing: ellipsoid ").count(), 4, "{err}");
 
     // Ellipsoids only (Fig. 8's database): nothing to draw, one line naming the four curves.
     let ellipsoids = dir.path().join("ellipsoids.db");
     let plan = "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nx0 = 2.0\ncollisions = 200\nequilibrate = 20\n";
-    run_plan(&write(dir.path(), "e.toml", plan), ellipsoids.to_str().unwrap());
+    run_plan(
+        &write(dir.path(), "e.toml", plan),
+        ellipsoids.to_str().unwrap(),
+    );
     let nothing = dir.path().join("nothing.png");
-    let out = sweep(&["report", "fig13", "--db", ellipsoids.to_str().unwrap(), "--out", nothing.to_str().unwrap()]);
+    let out = sweep(&[
+        "report",
+        "fig13",
+        "--db",
+        ellipsoids.to_str().unwrap(),
+        "--out",
+        nothing.to_str().unwrap(),
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "fig13 drew without superquadrics");
     assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
     assert!(err.contains("fig13: nothing to draw"), "{err}");
-    assert_eq!(err.matches("with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10").count(), 4, "{err}");
+    assert_eq!(
+        err.matches("with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10")
+            .count(),
+        4,
+        "{err}"
+    );
     assert!(!nothing.exists(), "an empty figure was written");
 }

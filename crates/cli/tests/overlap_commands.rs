@@ -3,7 +3,10 @@
 use std::process::{Command, Output};
 
 fn sweep(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sweep")).args(args).output().expect("the sweep binary runs")
+    Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(args)
+        .output()
+        .expect("the sweep binary runs")
 }
 
 fn stderr(out: &Output) -> String {
@@ -11,7 +14,18 @@ fn stderr(out: &Output) -> String {
 }
 
 const POINT: [&str; 12] = [
-    "bench", "overlap", "--l-star", "4", "--w-star", "8", "--r-star", "5", "--configurations", "200000", "--repeats", "2",
+    "bench",
+    "overlap",
+    "--l-star",
+    "4",
+    "--w-star",
+    "8",
+    "--r-star",
+    "5",
+    "--configurations",
+    "200000",
+    "--repeats",
+    "2",
 ];
 
 #[test]
@@ -22,13 +36,19 @@ fn bench_overlap_reports_every_algorithm_at_the_target_acceptance() {
     assert!(out.status.success(), "{}", stderr(&out));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let results = report["results"].as_array().expect("results");
-    let names: Vec<&str> = results.iter().map(|r| r["algorithm"].as_str().unwrap()).collect();
+    let names: Vec<&str> = results
+        .iter()
+        .map(|r| r["algorithm"].as_str().unwrap())
+        .collect();
     assert_eq!(names, ["arvo", "qri", "qrf", "sse", "ocsi", "ocsi_batch"]);
     for r in results {
         // σ of the measured acceptance over 2 × 200,000 configurations is < 10⁻³.
         let acceptance = r["acceptance"].as_f64().unwrap();
         assert!((acceptance - 0.4).abs() < 0.005, "{r}");
-        assert!(r["mean_ms"].as_f64().unwrap() > 0.0 && r["ns_per_check"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(
+            r["mean_ms"].as_f64().unwrap() > 0.0 && r["ns_per_check"].as_f64().unwrap() > 0.0,
+            "{r}"
+        );
     }
     assert!(report["stream_ns_per_config"].as_f64().unwrap() > 0.0);
 }
@@ -52,9 +72,19 @@ fn bench_overlap_rejects_bad_flags_naming_them() {
         let out = sweep(&args);
         let err = stderr(&out);
         assert!(!out.status.success(), "{flag} {value} was accepted");
-        assert!(err.contains(flag), "{flag} {value}: the message does not name the flag: {err}");
-        assert_eq!(err.trim_end().lines().count(), 1, "{flag} {value}: not one line: {err}");
-        assert!(out.stdout.is_empty(), "{flag} {value}: printed results anyway");
+        assert!(
+            err.contains(flag),
+            "{flag} {value}: the message does not name the flag: {err}"
+        );
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "{flag} {value}: not one line: {err}"
+        );
+        assert!(
+            out.stdout.is_empty(),
+            "{flag} {value}: printed results anyway"
+        );
     }
 }
 
@@ -91,7 +121,10 @@ fn overlap_gives_every_verdict_and_the_distance() {
             for algorithm in ["arvo", "qri", "qrf", "sse", "ocsi", "ocsi_batch"] {
                 assert_eq!(row[algorithm], hit, "{precision} {algorithm} {row}");
             }
-            assert!((row["distance"].as_f64().unwrap() - distance).abs() < 1e-6, "{precision} {row}");
+            assert!(
+                (row["distance"].as_f64().unwrap() - distance).abs() < 1e-6,
+                "{precision} {row}"
+            );
         }
     }
 }
@@ -100,19 +133,49 @@ fn overlap_gives_every_verdict_and_the_distance() {
 fn overlap_rejects_bad_rows_naming_row_and_column() {
     let good = "1,0,0,1,0.5,1,1,1,0,0,0";
     for (body, needle) in [
-        ("rx,ry,rz,radius,half_t,half_l,half_w,qw,qx,qy\n1,0,0,1,0.5,1,1,1,0,0\n".to_string(), "missing column `qz`"),
-        (format!("{HEADER}\n{good}\n1,0,0,NaN,0.5,1,1,1,0,0,0\n"), "row 1, column `radius`"),
-        (format!("{HEADER}\n1,0,0,1,0,1,1,1,0,0,0\n"), "row 0, column `half_t`"),
-        (format!("{HEADER}\n1,0,0,1,0.5,-1,1,1,0,0,0\n"), "row 0, column `half_l`"),
-        (format!("{HEADER}\n1,0,0,-1,0.5,1,1,1,0,0,0\n"), "row 0, column `radius`"),
-        (format!("{HEADER}\n{good}\n{good}\n1,0,0,1,0.5,1,1,0,0,0,0\n"), "row 2, columns `qw,qx,qy,qz`"),
-        (format!("{HEADER}\n1,zero,0,1,0.5,1,1,1,0,0,0\n"), "row 0, column `ry`"),
+        (
+            "rx,ry,rz,radius,half_t,half_l,half_w,qw,qx,qy\n1,0,0,1,0.5,1,1,1,0,0\n".to_string(),
+            "missing column `qz`",
+        ),
+        (
+            format!("{HEADER}\n{good}\n1,0,0,NaN,0.5,1,1,1,0,0,0\n"),
+            "row 1, column `radius`",
+        ),
+        (
+            format!("{HEADER}\n1,0,0,1,0,1,1,1,0,0,0\n"),
+            "row 0, column `half_t`",
+        ),
+        (
+            format!("{HEADER}\n1,0,0,1,0.5,-1,1,1,0,0,0\n"),
+            "row 0, column `half_l`",
+        ),
+        (
+            format!("{HEADER}\n1,0,0,-1,0.5,1,1,1,0,0,0\n"),
+            "row 0, column `radius`",
+        ),
+        (
+            format!("{HEADER}\n{good}\n{good}\n1,0,0,1,0.5,1,1,0,0,0,0\n"),
+            "row 2, columns `qw,qx,qy,qz`",
+        ),
+        (
+            format!("{HEADER}\n1,zero,0,1,0.5,1,1,1,0,0,0\n"),
+            "row 0, column `ry`",
+        ),
         (format!("{HEADER}\n1,0,0,1,0.5,1,1,1,0,0\n"), "row 0"),
         // Beyond f32's range (the default precision): it used to give a verdict with distance 0.
-        (format!("{HEADER}\n{good}\n1e39,0,0,1,0.5,1,1,1,0,0,0\n"), "row 1, column `rx`"),
-        (format!("{HEADER}\n3,0,0,1e-40,0.5,1,1,1,0,0,0\n"), "row 0, column `radius`"),
+        (
+            format!("{HEADER}\n{good}\n1e39,0,0,1,0.5,1,1,1,0,0,0\n"),
+            "row 1, column `rx`",
+        ),
+        (
+            format!("{HEADER}\n3,0,0,1e-40,0.5,1,1,1,0,0,0\n"),
+            "row 0, column `radius`",
+        ),
         // Exactly touching: no precision can be trusted with the verdict.
-        (format!("{HEADER}\n1.5,0,0,1,0.5,1,1,1,0,0,0\n"), "row 0, column `radius`: the sphere is within rounding"),
+        (
+            format!("{HEADER}\n1.5,0,0,1,0.5,1,1,1,0,0,0\n"),
+            "row 0, column `radius`: the sphere is within rounding",
+        ),
     ] {
         let out = overlap_csv(&body, &[]);
         let err = stderr(&out);

@@ -19,11 +19,14 @@ use wire::convert::{complete_outcome_to_wire, fail_outcome_to_wire};
 use crate::{Completion, Coordinator, Error, LeaseRef, NewCampaign, NewJob};
 
 /// Plan text and file name → the campaign and its jobs, or the one-line error a user sees.
-pub type ExpandPlan = Arc<dyn Fn(&str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
+pub type ExpandPlan =
+    Arc<dyn Fn(&str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ServeError {
-    #[error("refusing to listen on {0} without a token: set --token-file or SWEEP_TOKEN, or listen on loopback")]
+    #[error(
+        "refusing to listen on {0} without a token: set --token-file or SWEEP_TOKEN, or listen on loopback"
+    )]
     NoTokenOffLoopback(SocketAddr),
     #[error("TLS: {0}")]
     Tls(String),
@@ -94,59 +97,121 @@ struct Services {
 
 #[tonic::async_trait]
 impl Worker for Services {
-    async fn register(&self, request: Request<pb::RegisterRequest>) -> Result<Response<pb::RegisterResponse>, Status> {
-        let w = request.into_inner().worker.ok_or_else(|| Status::invalid_argument("register: no worker"))?;
+    async fn register(
+        &self,
+        request: Request<pb::RegisterRequest>,
+    ) -> Result<Response<pb::RegisterResponse>, Status> {
+        let w = request
+            .into_inner()
+            .worker
+            .ok_or_else(|| Status::invalid_argument("register: no worker"))?;
         if w.id.is_empty() {
             return Err(Status::invalid_argument("register: empty worker id"));
         }
         self.coordinator.register(&w.into()).await.map_err(status)?;
         let lease_ms = self.coordinator.config().lease_for.as_millis() as u64;
-        Ok(Response::new(pb::RegisterResponse { heartbeat_interval_ms: lease_ms / 4, lease_ms }))
+        Ok(Response::new(pb::RegisterResponse {
+            heartbeat_interval_ms: lease_ms / 4,
+            lease_ms,
+        }))
     }
 
-    async fn lease(&self, request: Request<pb::LeaseRequest>) -> Result<Response<pb::LeaseResponse>, Status> {
+    async fn lease(
+        &self,
+        request: Request<pb::LeaseRequest>,
+    ) -> Result<Response<pb::LeaseResponse>, Status> {
         let r = request.into_inner();
-        let leases = self.coordinator.lease(&r.worker_id, r.max_jobs, true).await.map_err(status)?;
-        Ok(Response::new(pb::LeaseResponse { leases: leases.into_iter().map(Into::into).collect() }))
+        let leases = self
+            .coordinator
+            .lease(&r.worker_id, r.max_jobs, true)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::LeaseResponse {
+            leases: leases.into_iter().map(Into::into).collect(),
+        }))
     }
 
-    async fn heartbeat(&self, request: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
+    async fn heartbeat(
+        &self,
+        request: Request<pb::HeartbeatRequest>,
+    ) -> Result<Response<pb::HeartbeatResponse>, Status> {
         let r = request.into_inner();
         let held: Vec<LeaseRef> = r.leases.into_iter().map(Into::into).collect();
-        let valid = self.coordinator.heartbeat(&r.worker_id, &held).await.map_err(status)?;
-        let lost = held.iter().filter(|l| !valid.contains(l)).map(Into::into).collect();
+        let valid = self
+            .coordinator
+            .heartbeat(&r.worker_id, &held)
+            .await
+            .map_err(status)?;
+        let lost = held
+            .iter()
+            .filter(|l| !valid.contains(l))
+            .map(Into::into)
+            .collect();
         Ok(Response::new(pb::HeartbeatResponse { lost }))
     }
 
-    async fn complete(&self, request: Request<pb::CompleteRequest>) -> Result<Response<pb::CompleteResponse>, Status> {
+    async fn complete(
+        &self,
+        request: Request<pb::CompleteRequest>,
+    ) -> Result<Response<pb::CompleteResponse>, Status> {
         let r = request.into_inner();
         let completions: Vec<Completion> = r.completions.into_iter().map(Into::into).collect();
-        let outcomes = self.coordinator.complete_batch(&r.worker_id, &completions).await.map_err(status)?;
-        let outcomes = outcomes.into_iter().map(|o| complete_outcome_to_wire(o) as i32).collect();
+        let outcomes = self
+            .coordinator
+            .complete_batch(&r.worker_id, &completions)
+            .await
+            .map_err(status)?;
+        let outcomes = outcomes
+            .into_iter()
+            .map(|o| complete_outcome_to_wire(o) as i32)
+            .collect();
         Ok(Response::new(pb::CompleteResponse { outcomes }))
     }
 
-    async fn fail(&self, request: Request<pb::FailRequest>) -> Result<Response<pb::FailResponse>, Status> {
+    async fn fail(
+        &self,
+        request: Request<pb::FailRequest>,
+    ) -> Result<Response<pb::FailResponse>, Status> {
         let r = request.into_inner();
-        let outcome = self.coordinator.fail(&r.worker_id, &r.job_id, r.token, &r.error).await.map_err(status)?;
-        Ok(Response::new(pb::FailResponse { outcome: fail_outcome_to_wire(outcome) as i32 }))
+        let outcome = self
+            .coordinator
+            .fail(&r.worker_id, &r.job_id, r.token, &r.error)
+            .await
+            .map_err(status)?;
+        Ok(Response::new(pb::FailResponse {
+            outcome: fail_outcome_to_wire(outcome) as i32,
+        }))
     }
 
-    async fn release(&self, request: Request<pb::ReleaseRequest>) -> Result<Response<pb::ReleaseResponse>, Status> {
+    async fn release(
+        &self,
+        request: Request<pb::ReleaseRequest>,
+    ) -> Result<Response<pb::ReleaseResponse>, Status> {
         let r = request.into_inner();
         let held: Vec<LeaseRef> = r.leases.into_iter().map(Into::into).collect();
-        self.coordinator.release(&r.worker_id, &held).await.map_err(status)?;
+        self.coordinator
+            .release(&r.worker_id, &held)
+            .await
+            .map_err(status)?;
         Ok(Response::new(pb::ReleaseResponse {}))
     }
 }
 
 #[tonic::async_trait]
 impl Admin for Services {
-    async fn submit(&self, request: Request<pb::SubmitRequest>) -> Result<Response<pb::SubmitResponse>, Status> {
+    async fn submit(
+        &self,
+        request: Request<pb::SubmitRequest>,
+    ) -> Result<Response<pb::SubmitResponse>, Status> {
         let r = request.into_inner();
         // A bad plan is refused before anything is written, with the message `sweep run` gives.
-        let (campaign, jobs) = (self.expand)(&r.plan_toml, &r.file_name).map_err(Status::invalid_argument)?;
-        let outcome = self.coordinator.submit(&campaign, &jobs).await.map_err(status)?;
+        let (campaign, jobs) =
+            (self.expand)(&r.plan_toml, &r.file_name).map_err(Status::invalid_argument)?;
+        let outcome = self
+            .coordinator
+            .submit(&campaign, &jobs)
+            .await
+            .map_err(status)?;
         Ok(Response::new(pb::SubmitResponse {
             campaign_id: outcome.campaign_id,
             new_jobs: outcome.new_jobs + outcome.requeued,
@@ -154,20 +219,42 @@ impl Admin for Services {
         }))
     }
 
-    async fn status(&self, request: Request<pb::StatusRequest>) -> Result<Response<pb::StatusResponse>, Status> {
+    async fn status(
+        &self,
+        request: Request<pb::StatusRequest>,
+    ) -> Result<Response<pb::StatusResponse>, Status> {
         let campaign = request.into_inner().campaign_id;
         let campaign = (!campaign.is_empty()).then_some(campaign);
-        let s = self.coordinator.status(campaign.as_deref()).await.map_err(status)?;
+        let s = self
+            .coordinator
+            .status(campaign.as_deref())
+            .await
+            .map_err(status)?;
         Ok(Response::new(convert::status_to_wire(&s)))
     }
 
-    async fn cancel(&self, request: Request<pb::CancelRequest>) -> Result<Response<pb::CancelResponse>, Status> {
-        let cancelled = self.coordinator.cancel(&request.into_inner().campaign_id).await.map_err(status)?;
+    async fn cancel(
+        &self,
+        request: Request<pb::CancelRequest>,
+    ) -> Result<Response<pb::CancelResponse>, Status> {
+        let cancelled = self
+            .coordinator
+            .cancel(&request.into_inner().campaign_id)
+            .await
+            .map_err(status)?;
         Ok(Response::new(pb::CancelResponse { cancelled }))
     }
 
-    async fn workers(&self, _: Request<pb::WorkersRequest>) -> Result<Response<pb::WorkersResponse>, Status> {
-        let workers = self.coordinator.store().workers().await.map_err(|e| status(e.into()))?;
+    async fn workers(
+        &self,
+        _: Request<pb::WorkersRequest>,
+    ) -> Result<Response<pb::WorkersResponse>, Status> {
+        let workers = self
+            .coordinator
+            .store()
+            .workers()
+            .await
+            .map_err(|e| status(e.into()))?;
         let workers = workers
             .into_iter()
             .map(|w| pb::workers_response::Entry {
@@ -200,8 +287,12 @@ pub async fn serve(
     if options.token.is_none() && !options.listen.ip().is_loopback() {
         return Err(ServeError::NoTokenOffLoopback(options.listen));
     }
-    let reaper = coordinator.spawn_reaper(Duration::from_secs(1).min(coordinator.config().lease_for / 4));
-    let services = Services { coordinator, expand };
+    let reaper =
+        coordinator.spawn_reaper(Duration::from_secs(1).min(coordinator.config().lease_for / 4));
+    let services = Services {
+        coordinator,
+        expand,
+    };
     let auth = RequireToken::new(options.token);
     // Workers' calls carry their own 10 s deadline; this bounds the others. Submitting a plan of
     // a million points takes tens of seconds.
@@ -215,7 +306,10 @@ pub async fn serve(
     // to every small response (the builder's own setting does not reach a listener passed in).
     let incoming = tonic::transport::server::TcpIncoming::from(listener).with_nodelay(Some(true));
     let result = server
-        .add_service(WorkerServer::with_interceptor(services.clone(), auth.clone()))
+        .add_service(WorkerServer::with_interceptor(
+            services.clone(),
+            auth.clone(),
+        ))
         .add_service(AdminServer::with_interceptor(services, auth))
         .serve_with_incoming_shutdown(incoming, shutdown)
         .await;
@@ -230,12 +324,28 @@ mod tests {
     #[test]
     fn errors_that_will_recur_are_not_internal() {
         let code = |e: store::Error| status(Error::Store(e)).code();
-        let record = store::Error::InvalidRecord { job_id: "j".into(), index: 0, reason: "an array".into() };
+        let record = store::Error::InvalidRecord {
+            job_id: "j".into(),
+            index: 0,
+            reason: "an array".into(),
+        };
         assert_eq!(code(record), tonic::Code::InvalidArgument);
-        assert_eq!(code(store::Error::DuplicateCompletion("j".into())), tonic::Code::InvalidArgument);
-        assert_eq!(code(store::Error::UnknownJob("j".into())), tonic::Code::NotFound);
-        assert_eq!(code(store::Error::UnknownWorker("w".into())), tonic::Code::NotFound);
-        assert_eq!(code(store::Error::ReadOnly), tonic::Code::FailedPrecondition);
+        assert_eq!(
+            code(store::Error::DuplicateCompletion("j".into())),
+            tonic::Code::InvalidArgument
+        );
+        assert_eq!(
+            code(store::Error::UnknownJob("j".into())),
+            tonic::Code::NotFound
+        );
+        assert_eq!(
+            code(store::Error::UnknownWorker("w".into())),
+            tonic::Code::NotFound
+        );
+        assert_eq!(
+            code(store::Error::ReadOnly),
+            tonic::Code::FailedPrecondition
+        );
         // A busy database may pass: the worker retries what comes as `internal`.
         let busy = || store::Error::Database(sqlx::Error::PoolTimedOut);
         assert!(Error::Store(busy()).is_transient());

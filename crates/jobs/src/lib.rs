@@ -26,8 +26,8 @@ mod spec;
 mod sweep;
 
 pub use plan::{
-    MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS, MAX_TIME_CAP_S, Plan,
-    PlanError,
+    MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS,
+    MAX_TIME_CAP_S, Plan, PlanError,
 };
 pub use run::{JobError, Record, run};
 pub use spec::{JobSpec, NoopSpec};

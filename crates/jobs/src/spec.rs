@@ -209,17 +209,30 @@ mod tests {
             plain.canonical_json(),
             r#"{"acceptance":0.4,"algorithms":["arvo","qri","qrf","sse","ocsi","ocsi_batch"],"configurations":1000,"kind":"overlap","l_star":4,"precision":"f32","r_star":0.5,"repeats":3,"seed":0,"w_star":2}"#
         );
-        let JobSpec::Overlap(p) = plain.clone() else { unreachable!() };
-        let precise = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), ..p.clone() });
+        let JobSpec::Overlap(p) = plain.clone() else {
+            unreachable!()
+        };
+        let precise = JobSpec::Overlap(PointSpec {
+            ci_target: Some(0.01),
+            ..p.clone()
+        });
         assert!(precise.canonical_json().contains(r#""ci_target":0.01"#));
         assert_ne!(precise.id(), plain.id());
-        let capped = JobSpec::Overlap(PointSpec { ci_target: Some(0.01), time_cap_s: Some(30.0), ..p.clone() });
+        let capped = JobSpec::Overlap(PointSpec {
+            ci_target: Some(0.01),
+            time_cap_s: Some(30.0),
+            ..p.clone()
+        });
         assert_ne!(capped.id(), precise.id());
-        let checked = JobSpec::Overlap(PointSpec { verdict_check: Some(1000), ..p });
+        let checked = JobSpec::Overlap(PointSpec {
+            verdict_check: Some(1000),
+            ..p
+        });
         assert!(checked.canonical_json().contains(r#""verdict_check":1000"#));
         assert_ne!(checked.id(), plain.id());
         // A stored spec without the keys still reads.
-        let stored: JobSpec = serde_json::from_str(&plain.canonical_json()).expect("old specs parse");
+        let stored: JobSpec =
+            serde_json::from_str(&plain.canonical_json()).expect("old specs parse");
         assert_eq!(stored, plain);
     }
 

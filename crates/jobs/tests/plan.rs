@@ -199,9 +199,21 @@ const BAD: &[(&str, Option<&str>, usize)] = &[
         4,
     ),
     ("[[noop]]\ncount = 1\nduration_ms = [1,\n", None, 3),
-    ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = 0\n", Some("visits"), 5),
-    ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = [1, 3]\n", Some("visits"), 5),
-    ("[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = 101\n", Some("visits"), 5),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = 0\n",
+        Some("visits"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = [1, 3]\n",
+        Some("visits"),
+        5,
+    ),
+    (
+        "[[overlap]]\nl_star = 1\nw_star = 1\nr_star = 0.5\nvisits = 101\n",
+        Some("visits"),
+        5,
+    ),
     ("name = \"empty\"\n", None, 1),
 ];
 
@@ -303,7 +315,9 @@ fn deploy_plans_expand_to_the_papers_campaigns() {
 /// to unset, and unset they leave a point's id as it was before they existed.
 #[test]
 fn precision_keys_expand_and_default_to_unset() {
-    let plan = parse(&format!("[[overlap]]\n{GOOD}ci_target = [0.01, 0.003]\ntime_cap_s = 30\n"));
+    let plan = parse(&format!(
+        "[[overlap]]\n{GOOD}ci_target = [0.01, 0.003]\ntime_cap_s = 30\n"
+    ));
     let targets: Vec<(Option<f64>, Option<f64>)> = plan
         .jobs
         .iter()
@@ -312,9 +326,14 @@ fn precision_keys_expand_and_default_to_unset() {
             _ => panic!("overlap only"),
         })
         .collect();
-    assert_eq!(targets, [(Some(0.01), Some(30.0)), (Some(0.003), Some(30.0))]);
+    assert_eq!(
+        targets,
+        [(Some(0.01), Some(30.0)), (Some(0.003), Some(30.0))]
+    );
     let plain = parse(&format!("[[overlap]]\n{GOOD}"));
-    let JobSpec::Overlap(p) = &plain.jobs[0] else { panic!() };
+    let JobSpec::Overlap(p) = &plain.jobs[0] else {
+        panic!()
+    };
     assert_eq!((p.ci_target, p.time_cap_s), (None, None));
     assert!(!plain.jobs[0].canonical_json().contains("ci_target"));
 }
@@ -588,7 +607,9 @@ fn figs_7_to_11_digest(plan: &Plan) -> String {
         .jobs
         .iter()
         .filter(|job| match job {
-            JobSpec::Edmd(scene) => scene.shape != edmd::ShapeKind::Superquadric && scene.phi != 0.256,
+            JobSpec::Edmd(scene) => {
+                scene.shape != edmd::ShapeKind::Superquadric && scene.phi != 0.256
+            }
             _ => true,
         })
         .map(JobSpec::id)
@@ -603,9 +624,18 @@ fn figs_7_to_11_digest(plan: &Plan) -> String {
 #[test]
 fn ids_of_existing_edmd_plans_are_stable() {
     for (name, digest) in [
-        ("edmd-figures.toml", "6fb9041f9db05a0e5e5f2bfd27b7e54fc285b7de34e8e4828216c7b561befcb4"),
-        ("edmd-figures-quick.toml", "4de18e1729106f407b2a670a06bc9f30e050407b2dab83c5540fb1ef7e44c734"),
-        ("fig7.toml", "6c9efca8a0149bb6a0e6e2cd4d5c416aea64ea8c9fbc5babb4b0bf1c35074094"),
+        (
+            "edmd-figures.toml",
+            "6fb9041f9db05a0e5e5f2bfd27b7e54fc285b7de34e8e4828216c7b561befcb4",
+        ),
+        (
+            "edmd-figures-quick.toml",
+            "4de18e1729106f407b2a670a06bc9f30e050407b2dab83c5540fb1ef7e44c734",
+        ),
+        (
+            "fig7.toml",
+            "6c9efca8a0149bb6a0e6e2cd4d5c416aea64ea8c9fbc5babb4b0bf1c35074094",
+        ),
     ] {
         assert_eq!(figs_7_to_11_digest(&deploy_plan(name)), digest, "{name}");
     }
@@ -613,12 +643,23 @@ fn ids_of_existing_edmd_plans_are_stable() {
     // what this point is, so its id changed with it (it was e6d48ee7…343b with Δ_NNL = 0.15): it
     // is now the point fig7.toml's spheres with `delta_nnl = 0.25` have always named.
     let sphere = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n");
-    assert_eq!(sphere.jobs[0].id(), "ce0e397ec2c0cf0bd3d274930430bc1ce8d9f041c9a650e2e2e6db5fe8a2bb6c");
-    assert_eq!(ids(&sphere), ids(&parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\ndelta_nnl = 0.25\n")));
+    assert_eq!(
+        sphere.jobs[0].id(),
+        "ce0e397ec2c0cf0bd3d274930430bc1ce8d9f041c9a650e2e2e6db5fe8a2bb6c"
+    );
+    assert_eq!(
+        ids(&sphere),
+        ids(&parse(
+            "[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\ndelta_nnl = 0.25\n"
+        ))
+    );
     let ellipsoid = parse(
         "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2\nneighbours = \"nnl\"\ndelta_nnl = 0.06\n",
     );
-    assert_eq!(ellipsoid.jobs[0].id(), "1a434f17443be8a015059f765d663a2dc68d78ed4c3cf5196ff1157c41c6a38a");
+    assert_eq!(
+        ellipsoid.jobs[0].id(),
+        "1a434f17443be8a015059f765d663a2dc68d78ed4c3cf5196ff1157c41c6a38a"
+    );
     assert!(!ellipsoid.jobs[0].canonical_json().contains("exponents"));
 }
 
@@ -628,23 +669,42 @@ fn ids_of_existing_edmd_plans_are_stable() {
 #[test]
 fn a_shape_dependent_delta_nnl_moves_only_sphere_list_points() {
     for (text, id) in [
-        ("shape = \"ellipsoid\"\nx0 = 2\nneighbours = \"nnl\"", "d54083ee97e0d396f1928e6a47280e18f06fc03ccf09dcfb412a42800c520cb9"),
-        ("shape = \"ellipsoid\"\nx0 = 2", "19e584324b2128592c9c327a63ca9a4c57ca111e1b3175b928d6561504a761da"),
-        ("shape = \"superquadric\"\nx0 = 2\nexponents = [2, 2, 4]\nneighbours = \"nnl\"", "fb44c8ad7152921ca0dc2e96f53488819ae66c7be9604393e2c19af209685034"),
-        ("shape = \"sphere\"\nneighbours = \"ll\"", "6e7f4845aad1c8740d3404821ce4af6906620e287d4729b6f54901e9e837fb04"),
+        (
+            "shape = \"ellipsoid\"\nx0 = 2\nneighbours = \"nnl\"",
+            "d54083ee97e0d396f1928e6a47280e18f06fc03ccf09dcfb412a42800c520cb9",
+        ),
+        (
+            "shape = \"ellipsoid\"\nx0 = 2",
+            "19e584324b2128592c9c327a63ca9a4c57ca111e1b3175b928d6561504a761da",
+        ),
+        (
+            "shape = \"superquadric\"\nx0 = 2\nexponents = [2, 2, 4]\nneighbours = \"nnl\"",
+            "fb44c8ad7152921ca0dc2e96f53488819ae66c7be9604393e2c19af209685034",
+        ),
+        (
+            "shape = \"sphere\"\nneighbours = \"ll\"",
+            "6e7f4845aad1c8740d3404821ce4af6906620e287d4729b6f54901e9e837fb04",
+        ),
     ] {
         let plan = parse(&format!("[[edmd]]\nn = 256\nphi = 0.45\n{text}\n"));
         assert_eq!(plan.jobs[0].id(), id, "{text}");
-        let written = parse(&format!("[[edmd]]\nn = 256\nphi = 0.45\n{text}\ndelta_nnl = 0.15\n"));
+        let written = parse(&format!(
+            "[[edmd]]\nn = 256\nphi = 0.45\n{text}\ndelta_nnl = 0.15\n"
+        ));
         assert_eq!(ids(&plan), ids(&written), "{text}");
     }
     // A sphere on lists with Δ_NNL written keeps its id whatever the default.
     let written = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\ndelta_nnl = 0.15\n");
-    assert_eq!(written.jobs[0].id(), "e6d48ee732ebca6639c459d388ea2bb76b6bd5767ad781b2a69670c5aeea343b");
+    assert_eq!(
+        written.jobs[0].id(),
+        "e6d48ee732ebca6639c459d388ea2bb76b6bd5767ad781b2a69670c5aeea343b"
+    );
 }
 
 fn superquadrics(exponents: &str) -> String {
-    format!("[[edmd]]\nshape = \"superquadric\"\nn = 64\nphi = 0.256\nx0 = [0.5, 2.0]\nexponents = {exponents}\n")
+    format!(
+        "[[edmd]]\nshape = \"superquadric\"\nn = 64\nphi = 0.256\nx0 = [0.5, 2.0]\nexponents = {exponents}\n"
+    )
 }
 
 fn exponents_of(plan: &Plan) -> Vec<[f64; 3]> {
@@ -662,11 +722,22 @@ fn exponents_of(plan: &Plan) -> Vec<[f64; 3]> {
 #[test]
 fn one_list_is_one_value_of_a_list_valued_key() {
     let plan = parse(&superquadrics("[2, 2, 2]"));
-    assert_eq!(exponents_of(&plan), [[2.0; 3], [2.0; 3]], "X0 swept, exponents one value");
-    assert!(plan.jobs[0].canonical_json().contains(r#""exponents":[2,2,2]"#), "{}", plan.jobs[0].canonical_json());
+    assert_eq!(
+        exponents_of(&plan),
+        [[2.0; 3], [2.0; 3]],
+        "X0 swept, exponents one value"
+    );
+    assert!(
+        plan.jobs[0]
+            .canonical_json()
+            .contains(r#""exponents":[2,2,2]"#),
+        "{}",
+        plan.jobs[0].canonical_json()
+    );
     // Written as floats, the same point.
     assert_eq!(ids(&plan), ids(&parse(&superquadrics("[2.0, 2e0, 2]"))));
-    let ellipsoids = parse("[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.256\nx0 = [0.5, 2.0]\n");
+    let ellipsoids =
+        parse("[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.256\nx0 = [0.5, 2.0]\n");
     assert!(ids(&plan).is_disjoint(&ids(&ellipsoids)));
 }
 
@@ -679,7 +750,11 @@ fn a_list_of_lists_sweeps_a_list_valued_key() {
     got.sort_by(|a, b| a[2].total_cmp(&b[2]));
     got.dedup();
     assert_eq!(got, [[2.0, 2.0, 2.0], [2.0, 2.0, 4.0], [2.0, 2.0, 10.0]]);
-    assert_eq!((plan.jobs.len(), ids(&plan).len()), (6, 6), "3 exponents × 2 X0");
+    assert_eq!(
+        (plan.jobs.len(), ids(&plan).len()),
+        (6, 6),
+        "3 exponents × 2 X0"
+    );
     // Repeated lists are one point.
     let twice = parse(&superquadrics("[[2, 2, 2], [2.0, 2, 2]]"));
     assert_eq!(exponents_of(&twice), [[2.0; 3], [2.0; 3]]);
@@ -690,7 +765,11 @@ fn a_list_of_lists_sweeps_a_list_valued_key() {
 fn bad_exponents_name_the_key_and_the_line() {
     for (exponents, line, needle) in [
         ("[[2, 2, 2], [2, 2]]", 6, "length 3"),
-        ("[\n  [2, 2, 2],\n  [2, 1.5, 2],\n]", 8, "each exponent must lie in [2, "),
+        (
+            "[\n  [2, 2, 2],\n  [2, 1.5, 2],\n]",
+            8,
+            "each exponent must lie in [2, ",
+        ),
         ("[2, 2, \"p\"]", 6, "invalid type: string"),
         ("[2, 2, 1]", 6, "got 1"),
         ("[2, 2, nan]", 6, "finite"),
@@ -706,20 +785,40 @@ fn bad_exponents_name_the_key_and_the_line() {
         let error = Plan::parse(&text, "sq.toml").expect_err(&text);
         let shown = error.to_string();
         assert!(!shown.contains('\n'), "one line: {shown}");
-        assert_eq!((error.line, error.key.as_deref()), (line, Some("exponents")), "{exponents}: {shown}");
+        assert_eq!(
+            (error.line, error.key.as_deref()),
+            (line, Some("exponents")),
+            "{exponents}: {shown}"
+        );
         assert!(shown.starts_with(&format!("sq.toml:{line}:")), "{shown}");
-        assert!(shown.contains(needle), "{exponents}: `{needle}` not in {shown}");
+        assert!(
+            shown.contains(needle),
+            "{exponents}: `{needle}` not in {shown}"
+        );
     }
     let ellipsoid = Plan::parse(
         "[[edmd]]\nshape = \"ellipsoid\"\nn = 64\nphi = 0.3\nexponents = [2, 2, 2]\n",
         "e.toml",
     )
     .expect_err("an ellipsoid has no exponents");
-    assert!(ellipsoid.to_string().starts_with("e.toml:5:13: key `exponents`: only a superquadric"), "{ellipsoid}");
+    assert!(
+        ellipsoid
+            .to_string()
+            .starts_with("e.toml:5:13: key `exponents`: only a superquadric"),
+        "{ellipsoid}"
+    );
     // A key whose value is a single number still refuses lists inside its sweep.
-    let nested = Plan::parse("[[edmd]]\nshape = \"sphere\"\nn = 64\nphi = [[0.3]]\n", "s.toml")
-        .expect_err("a list in a sweep of numbers");
-    assert!(nested.to_string().starts_with("s.toml:4:8: key `phi`: a list element must be a single value"), "{nested}");
+    let nested = Plan::parse(
+        "[[edmd]]\nshape = \"sphere\"\nn = 64\nphi = [[0.3]]\n",
+        "s.toml",
+    )
+    .expect_err("a list in a sweep of numbers");
+    assert!(
+        nested
+            .to_string()
+            .starts_with("s.toml:4:8: key `phi`: a list element must be a single value"),
+        "{nested}"
+    );
 }
 
 /// Fig. 13's points in the EDMD plans: superquadrics [2, 2, p] at φ = 0.256, N = 512, X0 = 0.5
@@ -728,7 +827,11 @@ fn bad_exponents_name_the_key_and_the_line() {
 #[test]
 fn fig13_points_are_in_the_edmd_plans() {
     for (name, grid, collisions) in [
-        ("edmd-figures.toml", vec![2.0, 3.0, 4.0, 6.0, 8.0, 10.0], 20_000),
+        (
+            "edmd-figures.toml",
+            vec![2.0, 3.0, 4.0, 6.0, 8.0, 10.0],
+            20_000,
+        ),
         ("edmd-figures-quick.toml", vec![2.0, 4.0, 10.0], 2_000),
     ] {
         let plan = deploy_plan(name);
@@ -740,14 +843,33 @@ fn fig13_points_are_in_the_edmd_plans() {
                 _ => None,
             })
             .collect();
-        let mut p: Vec<f64> = at_fig13.iter().filter_map(|s| s.exponents.map(|[n, m, p]| { assert_eq!((n, m), (2.0, 2.0)); p })).collect();
+        let mut p: Vec<f64> = at_fig13
+            .iter()
+            .filter_map(|s| {
+                s.exponents.map(|[n, m, p]| {
+                    assert_eq!((n, m), (2.0, 2.0));
+                    p
+                })
+            })
+            .collect();
         p.sort_by(f64::total_cmp);
         p.dedup();
         assert_eq!(p, grid, "{name}");
-        let ellipsoids = at_fig13.iter().filter(|s| s.shape == edmd::ShapeKind::Ellipsoid).count();
-        assert_eq!((at_fig13.len(), ellipsoids), (grid.len() * 4 + 4, 4), "{name}");
+        let ellipsoids = at_fig13
+            .iter()
+            .filter(|s| s.shape == edmd::ShapeKind::Ellipsoid)
+            .count();
+        assert_eq!(
+            (at_fig13.len(), ellipsoids),
+            (grid.len() * 4 + 4, 4),
+            "{name}"
+        );
         for s in &at_fig13 {
-            assert_eq!((s.n, s.collisions, s.delta_nnl, s.eps_d), (512, collisions, 0.06, 1e-5), "{name}");
+            assert_eq!(
+                (s.n, s.collisions, s.delta_nnl, s.eps_d),
+                (512, collisions, 0.06, 1e-5),
+                "{name}"
+            );
         }
     }
 }
@@ -762,10 +884,26 @@ const HOG_PLAN: &str = "name = \"new-1\"\nexclusive = false\nseed = 1\n\n[[overl
 /// Ids of that plan's corner points in the databases main wrote (/tmp/h18b-hog5/new-1.db, `SELECT
 /// id FROM jobs`): `visits = 1`, or no `visits`, must give exactly these.
 const MAIN_IDS: [(f64, f64, &str); 4] = [
-    (1.0, 1.0, "88e9ba72593ca5ee027c9b4f8c21660243eaf9576d73b227d632352eeac1c2e0"),
-    (20.0, 1.0, "93dd72ee0cf922c4897847e9c37091e79890651f49cedea90f9375cce4982267"),
-    (20.0, 20.0, "e584faecfc72e98f4dddd318583211a223012393a65aa7c2a2ca877360e5e541"),
-    (1.0, 20.0, "eb5c43300dae2211d8566dc3f1b76b372b54e3a774d106e8360f36b5f33e154d"),
+    (
+        1.0,
+        1.0,
+        "88e9ba72593ca5ee027c9b4f8c21660243eaf9576d73b227d632352eeac1c2e0",
+    ),
+    (
+        20.0,
+        1.0,
+        "93dd72ee0cf922c4897847e9c37091e79890651f49cedea90f9375cce4982267",
+    ),
+    (
+        20.0,
+        20.0,
+        "e584faecfc72e98f4dddd318583211a223012393a65aa7c2a2ca877360e5e541",
+    ),
+    (
+        1.0,
+        20.0,
+        "eb5c43300dae2211d8566dc3f1b76b372b54e3a774d106e8360f36b5f33e154d",
+    ),
 ];
 
 fn overlap_points(plan: &Plan) -> Vec<overlap::PointSpec> {

@@ -45,10 +45,20 @@ fn bench_precision<T: Real>(c: &mut Criterion) {
     let mut verdicts = vec![0u64; verdict_words(N)];
     let mut group = c.benchmark_group(format!("overlap_{}", T::NAME));
     group.throughput(Throughput::Elements(N as u64));
-    group.bench_function("stream_read", |b| b.iter(|| stream_read(black_box(batch.view()))));
+    group.bench_function("stream_read", |b| {
+        b.iter(|| stream_read(black_box(batch.view())))
+    });
     for algorithm in Algorithm::ALL {
         group.bench_function(algorithm.name(), |b| {
-            b.iter(|| count_overlaps(algorithm, black_box(batch.view()), &cuboid, radius, &mut verdicts))
+            b.iter(|| {
+                count_overlaps(
+                    algorithm,
+                    black_box(batch.view()),
+                    &cuboid,
+                    radius,
+                    &mut verdicts,
+                )
+            })
         });
     }
     group.finish();
@@ -67,18 +77,34 @@ fn bench_parry(c: &mut Criterion) {
             let [t, l, w] = cfg.axes.map(|e| Vector::new(e[0], e[1], e[2]));
             let rotation = Rotation::from_mat3(&Matrix::from_cols(t, l, w));
             let [x, y, z] = cfg.r_sc;
-            (Pose::from_rotation(rotation), Pose::from_translation(Vector::new(x, y, z)))
+            (
+                Pose::from_rotation(rotation),
+                Pose::from_translation(Vector::new(x, y, z)),
+            )
         })
         .collect();
     let count = || {
         poses
             .iter()
-            .filter(|(at_cuboid, at_ball)| intersection_test(at_cuboid, &cuboid, at_ball, &ball).is_ok_and(|hit| hit.intersecting))
+            .filter(|(at_cuboid, at_ball)| {
+                intersection_test(at_cuboid, &cuboid, at_ball, &ball)
+                    .is_ok_and(|hit| hit.intersecting)
+            })
             .count()
     };
     // The peer must be timed on the same geometry: its verdicts agree with OCSI's up to rounding.
-    let ours = count_overlaps(Algorithm::Ocsi, batch.view(), &Cuboid { half }, spec.r_star as f32, &mut []) as usize;
-    assert!(count().abs_diff(ours) <= N / 10_000, "parry3d counts {} overlaps, OCSI {ours}", count());
+    let ours = count_overlaps(
+        Algorithm::Ocsi,
+        batch.view(),
+        &Cuboid { half },
+        spec.r_star as f32,
+        &mut [],
+    ) as usize;
+    assert!(
+        count().abs_diff(ours) <= N / 10_000,
+        "parry3d counts {} overlaps, OCSI {ours}",
+        count()
+    );
     let mut group = c.benchmark_group("overlap_f32");
     group.throughput(Throughput::Elements(N as u64));
     group.bench_function("parry3d_intersection_test", |b| b.iter(count));

@@ -19,7 +19,14 @@ pub enum Algorithm {
 }
 
 impl Algorithm {
-    pub const ALL: [Algorithm; 6] = [Self::Arvo, Self::Qri, Self::Qrf, Self::Sse, Self::Ocsi, Self::OcsiBatch];
+    pub const ALL: [Algorithm; 6] = [
+        Self::Arvo,
+        Self::Qri,
+        Self::Qrf,
+        Self::Sse,
+        Self::Ocsi,
+        Self::OcsiBatch,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -77,7 +84,10 @@ impl FromStr for Precision {
         match s {
             "f32" => Ok(Self::F32),
             "f64" => Ok(Self::F64),
-            _ => Err(OverlapError::Invalid { key: "precision", reason: format!("unknown precision `{s}` (expected f32 or f64)") }),
+            _ => Err(OverlapError::Invalid {
+                key: "precision",
+                reason: format!("unknown precision `{s}` (expected f32 or f64)"),
+            }),
         }
     }
 }

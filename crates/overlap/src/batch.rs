@@ -24,7 +24,10 @@ pub struct Batch<T> {
 impl<T: Real> Batch<T> {
     /// `len` configurations, all zero (sphere at the cuboid centre, degenerate axes) until written.
     pub fn zeroed(len: usize) -> Self {
-        Self { len, data: vec![T::ZERO; len.div_ceil(LANES) * BLOCK] }
+        Self {
+            len,
+            data: vec![T::ZERO; len.div_ceil(LANES) * BLOCK],
+        }
     }
 
     pub fn from_configurations(configs: &[Configuration<T>]) -> Self {
@@ -58,7 +61,10 @@ impl<T: Real> Batch<T> {
 
     /// All configurations, borrowed: what the kernels read.
     pub fn view(&self) -> BatchView<'_, T> {
-        BatchView { len: self.len, data: &self.data }
+        BatchView {
+            len: self.len,
+            data: &self.data,
+        }
     }
 
     /// Configuration `i` in place.
@@ -108,18 +114,34 @@ impl<'a, T: Real> BatchView<'a, T> {
     /// Configurations `configs` of this run. The start must be a multiple of 64, so that the
     /// run's verdicts begin on a word of a verdict bitset (and its first block on a block).
     pub fn range(&self, configs: std::ops::Range<usize>) -> BatchView<'a, T> {
-        assert!(configs.start % 64 == 0, "a run starts on a multiple of 64 configurations, not {}", configs.start);
-        assert!(configs.start <= configs.end && configs.end <= self.len, "{configs:?} out of {}", self.len);
+        assert!(
+            configs.start % 64 == 0,
+            "a run starts on a multiple of 64 configurations, not {}",
+            configs.start
+        );
+        assert!(
+            configs.start <= configs.end && configs.end <= self.len,
+            "{configs:?} out of {}",
+            self.len
+        );
         let first = configs.start / LANES * BLOCK;
         let last = (configs.end.div_ceil(LANES) * BLOCK).max(first);
-        BatchView { len: configs.len(), data: &self.data[first..last] }
+        BatchView {
+            len: configs.len(),
+            data: &self.data[first..last],
+        }
     }
 
     /// Configuration `i` in place.
     #[inline(always)]
     pub fn lane(&self, i: usize) -> Lane<'a, T> {
-        let block: &'a [T; BLOCK] = self.data[(i / LANES) * BLOCK..][..BLOCK].try_into().expect("a block is BLOCK values");
-        Lane { block, lane: i % LANES }
+        let block: &'a [T; BLOCK] = self.data[(i / LANES) * BLOCK..][..BLOCK]
+            .try_into()
+            .expect("a block is BLOCK values");
+        Lane {
+            block,
+            lane: i % LANES,
+        }
     }
 }
 
@@ -145,10 +167,18 @@ impl<T: Real> ConfigurationView<T> for Lane<'_, T> {
 #[inline]
 pub fn write_lane<T: Real>(block: &mut [T], lane: usize, c: &Configuration<T>) {
     let fields = [
-        c.r_sc[0], c.r_sc[1], c.r_sc[2], //
-        c.axes[0][0], c.axes[0][1], c.axes[0][2], //
-        c.axes[1][0], c.axes[1][1], c.axes[1][2], //
-        c.axes[2][0], c.axes[2][1], c.axes[2][2],
+        c.r_sc[0],
+        c.r_sc[1],
+        c.r_sc[2], //
+        c.axes[0][0],
+        c.axes[0][1],
+        c.axes[0][2], //
+        c.axes[1][0],
+        c.axes[1][1],
+        c.axes[1][2], //
+        c.axes[2][0],
+        c.axes[2][1],
+        c.axes[2][2],
     ];
     for (field, v) in fields.into_iter().enumerate() {
         block[field * LANES + lane] = v;

@@ -12,7 +12,11 @@ impl<T: Real> Cuboid<T> {
     /// The paper's reduced units: thickness T = 1, so L = L*, W = W* (Sec. 3).
     pub fn from_reduced(l_star: f64, w_star: f64) -> Self {
         Self {
-            half: [T::from_f64(0.5), T::from_f64(l_star / 2.0), T::from_f64(w_star / 2.0)],
+            half: [
+                T::from_f64(0.5),
+                T::from_f64(l_star / 2.0),
+                T::from_f64(w_star / 2.0),
+            ],
         }
     }
 }
@@ -38,7 +42,9 @@ pub trait ConfigurationView<T: Real> {
     /// r_SC · ê_i, the projection on the cuboid axis i (line 4 of Algorithms 2–4).
     #[inline(always)]
     fn projection(&self, i: usize) -> T {
-        self.r_sc(0) * self.axis(i, 0) + self.r_sc(1) * self.axis(i, 1) + self.r_sc(2) * self.axis(i, 2)
+        self.r_sc(0) * self.axis(i, 0)
+            + self.r_sc(1) * self.axis(i, 1)
+            + self.r_sc(2) * self.axis(i, 2)
     }
 }
 
@@ -58,8 +64,20 @@ impl<T: Real> ConfigurationView<T> for Configuration<T> {
 pub fn axes_from_quaternion(q: [f64; 4]) -> [[f64; 3]; 3] {
     let [w, x, y, z] = q;
     [
-        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)],
-        [2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + w * x)],
-        [2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)],
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y + w * z),
+            2.0 * (x * z - w * y),
+        ],
+        [
+            2.0 * (x * y - w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z + w * x),
+        ],
+        [
+            2.0 * (x * z + w * y),
+            2.0 * (y * z - w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
     ]
 }

@@ -22,9 +22,9 @@ pub mod exact;
 pub mod kernels;
 pub mod noise;
 pub mod protocol;
+pub mod range;
 pub mod real;
 pub mod rng;
-pub mod range;
 pub mod sampler;
 pub mod verdicts;
 
@@ -32,14 +32,19 @@ pub use algorithm::{Algorithm, Precision};
 pub use batch::{Batch, BatchView};
 pub use config::{Configuration, Cuboid};
 pub use error::OverlapError;
-pub use kernels::ocsi::min_distance;
 pub use estimate::{Estimate, Stop};
+pub use kernels::ocsi::min_distance;
 pub use noise::{Calibration, References};
 pub use protocol::{AlgorithmSummary, PointReport, PointSpec, Timing, run_point};
 pub use real::Real;
 
 /// Verdict of `algorithm` for one configuration (the batched kernel runs on a batch of one).
-pub fn overlaps<T: Real>(algorithm: Algorithm, cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
+pub fn overlaps<T: Real>(
+    algorithm: Algorithm,
+    cfg: &Configuration<T>,
+    cuboid: &Cuboid<T>,
+    radius: T,
+) -> bool {
     match algorithm {
         Algorithm::Arvo => kernels::arvo::arvo(cfg, cuboid, radius),
         Algorithm::Qri => kernels::qri::qri(cfg, cuboid, radius),
@@ -48,7 +53,12 @@ pub fn overlaps<T: Real>(algorithm: Algorithm, cfg: &Configuration<T>, cuboid: &
         Algorithm::Ocsi => kernels::ocsi::ocsi(cfg, cuboid, radius),
         Algorithm::OcsiBatch => {
             let mut verdict = [0u64];
-            T::ocsi_batch(Batch::from_configurations(std::slice::from_ref(cfg)).view(), cuboid, radius, &mut verdict);
+            T::ocsi_batch(
+                Batch::from_configurations(std::slice::from_ref(cfg)).view(),
+                cuboid,
+                radius,
+                &mut verdict,
+            );
             verdict[0] & 1 == 1
         }
     }

@@ -55,10 +55,21 @@ pub trait Real:
     fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool;
 
     /// OCSI across configurations on instruction set `isa`, see [`crate::kernels::batch`].
-    fn ocsi_batch_on(isa: Isa, batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]);
+    fn ocsi_batch_on(
+        isa: Isa,
+        batch: BatchView<'_, Self>,
+        cuboid: &Cuboid<Self>,
+        radius: Self,
+        verdicts: &mut [u64],
+    );
 
     /// OCSI across configurations on the best instruction set of this CPU.
-    fn ocsi_batch(batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+    fn ocsi_batch(
+        batch: BatchView<'_, Self>,
+        cuboid: &Cuboid<Self>,
+        radius: Self,
+        verdicts: &mut [u64],
+    ) {
         Self::ocsi_batch_on(Isa::best(), batch, cuboid, radius, verdicts)
     }
 }
@@ -89,7 +100,13 @@ impl Real for f32 {
     fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
         crate::kernels::sse::sse_f32(cfg, cuboid, radius)
     }
-    fn ocsi_batch_on(isa: Isa, batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+    fn ocsi_batch_on(
+        isa: Isa,
+        batch: BatchView<'_, Self>,
+        cuboid: &Cuboid<Self>,
+        radius: Self,
+        verdicts: &mut [u64],
+    ) {
         crate::kernels::batch::ocsi_batch_f32(isa, batch, cuboid, radius, verdicts)
     }
 }
@@ -120,7 +137,13 @@ impl Real for f64 {
     fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
         crate::kernels::sse::sse_f64(cfg, cuboid, radius)
     }
-    fn ocsi_batch_on(isa: Isa, batch: BatchView<'_, Self>, cuboid: &Cuboid<Self>, radius: Self, verdicts: &mut [u64]) {
+    fn ocsi_batch_on(
+        isa: Isa,
+        batch: BatchView<'_, Self>,
+        cuboid: &Cuboid<Self>,
+        radius: Self,
+        verdicts: &mut [u64],
+    ) {
         crate::kernels::batch::ocsi_batch_f64(isa, batch, cuboid, radius, verdicts)
     }
 }

@@ -25,7 +25,9 @@ pub fn derive_seed(seed: u64, index: u64) -> u64 {
 impl Rng {
     pub fn new(seed: u64) -> Self {
         let mut state = seed;
-        Self { s: std::array::from_fn(|_| splitmix64(&mut state)) }
+        Self {
+            s: std::array::from_fn(|_| splitmix64(&mut state)),
+        }
     }
 
     #[inline]

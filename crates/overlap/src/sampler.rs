@@ -19,7 +19,10 @@ use crate::rng::{Rng, derive_seed};
 pub fn steiner_volume(edges: [f64; 3], x: f64) -> f64 {
     use std::f64::consts::PI;
     let [t, l, w] = edges;
-    l * w * t + 2.0 * x * (l * w + w * t + t * l) + PI * x * x * (l + w + t) + 4.0 * PI * x.powi(3) / 3.0
+    l * w * t
+        + 2.0 * x * (l * w + w * t + t * l)
+        + PI * x * x * (l + w + t)
+        + 4.0 * PI * x.powi(3) / 3.0
 }
 
 /// The ρ with V(ρ) = V(R) / (1 − acceptance). V is increasing in x, so bisection between R
@@ -27,13 +30,20 @@ pub fn steiner_volume(edges: [f64; 3], x: f64) -> f64 {
 /// to the last bit.
 pub fn sampling_radius(edges: [f64; 3], radius: f64, acceptance: f64) -> f64 {
     let target = steiner_volume(edges, radius) / (1.0 - acceptance);
-    let (mut lo, mut hi) = (radius, radius.max((3.0 * target / (4.0 * std::f64::consts::PI)).cbrt()));
+    let (mut lo, mut hi) = (
+        radius,
+        radius.max((3.0 * target / (4.0 * std::f64::consts::PI)).cbrt()),
+    );
     while hi - lo > hi * f64::EPSILON {
         let mid = 0.5 * (lo + hi);
         if mid <= lo || mid >= hi {
             break;
         }
-        if steiner_volume(edges, mid) < target { lo = mid } else { hi = mid }
+        if steiner_volume(edges, mid) < target {
+            lo = mid
+        } else {
+            hi = mid
+        }
     }
     0.5 * (lo + hi)
 }
@@ -48,7 +58,10 @@ pub struct Spherocuboid {
 impl Spherocuboid {
     pub fn for_acceptance(half: [f64; 3], radius: f64, acceptance: f64) -> Self {
         let edges = half.map(|c| 2.0 * c);
-        Self { half, rho: sampling_radius(edges, radius, acceptance) }
+        Self {
+            half,
+            rho: sampling_radius(edges, radius, acceptance),
+        }
     }
 
     /// A point uniform in C ⊕ B(ρ), cuboid frame: rejection from the bounding box, which
@@ -56,8 +69,14 @@ impl Spherocuboid {
     pub fn sample_point(&self, rng: &mut Rng) -> [f64; 3] {
         let reach = self.half.map(|c| c + self.rho);
         loop {
-            let p = [reach[0] * rng.symmetric(), reach[1] * rng.symmetric(), reach[2] * rng.symmetric()];
-            let d2: f64 = (0..3).map(|i| (p[i].abs() - self.half[i]).max(0.0).powi(2)).sum();
+            let p = [
+                reach[0] * rng.symmetric(),
+                reach[1] * rng.symmetric(),
+                reach[2] * rng.symmetric(),
+            ];
+            let d2: f64 = (0..3)
+                .map(|i| (p[i].abs() - self.half[i]).max(0.0).powi(2))
+                .sum();
             if d2 <= self.rho * self.rho {
                 return p;
             }
@@ -100,16 +119,23 @@ pub fn generate<T: Real>(volume: &Spherocuboid, len: usize, seed: u64) -> Batch<
 pub fn regenerate<T: Real>(batch: &mut Batch<T>, volume: &Spherocuboid, seed: u64) {
     let len = batch.len();
     let task_len = BLOCKS_PER_TASK * BLOCK;
-    batch.values_mut().par_chunks_mut(task_len).enumerate().for_each(|(task, values)| {
-        let mut rng = Rng::new(derive_seed(seed, task as u64));
-        let first = task * BLOCKS_PER_TASK * LANES;
-        for (b, block) in values.chunks_exact_mut(BLOCK).enumerate() {
-            let lanes = len.saturating_sub(first + b * LANES).min(LANES);
-            for lane in 0..lanes {
-                let c = sample_configuration(volume, &mut rng);
-                let c = Configuration { r_sc: c.r_sc.map(T::from_f64), axes: c.axes.map(|e| e.map(T::from_f64)) };
-                write_lane(block, lane, &c);
+    batch
+        .values_mut()
+        .par_chunks_mut(task_len)
+        .enumerate()
+        .for_each(|(task, values)| {
+            let mut rng = Rng::new(derive_seed(seed, task as u64));
+            let first = task * BLOCKS_PER_TASK * LANES;
+            for (b, block) in values.chunks_exact_mut(BLOCK).enumerate() {
+                let lanes = len.saturating_sub(first + b * LANES).min(LANES);
+                for lane in 0..lanes {
+                    let c = sample_configuration(volume, &mut rng);
+                    let c = Configuration {
+                        r_sc: c.r_sc.map(T::from_f64),
+                        axes: c.axes.map(|e| e.map(T::from_f64)),
+                    };
+                    write_lane(block, lane, &c);
+                }
             }
-        }
-    });
+        });
 }

@@ -33,8 +33,8 @@ pub use accuracy::{
 };
 pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
 pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
-pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use fig7::{fig7, fig7_svg};
+pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
 pub use table::{Table1Row, TableFormat, render_table, table1};
@@ -124,7 +124,9 @@ fn statistic_caption(statistic: &str) -> Option<String> {
         "" => return None,
         "mean" => "the mean of its timed blocks (the papers' mean time per configuration set)",
         "median" => "the median of its timed blocks",
-        "p5" => "the 5th percentile of its timed blocks (the kernel's cost without the machine's noise)",
+        "p5" => {
+            "the 5th percentile of its timed blocks (the kernel's cost without the machine's noise)"
+        }
         mixed => {
             return Some(format!(
                 "Each point's estimate: mixed statistics ({mixed}); points measured before blocks were kept give the mean over their repeats."

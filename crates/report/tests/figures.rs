@@ -363,7 +363,12 @@ mod edmd_figures {
             accuracy_plot(&study, &path).expect("renders");
             if extension == "svg" {
                 let text = svg_text(&path);
-                for label in ["cost against wrong verdicts near contact", "by distance from contact", "EDMD: eps_d", "OCSI batch f32"] {
+                for label in [
+                    "cost against wrong verdicts near contact",
+                    "by distance from contact",
+                    "EDMD: eps_d",
+                    "OCSI batch f32",
+                ] {
                     assert!(text.contains(label), "accuracy.svg lacks {label:?}");
                 }
             } else {
@@ -371,7 +376,10 @@ mod edmd_figures {
             }
         }
         let text = accuracy_markdown(&study);
-        assert!(text.contains("## Overlap kernels: f32 against f64") && text.contains("### eps_d"), "{text}");
+        assert!(
+            text.contains("## Overlap kernels: f32 against f64") && text.contains("### eps_d"),
+            "{text}"
+        );
     }
 
     /// Two algorithms in f32 and f64 at two points; f32 is wrong near contact, OCSI batch f32
@@ -380,7 +388,10 @@ mod edmd_figures {
         let mut rows = Vec::new();
         for r_star in [0.05, 5.0] {
             for (algorithm, ns) in [("ocsi", 10.0), ("ocsi_batch", 2.0)] {
-                for (precision, scale, wrong) in [("f32", 1.0, [0, 0, 0, 5, 40, 50]), ("f64", 1.6, [0, 0, 0, 0, 0, 3])] {
+                for (precision, scale, wrong) in [
+                    ("f32", 1.0, [0, 0, 0, 5, 40, 50]),
+                    ("f64", 1.6, [0, 0, 0, 0, 0, 3]),
+                ] {
                     rows.push(VerdictRow {
                         l_star: 2.0,
                         w_star: 3.0,
@@ -406,13 +417,25 @@ mod edmd_figures {
     fn the_overlap_family_alone_recommends_and_the_edmd_one_is_named_missing() {
         let study = accuracy_report(&[], &[], &verdicts()).expect("the overlap family");
         assert!(study.knobs.is_empty());
-        assert!(study.missing[0].contains("EDMD runs of one state point"), "{:?}", study.missing);
+        assert!(
+            study.missing[0].contains("EDMD runs of one state point"),
+            "{:?}",
+            study.missing
+        );
         let overlap = study.overlap.as_ref().expect("overlap settings");
         assert_eq!(overlap.settings.len(), 4);
         let recommended = overlap.recommended.as_ref().expect("a safe setting");
         // OCSI batch f32 is the cheapest but was wrong once in the bulk: its f64 is next.
-        assert_eq!((recommended.algorithm.as_str(), recommended.precision.as_str()), ("ocsi_batch", "f64"));
-        let gap = recommended.trusted_above_gap.expect("f64 was wrong in the last decade");
+        assert_eq!(
+            (
+                recommended.algorithm.as_str(),
+                recommended.precision.as_str()
+            ),
+            ("ocsi_batch", "f64")
+        );
+        let gap = recommended
+            .trusted_above_gap
+            .expect("f64 was wrong in the last decade");
         assert!((gap / 1e-8 - 1.0).abs() < 1e-9, "{gap}");
         match accuracy_report(&[], &[], &[]) {
             Err(ReportError::MissingPoints { figure, missing }) => {
@@ -466,7 +489,10 @@ mod edmd_figures {
             // Every Δ but the baseline's 0.06 (run without the split) has it.
             assert_eq!(curve.split.len(), DELTAS.len() - 1, "{curve:?}");
             for s in &curve.split {
-                assert!((s.update_share - 1.0 / (1.0 + 10.0 * s.x)).abs() < 1e-12, "{s:?}");
+                assert!(
+                    (s.update_share - 1.0 / (1.0 + 10.0 * s.x)).abs() < 1e-12,
+                    "{s:?}"
+                );
             }
         }
         for m in &f11.minima {
@@ -474,9 +500,17 @@ mod edmd_figures {
             let nearest = DELTAS
                 .into_iter()
                 .filter(|&d| d != 0.06)
-                .min_by(|a, b| (a / m.delta_star_sigma).ln().abs().total_cmp(&(b / m.delta_star_sigma).ln().abs()))
+                .min_by(|a, b| {
+                    (a / m.delta_star_sigma)
+                        .ln()
+                        .abs()
+                        .total_cmp(&(b / m.delta_star_sigma).ln().abs())
+                })
                 .unwrap();
-            assert!((share - 1.0 / (1.0 + 10.0 * nearest)).abs() < 1e-12, "{m:?}");
+            assert!(
+                (share - 1.0 / (1.0 + 10.0 * nearest)).abs() < 1e-12,
+                "{m:?}"
+            );
         }
 
         let study = accuracy(&rows).expect("accuracy");
@@ -545,7 +579,13 @@ mod superquadric_figure {
 
     const P: [f64; 6] = [2.0, 3.0, 4.0, 6.0, 8.0, 10.0];
 
-    fn run(shape: &str, exponents: Option<[f64; 3]>, x0: f64, neighbours: &str, tau_c_us: f64) -> EdmdRow {
+    fn run(
+        shape: &str,
+        exponents: Option<[f64; 3]>,
+        x0: f64,
+        neighbours: &str,
+        tau_c_us: f64,
+    ) -> EdmdRow {
         EdmdRow {
             shape: shape.into(),
             x0,
@@ -577,15 +617,27 @@ mod superquadric_figure {
             let scale = if x0 > 1.0 { 1.0 } else { 0.5 };
             for (method, base, slower) in [("ll", 100.0, 5.0), ("nnl", 60.0, 6.0)] {
                 for p in P {
-                    let mut sq = run("superquadric", Some([2.0, 2.0, p]), x0, method, scale * base * (1.0 + (p - 2.0) / 4.0));
+                    let mut sq = run(
+                        "superquadric",
+                        Some([2.0, 2.0, p]),
+                        x0,
+                        method,
+                        scale * base * (1.0 + (p - 2.0) / 4.0),
+                    );
                     sq.overlaps = u64::from(p == 10.0);
                     rows.push(sq);
                 }
                 rows.push(run("ellipsoid", None, x0, method, scale * base / slower));
                 // Off the figure: another accuracy knob, another n, an ellipsoid with other knobs.
-                rows.push(EdmdRow { eps_d: 1e-3, ..run("superquadric", Some([2.0, 2.0, 4.0]), x0, method, 1e6) });
+                rows.push(EdmdRow {
+                    eps_d: 1e-3,
+                    ..run("superquadric", Some([2.0, 2.0, 4.0]), x0, method, 1e6)
+                });
                 rows.push(run("superquadric", Some([4.0, 2.0, 4.0]), x0, method, 1e6));
-                rows.push(EdmdRow { nr_tol: 1e-6, ..run("ellipsoid", None, x0, method, 1e-3) });
+                rows.push(EdmdRow {
+                    nr_tol: 1e-6,
+                    ..run("ellipsoid", None, x0, method, 1e-3)
+                });
             }
         }
         rows
@@ -601,9 +653,13 @@ mod superquadric_figure {
         for c in &figure.curves {
             let xs: Vec<f64> = c.points.iter().map(|p| p.x).collect();
             assert_eq!(xs, P, "{c:?}");
-            let base = if c.neighbours == "ll" { 100.0 } else { 60.0 } * if c.x0 > 1.0 { 1.0 } else { 0.5 };
+            let base = if c.neighbours == "ll" { 100.0 } else { 60.0 }
+                * if c.x0 > 1.0 { 1.0 } else { 0.5 };
             for p in &c.points {
-                assert!((p.tau_c_us - base * (1.0 + (p.x - 2.0) / 4.0)).abs() < 1e-9, "{c:?}");
+                assert!(
+                    (p.tau_c_us - base * (1.0 + (p.x - 2.0) / 4.0)).abs() < 1e-9,
+                    "{c:?}"
+                );
                 assert_eq!(p.runs, 1, "the off-baseline runs are left out: {c:?}");
             }
             assert_eq!(c.flagged, [10.0], "{c:?}");
@@ -664,7 +720,12 @@ mod superquadric_figure {
             Err(e @ ReportError::MissingPoints { .. }) => {
                 let text = e.to_string();
                 assert!(text.starts_with("fig13: nothing to draw"), "{text}");
-                assert_eq!(text.matches("with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10").count(), 4, "{text}");
+                assert_eq!(
+                    text.matches("with exponents [2, 2, p] for p = 2, 3, 4, 6, 8, 10")
+                        .count(),
+                    4,
+                    "{text}"
+                );
                 assert!(text.contains("edmd-figures.toml"), "{text}");
             }
             other => panic!("expected missing points, got {other:?}"),

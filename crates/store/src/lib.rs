@@ -38,8 +38,8 @@ pub use activity::{FailureRecord, JobInHand, WorkerActivity};
 pub use connect::Store;
 pub use error::{Error, Result};
 pub use types::{
-    CampaignInfo, CompleteOutcome, Completion, EdmdRun, ExportRow, FailOutcome, FailedJob, JobInfo, JobState,
-    Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, OverlapVerdictRow, QueryResult, Status, SubmitOutcome,
-    WorkerInfo, WorkerRecord,
+    CampaignInfo, CompleteOutcome, Completion, EdmdRun, ExportRow, FailOutcome, FailedJob, JobInfo,
+    JobState, Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, OverlapVerdictRow,
+    QueryResult, Status, SubmitOutcome, WorkerInfo, WorkerRecord,
 };
 pub use writer::WriteGroups;

@@ -299,13 +299,19 @@ async fn a_submission_is_leased_pass_by_pass() {
         .into_iter()
         .map(job)
         .collect();
-    store.submit(&campaign("visits"), &visits, T0).await.unwrap();
+    store
+        .submit(&campaign("visits"), &visits, T0)
+        .await
+        .unwrap();
     store
         .submit(&campaign("later"), &[job(("00", 0))], T0 + 1.0)
         .await
         .unwrap();
     // Resubmitting changes nothing: the jobs, their passes and their order are known.
-    let again = store.submit(&campaign("visits"), &visits, T0 + 2.0).await.unwrap();
+    let again = store
+        .submit(&campaign("visits"), &visits, T0 + 2.0)
+        .await
+        .unwrap();
     assert_eq!((again.new_jobs, again.already_known), (0, 5));
 
     let mut leased = Vec::new();
@@ -314,5 +320,8 @@ async fn a_submission_is_leased_pass_by_pass() {
         leased.extend(leases.into_iter().map(|l| l.job_id));
     }
     assert_eq!(leased, ["c9", "f0", "55", "a3", "07", "00"]);
-    assert_eq!(count(&store, "SELECT count(*) FROM jobs WHERE pass = 1").await, 2);
+    assert_eq!(
+        count(&store, "SELECT count(*) FROM jobs WHERE pass = 1").await,
+        2
+    );
 }

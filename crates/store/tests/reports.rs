@@ -47,7 +47,9 @@ fn records() -> Vec<String> {
     for (a, algorithm) in ALGORITHMS.iter().enumerate() {
         for repeat in 0..REPEATS {
             let ms = 1.0 + a as f64 + repeat as f64 / 10.0;
-            let blocks: Vec<f64> = (0..BLOCKS).map(|k| (a + repeat) as f64 + k as f64 / 1000.0).collect();
+            let blocks: Vec<f64> = (0..BLOCKS)
+                .map(|k| (a + repeat) as f64 + k as f64 / 1000.0)
+                .collect();
             records.push(
                 serde_json::json!({"algorithm": algorithm, "repeat": repeat, "ms": ms,
                                    "ns_per_check": ms / 2.0, "acceptance": 0.4, "total_ms": ms,
@@ -103,8 +105,23 @@ async fn overlap_rows_and_export_of_43200_results() {
         43_200
     );
     let quality = store.overlap_quality(None).await.unwrap();
-    assert_eq!((quality.checked, quality.disturbed, quality.rerun, quality.reruns), (2_400, 0, 2_400, 2_400));
-    assert_eq!(store.overlap_quality(Some("table1-again")).await.unwrap().checked, 10);
+    assert_eq!(
+        (
+            quality.checked,
+            quality.disturbed,
+            quality.rerun,
+            quality.reruns
+        ),
+        (2_400, 0, 2_400, 2_400)
+    );
+    assert_eq!(
+        store
+            .overlap_quality(Some("table1-again"))
+            .await
+            .unwrap()
+            .checked,
+        10
+    );
 
     let started = Instant::now();
     let rows = store.overlap_rows().await.unwrap();
@@ -223,7 +240,11 @@ async fn overlap_rows_carry_the_visit_and_the_point() {
     ];
     store.submit(&campaign("visits"), &jobs, T0).await.unwrap();
     let records = records();
-    for lease in store.lease("w1", 8, Duration::from_secs(60), T0, true).await.unwrap() {
+    for lease in store
+        .lease("w1", 8, Duration::from_secs(60), T0, true)
+        .await
+        .unwrap()
+    {
         store
             .complete("w1", &lease.job_id, lease.token, Some(2), &records, T0)
             .await
@@ -237,8 +258,19 @@ async fn overlap_rows_carry_the_visit_and_the_point() {
         .filter(|r| r.algorithm == "qri")
         .collect();
     let seen: Vec<(&str, u32)> = rows.iter().map(|r| (r.job_id.as_str(), r.visit)).collect();
-    assert_eq!(seen, [("z-first", 0), ("a-second", 1), ("m-third", 2), ("b-other", 0)]);
-    assert!(rows[..3].iter().all(|r| r.point == rows[0].point), "{rows:?}");
+    assert_eq!(
+        seen,
+        [
+            ("z-first", 0),
+            ("a-second", 1),
+            ("m-third", 2),
+            ("b-other", 0)
+        ]
+    );
+    assert!(
+        rows[..3].iter().all(|r| r.point == rows[0].point),
+        "{rows:?}"
+    );
     assert!(!rows[0].point.contains("visit"), "{}", rows[0].point);
     assert_ne!(rows[3].point, rows[0].point);
 }

@@ -31,8 +31,13 @@ impl Token {
         if !secret.bytes().all(|b| b.is_ascii_graphic()) {
             return Err(TokenError::NotPrintable);
         }
-        let header = format!("Bearer {secret}").parse().map_err(|_| TokenError::NotPrintable)?;
-        Ok(Token { digest: *blake3::hash(secret.as_bytes()).as_bytes(), header })
+        let header = format!("Bearer {secret}")
+            .parse()
+            .map_err(|_| TokenError::NotPrintable)?;
+        Ok(Token {
+            digest: *blake3::hash(secret.as_bytes()).as_bytes(),
+            header,
+        })
     }
 
     /// Whether `presented` is this token, in constant time.
@@ -58,7 +63,9 @@ pub struct RequireToken {
 
 impl RequireToken {
     pub fn new(expected: Option<Token>) -> Self {
-        Self { expected: expected.map(Arc::new) }
+        Self {
+            expected: expected.map(Arc::new),
+        }
     }
 }
 
@@ -75,7 +82,9 @@ impl Interceptor for RequireToken {
         match presented {
             Some(token) if expected.matches(token) => Ok(request),
             _ => {
-                let peer = request.remote_addr().map_or_else(|| "unknown peer".to_string(), |a| a.to_string());
+                let peer = request
+                    .remote_addr()
+                    .map_or_else(|| "unknown peer".to_string(), |a| a.to_string());
                 tracing::warn!(%peer, "rejected an unauthenticated call");
                 Err(Status::unauthenticated("missing or wrong bearer token"))
             }
@@ -91,14 +100,18 @@ pub struct WithToken {
 
 impl WithToken {
     pub fn new(token: Option<Token>) -> Self {
-        Self { token: token.map(Arc::new) }
+        Self {
+            token: token.map(Arc::new),
+        }
     }
 }
 
 impl Interceptor for WithToken {
     fn call(&mut self, mut request: Request<()>) -> Result<Request<()>, Status> {
         if let Some(token) = &self.token {
-            request.metadata_mut().insert("authorization", token.header.clone());
+            request
+                .metadata_mut()
+                .insert("authorization", token.header.clone());
         }
         Ok(request)
     }
@@ -111,7 +124,9 @@ mod tests {
     fn call(interceptor: &mut RequireToken, header: Option<&str>) -> bool {
         let mut request = Request::new(());
         if let Some(h) = header {
-            request.metadata_mut().insert("authorization", h.parse().unwrap());
+            request
+                .metadata_mut()
+                .insert("authorization", h.parse().unwrap());
         }
         interceptor.call(request).is_ok()
     }
@@ -125,20 +140,34 @@ mod tests {
         assert!(!call(&mut auth, Some("s3cret")));
         assert!(!call(&mut auth, Some("Basic s3cret")));
         assert!(!call(&mut auth, None));
-        assert!(call(&mut RequireToken::new(None), None), "authentication off");
+        assert!(
+            call(&mut RequireToken::new(None), None),
+            "authentication off"
+        );
     }
 
     #[test]
     fn the_client_sends_what_the_server_expects() {
         let token = Token::new(" s3cret\n").unwrap();
-        let request = WithToken::new(Some(token.clone())).call(Request::new(())).unwrap();
-        let header = request.metadata().get("authorization").unwrap().to_str().unwrap().to_string();
+        let request = WithToken::new(Some(token.clone()))
+            .call(Request::new(()))
+            .unwrap();
+        let header = request
+            .metadata()
+            .get("authorization")
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .to_string();
         assert!(call(&mut RequireToken::new(Some(token)), Some(&header)));
     }
 
     #[test]
     fn empty_or_unprintable_tokens_are_refused() {
         assert!(matches!(Token::new("  \n"), Err(TokenError::Empty)));
-        assert!(matches!(Token::new("two words"), Err(TokenError::NotPrintable)));
+        assert!(matches!(
+            Token::new("two words"),
+            Err(TokenError::NotPrintable)
+        ));
     }
 }

@@ -25,15 +25,24 @@ pub fn hostname() -> String {
 pub fn worker_info(id: String, cores: &[usize]) -> WorkerInfo {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let flags = cpuinfo_field(&cpuinfo, "flags").unwrap_or_default();
-    let present: Vec<&str> = RELEVANT_FLAGS.into_iter().filter(|f| flags.split_whitespace().any(|g| g == *f)).collect();
+    let present: Vec<&str> = RELEVANT_FLAGS
+        .into_iter()
+        .filter(|f| flags.split_whitespace().any(|g| g == *f))
+        .collect();
     WorkerInfo {
         id,
         hostname: hostname(),
         cores: cores.iter().map(|&c| c as u32).collect(),
-        cpu_model: cpuinfo_field(&cpuinfo, "model name").unwrap_or_else(|| std::env::consts::ARCH.into()),
+        cpu_model: cpuinfo_field(&cpuinfo, "model name")
+            .unwrap_or_else(|| std::env::consts::ARCH.into()),
         cpu_flags: present.join(" "),
         rustc: env!("SWEEP_RUSTC").into(),
         git_commit: env!("SWEEP_GIT_COMMIT").into(),
-        profile: if cfg!(debug_assertions) { "debug" } else { "release" }.into(),
+        profile: if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "release"
+        }
+        .into(),
     }
 }

@@ -4,7 +4,9 @@
 use std::collections::HashSet;
 use std::time::Duration;
 
-use queue::{CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError, WorkerInfo};
+use queue::{
+    CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError, WorkerInfo,
+};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
 use wire::auth::{Token, WithToken};
@@ -48,17 +50,27 @@ fn request<T>(message: T) -> tonic::Request<T> {
 
 impl Remote {
     /// `url` like `http://host:port` or `https://…` (then `ca_pem` verifies the coordinator).
-    pub fn new(url: &str, token: Option<Token>, ca_pem: Option<Vec<u8>>, worker_id: String) -> Result<Remote, QueueError> {
+    pub fn new(
+        url: &str,
+        token: Option<Token>,
+        ca_pem: Option<Vec<u8>>,
+        worker_id: String,
+    ) -> Result<Remote, QueueError> {
         let bad = |e: tonic::transport::Error| QueueError::Transport(format!("{url}: {e}"));
         let mut endpoint = Endpoint::from_shared(url.to_string())
             .map_err(bad)?
             .connect_timeout(Duration::from_secs(5))
             .tcp_nodelay(true);
         if let Some(ca) = ca_pem {
-            endpoint = endpoint.tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca))).map_err(bad)?;
+            endpoint = endpoint
+                .tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))
+                .map_err(bad)?;
         }
         let channel = endpoint.connect_lazy();
-        Ok(Remote { client: WorkerClient::with_interceptor(channel, WithToken::new(token)), worker_id })
+        Ok(Remote {
+            client: WorkerClient::with_interceptor(channel, WithToken::new(token)),
+            worker_id,
+        })
     }
 
     /// Registers this worker; answers the coordinator's lease duration.
@@ -66,55 +78,106 @@ impl Remote {
         let response = self
             .client
             .clone()
-            .register(request(pb::RegisterRequest { worker: Some(info.clone().into()) }))
+            .register(request(pb::RegisterRequest {
+                worker: Some(info.clone().into()),
+            }))
             .await
             .map_err(transport)?
             .into_inner();
         Ok(Duration::from_millis(response.lease_ms))
     }
-
 }
 
 impl JobQueue for Remote {
     async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
-        let message = pb::LeaseRequest { worker_id: self.worker_id.clone(), max_jobs };
-        let leases = self.client.clone().lease(request(message)).await.map_err(transport)?.into_inner().leases;
+        let message = pb::LeaseRequest {
+            worker_id: self.worker_id.clone(),
+            max_jobs,
+        };
+        let leases = self
+            .client
+            .clone()
+            .lease(request(message))
+            .await
+            .map_err(transport)?
+            .into_inner()
+            .leases;
         Ok(leases.into_iter().map(Into::into).collect())
     }
 
     async fn heartbeat(&self, leases: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
         let mut lost = HashSet::new();
         for chunk in leases.chunks(LEASES_PER_CALL) {
-            let message = pb::HeartbeatRequest { worker_id: self.worker_id.clone(), leases: chunk.iter().map(Into::into).collect() };
-            let answer = self.client.clone().heartbeat(request(message)).await.map_err(transport)?.into_inner();
+            let message = pb::HeartbeatRequest {
+                worker_id: self.worker_id.clone(),
+                leases: chunk.iter().map(Into::into).collect(),
+            };
+            let answer = self
+                .client
+                .clone()
+                .heartbeat(request(message))
+                .await
+                .map_err(transport)?
+                .into_inner();
             lost.extend(answer.lost.into_iter().map(LeaseRef::from));
         }
         Ok(leases.into_iter().filter(|l| !lost.contains(l)).collect())
     }
 
-    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
+    async fn complete(
+        &self,
+        completions: Vec<Completion>,
+    ) -> Result<Vec<CompleteOutcome>, QueueError> {
         let message = pb::CompleteRequest {
             worker_id: self.worker_id.clone(),
             completions: completions.into_iter().map(Into::into).collect(),
         };
-        let response = self.client.clone().complete(request(message)).await.map_err(transport)?.into_inner();
+        let response = self
+            .client
+            .clone()
+            .complete(request(message))
+            .await
+            .map_err(transport)?
+            .into_inner();
         response
             .outcomes()
-            .map(|o| complete_outcome_from_wire(o).ok_or_else(|| QueueError::Transport("complete: no outcome".into())))
+            .map(|o| {
+                complete_outcome_from_wire(o)
+                    .ok_or_else(|| QueueError::Transport("complete: no outcome".into()))
+            })
             .collect()
     }
 
     async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, QueueError> {
-        let message =
-            pb::FailRequest { worker_id: self.worker_id.clone(), job_id: lease.job_id.clone(), token: lease.token, error };
-        let outcome = self.client.clone().fail(request(message)).await.map_err(transport)?.into_inner().outcome();
-        fail_outcome_from_wire(outcome).ok_or_else(|| QueueError::Transport("fail: no outcome".into()))
+        let message = pb::FailRequest {
+            worker_id: self.worker_id.clone(),
+            job_id: lease.job_id.clone(),
+            token: lease.token,
+            error,
+        };
+        let outcome = self
+            .client
+            .clone()
+            .fail(request(message))
+            .await
+            .map_err(transport)?
+            .into_inner()
+            .outcome();
+        fail_outcome_from_wire(outcome)
+            .ok_or_else(|| QueueError::Transport("fail: no outcome".into()))
     }
 
     async fn release(&self, leases: Vec<LeaseRef>) -> Result<(), QueueError> {
         for chunk in leases.chunks(LEASES_PER_CALL) {
-            let message = pb::ReleaseRequest { worker_id: self.worker_id.clone(), leases: chunk.iter().map(Into::into).collect() };
-            self.client.clone().release(request(message)).await.map_err(transport)?;
+            let message = pb::ReleaseRequest {
+                worker_id: self.worker_id.clone(),
+                leases: chunk.iter().map(Into::into).collect(),
+            };
+            self.client
+                .clone()
+                .release(request(message))
+                .await
+                .map_err(transport)?;
         }
         Ok(())
     }
@@ -127,13 +190,28 @@ mod tests {
     #[test]
     fn only_calls_that_may_pass_are_retried() {
         let sort = |code| transport(tonic::Status::new(code, "why"));
-        for code in [tonic::Code::Unavailable, tonic::Code::DeadlineExceeded, tonic::Code::Internal, tonic::Code::Unknown] {
+        for code in [
+            tonic::Code::Unavailable,
+            tonic::Code::DeadlineExceeded,
+            tonic::Code::Internal,
+            tonic::Code::Unknown,
+        ] {
             assert!(sort(code).is_transient(), "{code:?}");
         }
-        for code in [tonic::Code::InvalidArgument, tonic::Code::NotFound, tonic::Code::FailedPrecondition] {
-            assert!(matches!(sort(code), QueueError::Rejected(m) if m == "why"), "{code:?}");
+        for code in [
+            tonic::Code::InvalidArgument,
+            tonic::Code::NotFound,
+            tonic::Code::FailedPrecondition,
+        ] {
+            assert!(
+                matches!(sort(code), QueueError::Rejected(m) if m == "why"),
+                "{code:?}"
+            );
         }
-        assert!(matches!(sort(tonic::Code::Unauthenticated), QueueError::Refused(_)));
+        assert!(matches!(
+            sort(tonic::Code::Unauthenticated),
+            QueueError::Refused(_)
+        ));
         assert!(!sort(tonic::Code::PermissionDenied).is_transient());
     }
 }

@@ -83,19 +83,35 @@ pub struct Slots {
 impl Slots {
     /// Pins one thread per core in `options.cores` and starts leasing from `queue`. Must be called
     /// from outside the runtime's worker threads (slots block on `runtime`).
-    pub fn start<Q: JobQueue>(queue: Arc<Q>, options: WorkerOptions, runtime: Handle) -> Result<Slots, WorkerError> {
+    pub fn start<Q: JobQueue>(
+        queue: Arc<Q>,
+        options: WorkerOptions,
+        runtime: Handle,
+    ) -> Result<Slots, WorkerError> {
         let available = core_affinity::get_core_ids().ok_or(WorkerError::NoCores)?;
         let mut cores = Vec::with_capacity(options.cores.len());
         for &core in &options.cores {
-            cores.push(*available.iter().find(|c| c.id == core).ok_or(WorkerError::NoSuchCore(core))?);
+            cores.push(
+                *available
+                    .iter()
+                    .find(|c| c.id == core)
+                    .ok_or(WorkerError::NoSuchCore(core))?,
+            );
         }
-        let control = Arc::new(Control { stop: AtomicBool::new(false), halted: watch::Sender::new(None) });
+        let control = Arc::new(Control {
+            stop: AtomicBool::new(false),
+            halted: watch::Sender::new(None),
+        });
         let held: Held = Arc::default();
         let threads = cores
             .into_iter()
             .map(|core| {
                 let slot = Slot {
-                    reporter: Reporter { queue: queue.clone(), held: held.clone(), control: control.clone() },
+                    reporter: Reporter {
+                        queue: queue.clone(),
+                        held: held.clone(),
+                        control: control.clone(),
+                    },
                     core,
                     runtime: runtime.clone(),
                     options: options.clone(),
@@ -106,8 +122,17 @@ impl Slots {
                     .map_err(WorkerError::Thread)
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let heartbeat = runtime.spawn(heartbeat_loop(queue, held, options.heartbeat_every, control.clone()));
-        Ok(Slots { control, threads, heartbeat })
+        let heartbeat = runtime.spawn(heartbeat_loop(
+            queue,
+            held,
+            options.heartbeat_every,
+            control.clone(),
+        ));
+        Ok(Slots {
+            control,
+            threads,
+            heartbeat,
+        })
     }
 
     /// Asks every slot to finish its current job and lease nothing more.
@@ -137,21 +162,36 @@ impl Slots {
     }
 }
 
-async fn heartbeat_loop<Q: JobQueue>(queue: Arc<Q>, held: Held, every: Duration, control: Arc<Control>) {
+async fn heartbeat_loop<Q: JobQueue>(
+    queue: Arc<Q>,
+    held: Held,
+    every: Duration,
+    control: Arc<Control>,
+) {
     let mut interval = tokio::time::interval(every);
     loop {
         interval.tick().await;
-        let leases: Vec<LeaseRef> = held.lock().map(|h| h.values().cloned().collect()).unwrap_or_default();
+        let leases: Vec<LeaseRef> = held
+            .lock()
+            .map(|h| h.values().cloned().collect())
+            .unwrap_or_default();
         if leases.is_empty() {
             continue;
         }
         match queue.heartbeat(leases.clone()).await {
             Ok(valid) => {
-                let lost: Vec<&str> =
-                    leases.iter().filter(|l| !valid.contains(l)).map(|l| l.job_id.as_str()).collect();
+                let lost: Vec<&str> = leases
+                    .iter()
+                    .filter(|l| !valid.contains(l))
+                    .map(|l| l.job_id.as_str())
+                    .collect();
                 if let Some(first) = lost.first() {
                     // One line per beat, not per job: a paced lease holds hundreds.
-                    tracing::warn!(leases = lost.len(), first, "leases lost: their results will be recorded as late");
+                    tracing::warn!(
+                        leases = lost.len(),
+                        first,
+                        "leases lost: their results will be recorded as late"
+                    );
                 }
             }
             Err(error @ QueueError::Refused(_)) => control.halt(error.to_string()),
@@ -188,7 +228,10 @@ impl<Q: JobQueue> Slot<Q> {
 
     fn run(self) {
         if !core_affinity::set_for_current(self.core) {
-            tracing::error!(core = self.core.id, "cannot pin the slot: it will not run jobs");
+            tracing::error!(
+                core = self.core.id,
+                "cannot pin the slot: it will not run jobs"
+            );
             return;
         }
         // Configuration generation of a job runs on this slot's core only, so it never disturbs
@@ -217,7 +260,9 @@ impl<Q: JobQueue> Slot<Q> {
                 // A prefetch that found nothing may have been too early (our own job kept an
                 // exclusive one waiting): ask again now rather than idle.
                 Some(Ok(leased)) if !leased.leases.is_empty() => Ok(leased),
-                _ => self.runtime.block_on(lease_timed(&*self.reporter.queue, self.batch(&pace))),
+                _ => self
+                    .runtime
+                    .block_on(lease_timed(&*self.reporter.queue, self.batch(&pace))),
             };
             match leased {
                 Ok(leased) if leased.leases.is_empty() => self.sleep(self.options.idle_poll),
@@ -233,15 +278,22 @@ impl<Q: JobQueue> Slot<Q> {
                     }
                     if pace.short_jobs() {
                         let reporter = self.reporter.clone();
-                        reporting = Some(self.runtime.spawn(async move { reporter.report(completions).await }));
+                        reporting = Some(
+                            self.runtime
+                                .spawn(async move { reporter.report(completions).await }),
+                        );
                     } else {
                         self.runtime.block_on(self.reporter.report(completions));
                     }
                 }
-                Err(error) if !error.is_transient() => self.control().halt(format!("cannot lease jobs: {error}")),
+                Err(error) if !error.is_transient() => {
+                    self.control().halt(format!("cannot lease jobs: {error}"))
+                }
                 Err(error) => {
                     tracing::warn!(%error, "lease failed; backing off");
-                    self.sleep(Duration::from_millis(BACKOFF[failures.min(BACKOFF.len() - 1)]));
+                    self.sleep(Duration::from_millis(
+                        BACKOFF[failures.min(BACKOFF.len() - 1)],
+                    ));
                     failures += 1;
                 }
             }
@@ -262,10 +314,11 @@ impl<Q: JobQueue> Slot<Q> {
 
     /// Waits for a prefetch; a failed one is logged (the slot asks again at once).
     fn settle(&self, call: Prefetch) -> Result<Leased, QueueError> {
-        let result = self
-            .runtime
-            .block_on(call)
-            .unwrap_or_else(|e| Err(QueueError::Transport(format!("the lease call was lost: {e}"))));
+        let result = self.runtime.block_on(call).unwrap_or_else(|e| {
+            Err(QueueError::Transport(format!(
+                "the lease call was lost: {e}"
+            )))
+        });
         if let Err(error @ QueueError::Refused(_)) = &result {
             self.control().halt(error.to_string());
         }
@@ -305,7 +358,10 @@ impl<Q: JobQueue> Slot<Q> {
             if prefetch.is_none() && pace.prefetch_now(total - started) {
                 let queue = self.reporter.queue.clone();
                 let batch = self.batch(pace);
-                *prefetch = Some(self.runtime.spawn(async move { lease_timed(&*queue, batch).await }));
+                *prefetch = Some(
+                    self.runtime
+                        .spawn(async move { lease_timed(&*queue, batch).await }),
+                );
             }
             started += 1;
             self.reporter.hold(&lease);
@@ -321,7 +377,8 @@ impl<Q: JobQueue> Slot<Q> {
                 }),
                 Err(error) => {
                     tracing::warn!(job = %lease.job_id, %error, "job failed");
-                    self.runtime.block_on(self.reporter.report_failure(&lease.reference(), error));
+                    self.runtime
+                        .block_on(self.reporter.report_failure(&lease.reference(), error));
                 }
             }
         }
@@ -340,7 +397,10 @@ impl<Q: JobQueue> Slot<Q> {
         if unstarted.is_empty() {
             return;
         }
-        if let Err(error) = self.runtime.block_on(self.reporter.queue.release(unstarted)) {
+        if let Err(error) = self
+            .runtime
+            .block_on(self.reporter.queue.release(unstarted))
+        {
             tracing::warn!(%error, "could not return unstarted leases; they will expire");
         }
     }
@@ -350,7 +410,11 @@ impl<Q: JobQueue> Slot<Q> {
 async fn lease_timed<Q: JobQueue>(queue: &Q, batch: u32) -> Result<Leased, QueueError> {
     let asked_at = Instant::now();
     let leases = queue.lease(batch).await?;
-    Ok(Leased { leases, asked_at, round_trip: asked_at.elapsed() })
+    Ok(Leased {
+        leases,
+        asked_at,
+        round_trip: asked_at.elapsed(),
+    })
 }
 
 /// What the slots share to deliver reports: the queue, the leases held, the stop control.
@@ -362,7 +426,11 @@ struct Reporter<Q> {
 
 impl<Q> Clone for Reporter<Q> {
     fn clone(&self) -> Self {
-        Reporter { queue: self.queue.clone(), held: self.held.clone(), control: self.control.clone() }
+        Reporter {
+            queue: self.queue.clone(),
+            held: self.held.clone(),
+            control: self.control.clone(),
+        }
     }
 }
 
@@ -383,7 +451,9 @@ impl<Q: JobQueue> Reporter<Q> {
     /// when it rejects one, each job is reported on its own: one malformed result must not cost
     /// the others theirs.
     async fn report(&self, completions: Vec<Completion>) {
-        let delivered = self.deliver(|| self.queue.complete(completions.clone())).await;
+        let delivered = self
+            .deliver(|| self.queue.complete(completions.clone()))
+            .await;
         match delivered {
             Err(QueueError::Transport(_) | QueueError::Rejected(_)) if completions.len() > 1 => {
                 for completion in completions {
@@ -398,10 +468,17 @@ impl<Q: JobQueue> Reporter<Q> {
 
     /// Lets the reported leases go, once their report's fate is known; a rejected result is
     /// reported as a failure of its job.
-    async fn settle(&self, completions: Vec<Completion>, delivered: Result<Vec<CompleteOutcome>, QueueError>) {
+    async fn settle(
+        &self,
+        completions: Vec<Completion>,
+        delivered: Result<Vec<CompleteOutcome>, QueueError>,
+    ) {
         match delivered {
             Ok(outcomes) => {
-                let mut not_counted = completions.iter().zip(&outcomes).filter(|(_, o)| **o != CompleteOutcome::Accepted);
+                let mut not_counted = completions
+                    .iter()
+                    .zip(&outcomes)
+                    .filter(|(_, o)| **o != CompleteOutcome::Accepted);
                 if let Some((first, outcome)) = not_counted.next() {
                     let results = 1 + not_counted.count();
                     tracing::warn!(results, first = %first.job_id, ?outcome, "results not counted (late or repeated)");
@@ -415,9 +492,16 @@ impl<Q: JobQueue> Reporter<Q> {
             }
             Err(error) => {
                 for completion in completions {
-                    let lease = LeaseRef { job_id: completion.job_id, token: completion.token };
+                    let lease = LeaseRef {
+                        job_id: completion.job_id,
+                        token: completion.token,
+                    };
                     tracing::error!(job = %lease.job_id, %error, "result rejected; reporting the job as failed");
-                    self.report_failure(&lease, format!("the coordinator rejected the result: {error}")).await;
+                    self.report_failure(
+                        &lease,
+                        format!("the coordinator rejected the result: {error}"),
+                    )
+                    .await;
                 }
             }
         }
@@ -439,14 +523,20 @@ impl<Q: JobQueue> Reporter<Q> {
     /// Makes a call, retrying while the coordinator is unreachable or busy: a report is only lost
     /// if the worker itself dies, and then the lease expires and the job runs again. An error that
     /// would recur is returned at once.
-    async fn deliver<T, F: Future<Output = Result<T, QueueError>>>(&self, call: impl Fn() -> F) -> Result<T, QueueError> {
+    async fn deliver<T, F: Future<Output = Result<T, QueueError>>>(
+        &self,
+        call: impl Fn() -> F,
+    ) -> Result<T, QueueError> {
         let mut attempt = 0;
         loop {
             match call().await {
                 Ok(value) => return Ok(value),
                 Err(error) if error.is_transient() => {
                     tracing::warn!(%error, "report failed; retrying");
-                    tokio::time::sleep(Duration::from_millis(BACKOFF[attempt.min(BACKOFF.len() - 1)])).await;
+                    tokio::time::sleep(Duration::from_millis(
+                        BACKOFF[attempt.min(BACKOFF.len() - 1)],
+                    ))
+                    .await;
                     attempt += 1;
                 }
                 Err(error) => return Err(error),
@@ -459,10 +549,16 @@ impl<Q: JobQueue> Reporter<Q> {
 /// exclusive job runs alone on the machine, so its untimed generation may use every core (the
 /// global pool, started before any pinning); any other job keeps all its work on its own core.
 fn run_job(lease: &Lease, pool: &rayon::ThreadPool) -> Result<Vec<String>, String> {
-    let spec: JobSpec =
-        serde_json::from_str(&lease.params_json).map_err(|e| format!("job {}: unreadable parameters: {e}", lease.job_id))?;
+    let spec: JobSpec = serde_json::from_str(&lease.params_json)
+        .map_err(|e| format!("job {}: unreadable parameters: {e}", lease.job_id))?;
     let run = || jobs::run(&spec, lease.attempt);
-    let ran = std::panic::catch_unwind(AssertUnwindSafe(|| if lease.exclusive { run() } else { pool.install(run) }));
+    let ran = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        if lease.exclusive {
+            run()
+        } else {
+            pool.install(run)
+        }
+    }));
     match ran {
         Ok(Ok(records)) => records
             .iter()

@@ -5,8 +5,8 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use queue::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, QueueError};
 use jobs::{JobSpec, NoopSpec};
+use queue::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, QueueError};
 use worker::{JobQueue, Slots, WorkerOptions};
 
 /// What the fake coordinator does with a call.
@@ -33,7 +33,11 @@ impl Fake {
     fn with_jobs(n: usize, script: Script) -> Arc<Fake> {
         let queued = (0..n)
             .map(|index| {
-                let spec = JobSpec::Noop(NoopSpec { index: index as u64, duration_ms: 0, fail_rate: 0.0 });
+                let spec = JobSpec::Noop(NoopSpec {
+                    index: index as u64,
+                    duration_ms: 0,
+                    fail_rate: 0.0,
+                });
                 Lease {
                     job_id: format!("job{index}"),
                     kind: "noop".into(),
@@ -45,7 +49,11 @@ impl Fake {
                 }
             })
             .collect();
-        Arc::new(Fake { script: Mutex::new(script), queued: Mutex::new(queued), ..Default::default() })
+        Arc::new(Fake {
+            script: Mutex::new(script),
+            queued: Mutex::new(queued),
+            ..Default::default()
+        })
     }
 
     fn settled(&self) -> usize {
@@ -67,24 +75,37 @@ impl JobQueue for Fake {
         Ok(held)
     }
 
-    async fn complete(&self, completions: Vec<Completion>) -> Result<Vec<CompleteOutcome>, QueueError> {
+    async fn complete(
+        &self,
+        completions: Vec<Completion>,
+    ) -> Result<Vec<CompleteOutcome>, QueueError> {
         *self.complete_calls.lock().unwrap() += 1;
         let mut script = self.script.lock().unwrap();
         if script.unreachable > 0 {
             script.unreachable -= 1;
-            return Err(QueueError::Transport("Unavailable: connection refused".into()));
+            return Err(QueueError::Transport(
+                "Unavailable: connection refused".into(),
+            ));
         }
         if let Some(bad) = &script.reject_job
             && completions.iter().any(|c| &c.job_id == bad)
         {
-            return Err(QueueError::Rejected(format!("job {bad:?}: result record 0 is not a JSON object")));
+            return Err(QueueError::Rejected(format!(
+                "job {bad:?}: result record 0 is not a JSON object"
+            )));
         }
-        self.completed.lock().unwrap().extend(completions.iter().map(|c| c.job_id.clone()));
+        self.completed
+            .lock()
+            .unwrap()
+            .extend(completions.iter().map(|c| c.job_id.clone()));
         Ok(vec![CompleteOutcome::Accepted; completions.len()])
     }
 
     async fn fail(&self, lease: &LeaseRef, error: String) -> Result<FailOutcome, QueueError> {
-        self.failed.lock().unwrap().push((lease.job_id.clone(), error));
+        self.failed
+            .lock()
+            .unwrap()
+            .push((lease.job_id.clone(), error));
         Ok(FailOutcome::Failed)
     }
 
@@ -104,7 +125,11 @@ fn options(lease_batch: u32) -> WorkerOptions {
 }
 
 fn runtime() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().expect("a runtime")
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .expect("a runtime")
 }
 
 /// Waits (up to 20 s) until `done` holds.
@@ -119,7 +144,13 @@ fn wait_until(done: impl Fn() -> bool) {
 #[test]
 fn a_rejected_result_fails_its_job_and_costs_the_rest_of_its_batch_nothing() {
     let rt = runtime();
-    let fake = Fake::with_jobs(3, Script { reject_job: Some("job1".into()), ..Default::default() });
+    let fake = Fake::with_jobs(
+        3,
+        Script {
+            reject_job: Some("job1".into()),
+            ..Default::default()
+        },
+    );
     let slots = Slots::start(fake.clone(), options(3), rt.handle().clone()).expect("slots start");
     wait_until(|| fake.settled() == 3);
     slots.stop();
@@ -130,7 +161,11 @@ fn a_rejected_result_fails_its_job_and_costs_the_rest_of_its_batch_nothing() {
     let failed = fake.failed.lock().unwrap();
     assert_eq!(failed.len(), 1);
     assert_eq!(failed[0].0, "job1");
-    assert!(failed[0].1.contains("rejected the result"), "{}", failed[0].1);
+    assert!(
+        failed[0].1.contains("rejected the result"),
+        "{}",
+        failed[0].1
+    );
     assert!(failed[0].1.contains("not a JSON object"), "{}", failed[0].1);
     // The batch once, then each job alone; the rejected one is not retried.
     assert_eq!(*fake.complete_calls.lock().unwrap(), 4);
@@ -139,7 +174,13 @@ fn a_rejected_result_fails_its_job_and_costs_the_rest_of_its_batch_nothing() {
 #[test]
 fn results_wait_out_an_unreachable_coordinator() {
     let rt = runtime();
-    let fake = Fake::with_jobs(2, Script { unreachable: 2, ..Default::default() });
+    let fake = Fake::with_jobs(
+        2,
+        Script {
+            unreachable: 2,
+            ..Default::default()
+        },
+    );
     let slots = Slots::start(fake.clone(), options(2), rt.handle().clone()).expect("slots start");
     wait_until(|| fake.settled() == 2);
     slots.stop();
@@ -152,12 +193,23 @@ fn results_wait_out_an_unreachable_coordinator() {
 #[test]
 fn refused_credentials_halt_the_worker_with_the_reason() {
     let rt = runtime();
-    let fake = Fake::with_jobs(1, Script { refuse_leases: true, ..Default::default() });
+    let fake = Fake::with_jobs(
+        1,
+        Script {
+            refuse_leases: true,
+            ..Default::default()
+        },
+    );
     let slots = Slots::start(fake.clone(), options(1), rt.handle().clone()).expect("slots start");
     let reason = rt.block_on(async {
-        tokio::time::timeout(Duration::from_secs(20), slots.halted()).await.expect("the worker halts")
+        tokio::time::timeout(Duration::from_secs(20), slots.halted())
+            .await
+            .expect("the worker halts")
     });
-    assert!(reason.contains("refused") && reason.contains("token revoked"), "{reason}");
+    assert!(
+        reason.contains("refused") && reason.contains("token revoked"),
+        "{reason}"
+    );
     // Halting stops the slots by itself: join returns without `stop`.
     slots.join();
     assert_eq!(fake.settled(), 0);

@@ -13,10 +13,20 @@ use crate::real::Real;
 /// Runs `block_verdicts` (lane bit set = overlap) over every block and packs the results, 16
 /// bits per block, into `verdicts`. Bits past `batch.len()` (the padding lanes) are cleared.
 #[inline(always)]
-fn pack_verdicts<T: Real>(batch: BatchView<'_, T>, verdicts: &mut [u64], mut block_verdicts: impl FnMut(&[T]) -> u16) {
+fn pack_verdicts<T: Real>(
+    batch: BatchView<'_, T>,
+    verdicts: &mut [u64],
+    mut block_verdicts: impl FnMut(&[T]) -> u16,
+) {
     const BLOCKS_PER_WORD: usize = 64 / LANES;
-    assert!(verdicts.len() >= verdict_words(batch.len()), "verdict bitset too short");
-    for (word, blocks) in verdicts.iter_mut().zip(batch.values().chunks(BLOCKS_PER_WORD * crate::batch::BLOCK)) {
+    assert!(
+        verdicts.len() >= verdict_words(batch.len()),
+        "verdict bitset too short"
+    );
+    for (word, blocks) in verdicts
+        .iter_mut()
+        .zip(batch.values().chunks(BLOCKS_PER_WORD * crate::batch::BLOCK))
+    {
         let mut bits = 0u64;
         for (k, block) in blocks.chunks_exact(crate::batch::BLOCK).enumerate() {
             bits |= (block_verdicts(block) as u64) << (k * LANES);
@@ -39,7 +49,9 @@ fn block_verdicts_portable<T: Real>(block: &[T], cuboid: &Cuboid<T>, r2: T) -> u
         let mut d = T::ZERO;
         for axis in 0..3 {
             let e = 3 + 3 * axis;
-            let a = rx[lane] * field(e)[lane] + ry[lane] * field(e + 1)[lane] + rz[lane] * field(e + 2)[lane];
+            let a = rx[lane] * field(e)[lane]
+                + ry[lane] * field(e + 1)[lane]
+                + rz[lane] * field(e + 2)[lane];
             let l = (a.abs() - cuboid.half[axis]).positive_part();
             d = d + l * l;
         }
@@ -48,9 +60,16 @@ fn block_verdicts_portable<T: Real>(block: &[T], cuboid: &Cuboid<T>, r2: T) -> u
     bits
 }
 
-fn ocsi_batch_portable<T: Real>(batch: BatchView<'_, T>, cuboid: &Cuboid<T>, radius: T, verdicts: &mut [u64]) {
+fn ocsi_batch_portable<T: Real>(
+    batch: BatchView<'_, T>,
+    cuboid: &Cuboid<T>,
+    radius: T,
+    verdicts: &mut [u64],
+) {
     let r2 = radius * radius;
-    pack_verdicts(batch, verdicts, |block| block_verdicts_portable(block, cuboid, r2));
+    pack_verdicts(batch, verdicts, |block| {
+        block_verdicts_portable(block, cuboid, r2)
+    });
 }
 
 /// An instruction set the batched kernel can run on.
@@ -98,10 +117,20 @@ impl Isa {
 /// cost a load, not a detection and an allocation.
 fn assert_available(isa: Isa) {
     static AVAILABLE: std::sync::OnceLock<Vec<Isa>> = std::sync::OnceLock::new();
-    assert!(AVAILABLE.get_or_init(Isa::available).contains(&isa), "{} is not available on this CPU", isa.name());
+    assert!(
+        AVAILABLE.get_or_init(Isa::available).contains(&isa),
+        "{} is not available on this CPU",
+        isa.name()
+    );
 }
 
-pub fn ocsi_batch_f32(isa: Isa, batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+pub fn ocsi_batch_f32(
+    isa: Isa,
+    batch: BatchView<'_, f32>,
+    cuboid: &Cuboid<f32>,
+    radius: f32,
+    verdicts: &mut [u64],
+) {
     assert_available(isa);
     match isa {
         // SAFETY: availability of the instruction set was asserted above.
@@ -113,7 +142,13 @@ pub fn ocsi_batch_f32(isa: Isa, batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>,
     }
 }
 
-pub fn ocsi_batch_f64(isa: Isa, batch: BatchView<'_, f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+pub fn ocsi_batch_f64(
+    isa: Isa,
+    batch: BatchView<'_, f64>,
+    cuboid: &Cuboid<f64>,
+    radius: f64,
+    verdicts: &mut [u64],
+) {
     assert_available(isa);
     match isa {
         // SAFETY: availability of the instruction set was asserted above.
@@ -142,7 +177,12 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn ocsi_batch_f32_avx512(batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f32_avx512(
+        batch: BatchView<'_, f32>,
+        cuboid: &Cuboid<f32>,
+        radius: f32,
+        verdicts: &mut [u64],
+    ) {
         let c = cuboid.half.map(|c| _mm512_set1_ps(c));
         let r2 = _mm512_set1_ps(radius * radius);
         pack_verdicts(batch, verdicts, |block| {
@@ -151,8 +191,15 @@ pub(crate) mod x86 {
             let mut d = _mm512_setzero_ps();
             for axis in 0..3 {
                 let e = 3 + 3 * axis;
-                let a = _mm512_fmadd_ps(rx, f(e), _mm512_fmadd_ps(ry, f(e + 1), _mm512_mul_ps(rz, f(e + 2))));
-                let l = _mm512_max_ps(_mm512_sub_ps(_mm512_abs_ps(a), c[axis]), _mm512_setzero_ps());
+                let a = _mm512_fmadd_ps(
+                    rx,
+                    f(e),
+                    _mm512_fmadd_ps(ry, f(e + 1), _mm512_mul_ps(rz, f(e + 2))),
+                );
+                let l = _mm512_max_ps(
+                    _mm512_sub_ps(_mm512_abs_ps(a), c[axis]),
+                    _mm512_setzero_ps(),
+                );
                 d = _mm512_fmadd_ps(l, l, d);
             }
             _mm512_cmp_ps_mask::<_CMP_LE_OQ>(d, r2)
@@ -160,7 +207,12 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn ocsi_batch_f64_avx512(batch: BatchView<'_, f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f64_avx512(
+        batch: BatchView<'_, f64>,
+        cuboid: &Cuboid<f64>,
+        radius: f64,
+        verdicts: &mut [u64],
+    ) {
         let c = cuboid.half.map(|c| _mm512_set1_pd(c));
         let r2 = _mm512_set1_pd(radius * radius);
         pack_verdicts(batch, verdicts, |block| {
@@ -170,8 +222,15 @@ pub(crate) mod x86 {
                 let mut d = _mm512_setzero_pd();
                 for axis in 0..3 {
                     let e = 3 + 3 * axis;
-                    let a = _mm512_fmadd_pd(rx, f(e), _mm512_fmadd_pd(ry, f(e + 1), _mm512_mul_pd(rz, f(e + 2))));
-                    let l = _mm512_max_pd(_mm512_sub_pd(_mm512_abs_pd(a), c[axis]), _mm512_setzero_pd());
+                    let a = _mm512_fmadd_pd(
+                        rx,
+                        f(e),
+                        _mm512_fmadd_pd(ry, f(e + 1), _mm512_mul_pd(rz, f(e + 2))),
+                    );
+                    let l = _mm512_max_pd(
+                        _mm512_sub_pd(_mm512_abs_pd(a), c[axis]),
+                        _mm512_setzero_pd(),
+                    );
                     d = _mm512_fmadd_pd(l, l, d);
                 }
                 _mm512_cmp_pd_mask::<_CMP_LE_OQ>(d, r2) as u16
@@ -181,7 +240,12 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn ocsi_batch_f32_avx2(batch: BatchView<'_, f32>, cuboid: &Cuboid<f32>, radius: f32, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f32_avx2(
+        batch: BatchView<'_, f32>,
+        cuboid: &Cuboid<f32>,
+        radius: f32,
+        verdicts: &mut [u64],
+    ) {
         let c = cuboid.half.map(|c| _mm256_set1_ps(c));
         let r2 = _mm256_set1_ps(radius * radius);
         let sign = _mm256_set1_ps(-0.0);
@@ -192,8 +256,15 @@ pub(crate) mod x86 {
                 let mut d = _mm256_setzero_ps();
                 for axis in 0..3 {
                     let e = 3 + 3 * axis;
-                    let a = _mm256_fmadd_ps(rx, f(e), _mm256_fmadd_ps(ry, f(e + 1), _mm256_mul_ps(rz, f(e + 2))));
-                    let l = _mm256_max_ps(_mm256_sub_ps(_mm256_andnot_ps(sign, a), c[axis]), _mm256_setzero_ps());
+                    let a = _mm256_fmadd_ps(
+                        rx,
+                        f(e),
+                        _mm256_fmadd_ps(ry, f(e + 1), _mm256_mul_ps(rz, f(e + 2))),
+                    );
+                    let l = _mm256_max_ps(
+                        _mm256_sub_ps(_mm256_andnot_ps(sign, a), c[axis]),
+                        _mm256_setzero_ps(),
+                    );
                     d = _mm256_fmadd_ps(l, l, d);
                 }
                 _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(d, r2)) as u16
@@ -203,7 +274,12 @@ pub(crate) mod x86 {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn ocsi_batch_f64_avx2(batch: BatchView<'_, f64>, cuboid: &Cuboid<f64>, radius: f64, verdicts: &mut [u64]) {
+    pub unsafe fn ocsi_batch_f64_avx2(
+        batch: BatchView<'_, f64>,
+        cuboid: &Cuboid<f64>,
+        radius: f64,
+        verdicts: &mut [u64],
+    ) {
         let c = cuboid.half.map(|c| _mm256_set1_pd(c));
         let r2 = _mm256_set1_pd(radius * radius);
         let sign = _mm256_set1_pd(-0.0);
@@ -214,8 +290,15 @@ pub(crate) mod x86 {
                 let mut d = _mm256_setzero_pd();
                 for axis in 0..3 {
                     let e = 3 + 3 * axis;
-                    let a = _mm256_fmadd_pd(rx, f(e), _mm256_fmadd_pd(ry, f(e + 1), _mm256_mul_pd(rz, f(e + 2))));
-                    let l = _mm256_max_pd(_mm256_sub_pd(_mm256_andnot_pd(sign, a), c[axis]), _mm256_setzero_pd());
+                    let a = _mm256_fmadd_pd(
+                        rx,
+                        f(e),
+                        _mm256_fmadd_pd(ry, f(e + 1), _mm256_mul_pd(rz, f(e + 2))),
+                    );
+                    let l = _mm256_max_pd(
+                        _mm256_sub_pd(_mm256_andnot_pd(sign, a), c[axis]),
+                        _mm256_setzero_pd(),
+                    );
                     d = _mm256_fmadd_pd(l, l, d);
                 }
                 _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(d, r2)) as u16

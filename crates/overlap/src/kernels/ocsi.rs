@@ -19,7 +19,9 @@ pub fn ocsi<T: Real>(cfg: &impl ConfigurationView<T>, cuboid: &Cuboid<T>, radius
 pub fn min_distance<T: Real>(cfg: &impl ConfigurationView<T>, cuboid: &Cuboid<T>) -> T {
     let mut d2 = 0.0;
     for i in 0..3 {
-        let s = (cfg.projection(i).abs() - cuboid.half[i]).positive_part().to_f64();
+        let s = (cfg.projection(i).abs() - cuboid.half[i])
+            .positive_part()
+            .to_f64();
         d2 += s * s;
     }
     T::from_f64(d2.sqrt())

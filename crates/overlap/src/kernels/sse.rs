@@ -26,7 +26,11 @@ pub fn sse_f64(cfg: &impl ConfigurationView<f64>, cuboid: &Cuboid<f64>, radius: 
 /// One `__m128` holds (T, L, W, 0).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse")]
-fn sse_f32_intrinsics(cfg: &impl ConfigurationView<f32>, cuboid: &Cuboid<f32>, radius: f32) -> bool {
+fn sse_f32_intrinsics(
+    cfg: &impl ConfigurationView<f32>,
+    cuboid: &Cuboid<f32>,
+    radius: f32,
+) -> bool {
     use std::arch::x86_64::*;
     let e = |i, j| cfg.axis(i, j);
     let [r_x, r_y, r_z] = [0, 1, 2].map(|j| cfg.r_sc(j));
@@ -42,7 +46,10 @@ fn sse_f32_intrinsics(cfg: &impl ConfigurationView<f32>, cuboid: &Cuboid<f32>, r
     // Lines 5–8: l_i = min(a_i + c_i, 0) + max(a_i − c_i, 0), squared.
     let c = _mm_set_ps(0.0, c_w, c_l, c_t);
     let zero = _mm_setzero_ps();
-    let l = _mm_add_ps(_mm_min_ps(_mm_add_ps(a, c), zero), _mm_max_ps(_mm_sub_ps(a, c), zero));
+    let l = _mm_add_ps(
+        _mm_min_ps(_mm_add_ps(a, c), zero),
+        _mm_max_ps(_mm_sub_ps(a, c), zero),
+    );
     let l2 = _mm_mul_ps(l, l);
     // Line 9: horizontal sum (lane 3 is zero).
     let pairs = _mm_add_ps(l2, _mm_movehl_ps(l2, l2));
@@ -53,7 +60,11 @@ fn sse_f32_intrinsics(cfg: &impl ConfigurationView<f32>, cuboid: &Cuboid<f32>, r
 /// Two `__m128d` hold (T, L) and (W, 0).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse2")]
-fn sse_f64_intrinsics(cfg: &impl ConfigurationView<f64>, cuboid: &Cuboid<f64>, radius: f64) -> bool {
+fn sse_f64_intrinsics(
+    cfg: &impl ConfigurationView<f64>,
+    cuboid: &Cuboid<f64>,
+    radius: f64,
+) -> bool {
     use std::arch::x86_64::*;
     let axis = |i: usize| [0, 1, 2].map(|j| cfg.axis(i, j));
     let (e_t, e_l, e_w) = (axis(0), axis(1), axis(2));
@@ -62,13 +73,19 @@ fn sse_f64_intrinsics(cfg: &impl ConfigurationView<f64>, cuboid: &Cuboid<f64>, r
     let (rx, ry, rz) = (_mm_set1_pd(r_x), _mm_set1_pd(r_y), _mm_set1_pd(r_z));
     let dot = |hi: [f64; 3], lo: [f64; 3]| {
         _mm_add_pd(
-            _mm_add_pd(_mm_mul_pd(rx, _mm_set_pd(hi[0], lo[0])), _mm_mul_pd(ry, _mm_set_pd(hi[1], lo[1]))),
+            _mm_add_pd(
+                _mm_mul_pd(rx, _mm_set_pd(hi[0], lo[0])),
+                _mm_mul_pd(ry, _mm_set_pd(hi[1], lo[1])),
+            ),
             _mm_mul_pd(rz, _mm_set_pd(hi[2], lo[2])),
         )
     };
     let zero = _mm_setzero_pd();
     let squared_excess = |a: __m128d, c: __m128d| {
-        let l = _mm_add_pd(_mm_min_pd(_mm_add_pd(a, c), zero), _mm_max_pd(_mm_sub_pd(a, c), zero));
+        let l = _mm_add_pd(
+            _mm_min_pd(_mm_add_pd(a, c), zero),
+            _mm_max_pd(_mm_sub_pd(a, c), zero),
+        );
         _mm_mul_pd(l, l)
     };
     let tl = squared_excess(dot(e_l, e_t), _mm_set_pd(c_l, c_t));
