@@ -12,7 +12,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use overlap::batch::verdict_words;
 use overlap::protocol::{PointSpec, count_overlaps, stream_read};
 use overlap::sampler::generate;
-use overlap::{Algorithm, Batch, Cuboid, Precision, Real};
+use overlap::{Algorithm, Batch, Cuboid, Kernels, Precision};
 use parry3d::math::{Matrix, Pose, Rotation, Vector};
 use parry3d::query::intersection_test;
 use parry3d::shape::{Ball, Cuboid as ParryCuboid};
@@ -37,7 +37,7 @@ fn point() -> PointSpec {
     }
 }
 
-fn bench_precision<T: Real>(c: &mut Criterion) {
+fn bench_precision<T: Kernels>(c: &mut Criterion) {
     let spec = point();
     let batch: Batch<T> = generate(&spec.spherocuboid(), N, spec.seed);
     let cuboid = Cuboid::<T>::from_reduced(spec.l_star, spec.w_star);

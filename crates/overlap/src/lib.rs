@@ -33,13 +33,14 @@ pub use batch::{Batch, BatchView};
 pub use config::{Configuration, Cuboid};
 pub use error::OverlapError;
 pub use estimate::{Estimate, Stop};
+pub use kernels::Kernels;
 pub use kernels::ocsi::min_distance;
 pub use noise::{Calibration, References};
 pub use protocol::{AlgorithmSummary, PointReport, PointSpec, Timing, run_point};
 pub use real::Real;
 
 /// Verdict of `algorithm` for one configuration (the batched kernel runs on a batch of one).
-pub fn overlaps<T: Real>(
+pub fn overlaps<T: Kernels>(
     algorithm: Algorithm,
     cfg: &Configuration<T>,
     cuboid: &Cuboid<T>,

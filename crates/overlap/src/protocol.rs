@@ -30,7 +30,7 @@ use crate::batch::{Batch, BatchView, Lane, verdict_words};
 use crate::config::Cuboid;
 use crate::error::OverlapError;
 use crate::estimate::{Estimate, Goal, QUANTILE, Stop, estimate, median, quantile};
-use crate::kernels::{arvo::arvo, ocsi::ocsi, qrf::qrf, qri::qri};
+use crate::kernels::{Kernels, arvo::arvo, ocsi::ocsi, qrf::qrf, qri::qri};
 use crate::noise::{Calibration, References, compute_reference_ns};
 use crate::real::Real;
 use crate::rng::derive_seed;
@@ -353,7 +353,7 @@ fn time_pass(ranges: &[Range<usize>], mut body: impl FnMut(Range<usize>) -> u64)
 }
 
 /// One measurement of the point: every set, every algorithm, the references around them.
-fn measure<T: Real>(
+fn measure<T: Kernels>(
     spec: &PointSpec,
     baseline_ns: Option<f64>,
     on_repeat: &mut dyn FnMut(u32),
@@ -478,7 +478,7 @@ pub fn stream_read<T: Real>(batch: BatchView<'_, T>) -> u64 {
 /// configuration, as the papers' harness calls its overlap function, so the compiler cannot
 /// vectorise across configurations and each algorithm is measured as written.
 #[inline(never)]
-pub fn count_overlaps<'a, T: Real>(
+pub fn count_overlaps<'a, T: Kernels>(
     algorithm: Algorithm,
     batch: BatchView<'a, T>,
     cuboid: &Cuboid<T>,

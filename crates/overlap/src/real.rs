@@ -1,11 +1,8 @@
-//! The two floating-point precisions every kernel is generic over.
+//! The two floating-point precisions every kernel is generic over: their arithmetic. Which
+//! SIMD kernel each one runs is [`crate::kernels::Kernels`].
 
 use std::fmt::Debug;
 use std::ops::{Add, Mul, Neg, Sub};
-
-use crate::batch::BatchView;
-use crate::config::{ConfigurationView, Cuboid};
-use crate::kernels::batch::Isa;
 
 /// `f32` or `f64`. Sealed: the SIMD kernels exist for exactly these two.
 pub trait Real:
@@ -50,28 +47,6 @@ pub trait Real:
     fn negative_part(self) -> Self {
         if self < Self::ZERO { self } else { Self::ZERO }
     }
-
-    /// Algorithm 4 (SSE-intr) in this precision; see [`crate::kernels::sse`].
-    fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool;
-
-    /// OCSI across configurations on instruction set `isa`, see [`crate::kernels::batch`].
-    fn ocsi_batch_on(
-        isa: Isa,
-        batch: BatchView<'_, Self>,
-        cuboid: &Cuboid<Self>,
-        radius: Self,
-        verdicts: &mut [u64],
-    );
-
-    /// OCSI across configurations on the best instruction set of this CPU.
-    fn ocsi_batch(
-        batch: BatchView<'_, Self>,
-        cuboid: &Cuboid<Self>,
-        radius: Self,
-        verdicts: &mut [u64],
-    ) {
-        Self::ocsi_batch_on(Isa::best(), batch, cuboid, radius, verdicts)
-    }
 }
 
 impl Real for f32 {
@@ -95,19 +70,6 @@ impl Real for f32 {
     #[inline(always)]
     fn abs(self) -> Self {
         f32::abs(self)
-    }
-    #[inline(always)]
-    fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
-        crate::kernels::sse::sse_f32(cfg, cuboid, radius)
-    }
-    fn ocsi_batch_on(
-        isa: Isa,
-        batch: BatchView<'_, Self>,
-        cuboid: &Cuboid<Self>,
-        radius: Self,
-        verdicts: &mut [u64],
-    ) {
-        crate::kernels::batch::ocsi_batch_f32(isa, batch, cuboid, radius, verdicts)
     }
 }
 
@@ -133,22 +95,9 @@ impl Real for f64 {
     fn abs(self) -> Self {
         f64::abs(self)
     }
-    #[inline(always)]
-    fn sse(cfg: &impl ConfigurationView<Self>, cuboid: &Cuboid<Self>, radius: Self) -> bool {
-        crate::kernels::sse::sse_f64(cfg, cuboid, radius)
-    }
-    fn ocsi_batch_on(
-        isa: Isa,
-        batch: BatchView<'_, Self>,
-        cuboid: &Cuboid<Self>,
-        radius: Self,
-        verdicts: &mut [u64],
-    ) {
-        crate::kernels::batch::ocsi_batch_f64(isa, batch, cuboid, radius, verdicts)
-    }
 }
 
-mod sealed {
+pub(crate) mod sealed {
     pub trait Sealed {}
     impl Sealed for f32 {}
     impl Sealed for f64 {}

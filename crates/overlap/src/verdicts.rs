@@ -23,6 +23,7 @@ use crate::algorithm::{Algorithm, Precision};
 use crate::batch::{Batch, verdict, verdict_words};
 use crate::config::{Configuration, Cuboid, axes_from_quaternion};
 use crate::exact::margin_sign;
+use crate::kernels::Kernels;
 use crate::protocol::PointSpec;
 use crate::real::Real;
 use crate::rng::{Rng, derive_seed};
@@ -68,7 +69,7 @@ pub fn check_verdicts(spec: &PointSpec, configurations: u64, seed: u64) -> Verdi
     }
 }
 
-fn check<T: Real>(spec: &PointSpec, configurations: u64, seed: u64) -> VerdictCheck {
+fn check<T: Kernels>(spec: &PointSpec, configurations: u64, seed: u64) -> VerdictCheck {
     let volume = spec.spherocuboid();
     let cuboid = Cuboid::<T>::from_reduced(spec.l_star, spec.w_star);
     let radius = T::from_f64(spec.r_star);
@@ -129,7 +130,7 @@ fn check<T: Real>(spec: &PointSpec, configurations: u64, seed: u64) -> VerdictCh
 /// For each configuration, which of `algorithms` (bit k for the k-th) gave a verdict other than
 /// the exact one; `None` where the exact evaluation refused the values. The batched kernel runs
 /// on all of them at once, as it is timed.
-pub fn wrong_verdicts<T: Real>(
+pub fn wrong_verdicts<T: Kernels>(
     cfgs: &[Configuration<T>],
     algorithms: &[Algorithm],
     cuboid: &Cuboid<T>,

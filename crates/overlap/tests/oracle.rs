@@ -11,7 +11,7 @@ use overlap::batch::{Batch, verdict, verdict_words};
 use overlap::config::axes_from_quaternion;
 use overlap::exact::{ExactError, overlaps_exactly, rounding_band};
 use overlap::kernels::batch::Isa;
-use overlap::{Algorithm, Configuration, Cuboid, Real, min_distance, overlaps};
+use overlap::{Algorithm, Configuration, Cuboid, Kernels, Real, min_distance, overlaps};
 use proptest::prelude::*;
 
 fn exact(x: impl Real) -> BigRational {
@@ -35,7 +35,7 @@ fn exact_margin<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) 
 }
 
 /// The verdicts of every algorithm for `cfgs`, the batched kernel on all of them at once.
-fn check_all<T: Real>(
+fn check_all<T: Kernels>(
     cfgs: &[Configuration<T>],
     cuboid: &Cuboid<T>,
     radius: T,
@@ -209,7 +209,7 @@ fn shape() -> impl Strategy<Value = ([f64; 3], f64)> {
     prop_oneof![reduced, general]
 }
 
-fn run_case<T: Real>(
+fn run_case<T: Kernels>(
     cases: &[(Feature, f64, [f64; 3], [f64; 3])],
     half: [f64; 3],
     radius: f64,
