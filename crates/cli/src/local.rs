@@ -5,15 +5,15 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::Context;
 use clap::Args;
-use coordinator::{Config, Coordinator, Embedded, Status, Store, SystemClock};
+use coordinator::{Config, Coordinator, Embedded, SystemClock};
 use indicatif::{ProgressBar, ProgressStyle};
 use worker::{Slots, WorkerOptions};
 
+use crate::args::{AuthArgs, HttpArgs, TlsArgs};
 use crate::campaign::{from_plan, read_plan_file};
-use crate::output::{Format, print_json};
-use crate::system;
+use crate::output::{Format, print_json, print_status};
+use crate::{database, status_page, system};
 
 #[derive(Args)]
 pub struct RunArgs {
@@ -25,15 +25,13 @@ pub struct RunArgs {
     #[arg(long, value_parser = system::parse_core_list)]
     cores: Option<system::CoreList>,
     #[command(flatten)]
-    http: crate::status_page::HttpArgs,
+    http: HttpArgs,
     /// The token the status page asks for (off loopback, and to cancel).
     #[command(flatten)]
-    auth: crate::remote::AuthArgs,
-    /// TLS certificate chain (PEM) of the status page; with --tls-key, serve HTTPS.
-    #[arg(long, requires_all = ["tls_key", "http"])]
-    tls_cert: Option<PathBuf>,
-    #[arg(long, requires = "tls_cert")]
-    tls_key: Option<PathBuf>,
+    auth: AuthArgs,
+    /// The status page's certificate: with it, the page is served over HTTPS.
+    #[command(flatten)]
+    tls: TlsArgs,
 }
 
 /// Local leases are short: after a crash, a resumed run waits at most this long for the jobs
@@ -41,6 +39,9 @@ pub struct RunArgs {
 const LOCAL_LEASE: Duration = Duration::from_secs(10);
 
 pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
+    if args.tls.tls_cert.is_some() && args.http.http.is_none() {
+        anyhow::bail!("--tls-cert: the certificate is the status page's; give --http ADDR too");
+    }
     let (text, name) = read_plan_file(&args.plan)?;
     let campaign = from_plan(&text, &name)?;
     let cores = system::cores_or_all(&args.cores)?;
@@ -50,9 +51,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         .enable_all()
         .build()?;
     let coordinator = runtime.block_on(async {
-        let store = Store::open(&args.db)
-            .await
-            .with_context(|| format!("cannot open {}", args.db.display()))?;
+        let store = database::open(&args.db).await?;
         let config = Config {
             lease_for: LOCAL_LEASE,
             max_attempts: 3,
@@ -85,8 +84,13 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         coordinator.spawn_reaper(Duration::from_secs(1))
     };
     let page = runtime.block_on(async {
-        let tls = crate::status_page::read_tls(args.tls_cert.as_deref(), args.tls_key.as_deref())?;
-        crate::status_page::start(&args.http, &coordinator, args.auth.token()?, tls).await
+        status_page::start(
+            &args.http,
+            &coordinator,
+            args.auth.token()?,
+            args.tls.read()?,
+        )
+        .await
     })?;
     if let Some((_, url)) = &page {
         eprintln!("status page on {url}");
@@ -147,7 +151,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     let status = runtime.block_on(coordinator.status(Some(&id)))?;
-    let quality = runtime.block_on(coordinator.store().overlap_quality(Some(&id)))?;
+    let quality = runtime.block_on(results::overlap_quality(coordinator.store(), Some(&id)))?;
     runtime.block_on(coordinator.store().close());
     match format {
         Format::Json => print_json(&serde_json::json!({
@@ -163,7 +167,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
                 "{} new points, {} already known",
                 submitted.new_jobs, submitted.already_known
             );
-            report_status(&id, &status, Some(&quality), format)?;
+            print_status(&id, &status, Some(&quality), format)?;
         }
     }
     if let Some(reason) = halted {
@@ -188,41 +192,4 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// Prints a campaign's counts and, where known, how its overlap points were measured
-/// (`timing`: points with a noise check, flagged as disturbed, re-run).
-pub fn report_status(
-    campaign: &str,
-    status: &Status,
-    quality: Option<&store::OverlapQuality>,
-    format: Format,
-) -> anyhow::Result<()> {
-    match format {
-        Format::Json => {
-            let mut out = serde_json::json!({ "campaign": campaign, "status": status });
-            if let Some(quality) = quality {
-                out["timing"] = serde_json::to_value(quality)?;
-            }
-            print_json(&out)
-        }
-        _ => {
-            println!(
-                "campaign {campaign}: {} points: {} done, {} failed, {} queued, {} running, {} cancelled",
-                status.total,
-                status.done,
-                status.failed,
-                status.queued,
-                status.running,
-                status.cancelled
-            );
-            if let Some(q) = quality.filter(|q| q.checked > 0) {
-                println!(
-                    "timing: {} overlap points checked for noise: {} re-run ({} re-runs), {} still disturbed (flagged); {:.0} s measuring, {:.0} s of it timed",
-                    q.checked, q.rerun, q.reruns, q.disturbed, q.wall_s, q.timed_s
-                );
-            }
-            Ok(())
-        }
-    }
 }

@@ -1,15 +1,18 @@
 //! `sweep`: the command line. Thin: parse, call the library crates, print.
 
+mod args;
 mod bench;
 mod campaign;
-mod db;
+mod database;
 mod edmd_cmd;
-mod edmd_report;
 mod local;
 mod output;
 mod overlap_cmd;
 mod plan_cmd;
+mod query;
 mod remote;
+mod report_cmd;
+mod status;
 mod status_page;
 mod system;
 
@@ -45,13 +48,13 @@ enum Command {
     /// Local mode: run a plan on this machine, one job per core, resumable.
     Run(local::RunArgs),
     /// Job counts of a campaign: total, queued, running, done, failed.
-    Status(db::StatusArgs),
+    Status(status::StatusArgs),
     /// The papers' tables and figures from a result database.
-    Report(db::ReportArgs),
+    Report(report_cmd::ReportArgs),
     /// Read-only SQL over a result database.
-    Query(db::QueryArgs),
+    Query(query::QueryArgs),
     /// Every result record with its job, campaign, kind, attempt and worker.
-    Export(db::ExportArgs),
+    Export(query::ExportArgs),
     /// Serve campaigns to workers over gRPC, holding the result database.
     Coordinator(remote::CoordinatorArgs),
     /// Run jobs from a coordinator, one per pinned core.
@@ -85,10 +88,10 @@ fn main() -> std::process::ExitCode {
         Command::Edmd(args) => edmd_cmd::run(&args, cli.format),
         Command::Plan(args) => plan_cmd::run(&args, cli.format),
         Command::Run(args) => local::run(&args, cli.format),
-        Command::Status(args) => db::status(&args, cli.format),
-        Command::Report(args) => db::report(&args, cli.format),
-        Command::Query(args) => db::query(&args, cli.format),
-        Command::Export(args) => db::export(&args, cli.format),
+        Command::Status(args) => status::run(&args, cli.format),
+        Command::Report(args) => report_cmd::run(&args, cli.format),
+        Command::Query(args) => query::query(&args, cli.format),
+        Command::Export(args) => query::export(&args, cli.format),
         Command::Coordinator(args) => remote::coordinator(&args),
         Command::Worker(args) => remote::worker(&args),
         Command::Submit(args) => remote::submit(&args, cli.format),

@@ -2,6 +2,7 @@
 
 use std::io::{ErrorKind, Write};
 
+use anyhow::Context;
 use serde::Serialize;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -66,5 +67,55 @@ pub fn write_csv(
     match writer.flush() {
         Err(e) if e.kind() == ErrorKind::BrokenPipe => std::process::exit(0),
         other => Ok(other?),
+    }
+}
+
+/// Prints a campaign's counts and, where known, how its overlap points were measured
+/// (`timing`: points with a noise check, flagged as disturbed, re-run).
+pub fn print_status(
+    campaign: &str,
+    status: &store::Status,
+    quality: Option<&results::OverlapQuality>,
+    format: Format,
+) -> anyhow::Result<()> {
+    match format {
+        Format::Json => {
+            let mut out = serde_json::json!({ "campaign": campaign, "status": status });
+            if let Some(quality) = quality {
+                out["timing"] = serde_json::to_value(quality)?;
+            }
+            print_json(&out)
+        }
+        _ => {
+            println!(
+                "campaign {campaign}: {} points: {} done, {} failed, {} queued, {} running, {} cancelled",
+                status.total,
+                status.done,
+                status.failed,
+                status.queued,
+                status.running,
+                status.cancelled
+            );
+            if let Some(q) = quality.filter(|q| q.checked > 0) {
+                println!(
+                    "timing: {} overlap points checked for noise: {} re-run ({} re-runs), {} still disturbed (flagged); {:.0} s measuring, {:.0} s of it timed",
+                    q.checked, q.rerun, q.reruns, q.disturbed, q.wall_s, q.timed_s
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Prints a serialisable value as JSON to stdout, or writes it to `out`.
+pub fn write_json(value: &impl Serialize, out: Option<&std::path::Path>) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)? + "\n";
+    match out {
+        Some(out) => {
+            std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        None => print_text(&text),
     }
 }

@@ -10,96 +10,41 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use clap::Args;
 use coordinator::grpc::{ExpandPlan, ServeOptions};
-use coordinator::{Config, Coordinator, Store, SystemClock};
+use coordinator::{Config, Coordinator, Status, SystemClock};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
-use wire::auth::{Token, WithToken};
+use wire::auth::WithToken;
 use wire::v1 as pb;
 use wire::v1::admin_client::AdminClient;
 use worker::remote::Remote;
 use worker::{Slots, WorkerOptions};
 
+use crate::args::{AuthArgs, ClientArgs, HttpArgs, TlsArgs};
 use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_json, print_table};
-use crate::system;
+use crate::{database, status_page, system};
 
-#[derive(Args, Clone)]
-pub struct AuthArgs {
-    /// File holding the bearer token shared by coordinator and workers.
-    #[arg(long)]
-    token_file: Option<PathBuf>,
-    /// The bearer token itself (prefer --token-file: the environment of a process can be read).
-    #[arg(
-        long = "token",
-        env = "SWEEP_TOKEN",
-        hide_env_values = true,
-        hide = true
-    )]
-    token: Option<String>,
-}
-
-impl AuthArgs {
-    pub(crate) fn token(&self) -> anyhow::Result<Option<Token>> {
-        let secret = match (&self.token_file, &self.token) {
-            (Some(file), _) => std::fs::read_to_string(file)
-                .with_context(|| format!("--token-file {}", file.display()))?,
-            (None, Some(secret)) => secret.clone(),
-            (None, None) => return Ok(None),
-        };
-        Ok(Some(Token::new(&secret).context("--token-file")?))
+/// An admin client of the coordinator `client` names, whose calls give up after `timeout`.
+async fn admin(
+    client: &ClientArgs,
+    timeout: Duration,
+) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
+    let mut endpoint = Endpoint::from_shared(client.coordinator.clone())
+        .with_context(|| format!("--coordinator {}", client.coordinator))?
+        .connect_timeout(Duration::from_secs(5))
+        .timeout(timeout);
+    if let Some(ca) = client.ca_pem()? {
+        endpoint = endpoint
+            .tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))?;
     }
-}
-
-#[derive(Args, Clone)]
-pub struct ClientArgs {
-    /// The coordinator, e.g. http://10.0.0.5:7070 (https:// with --ca).
-    #[arg(long)]
-    coordinator: String,
-    #[command(flatten)]
-    auth: AuthArgs,
-    /// CA certificate (PEM) that signed the coordinator's TLS certificate.
-    #[arg(long)]
-    ca: Option<PathBuf>,
-}
-
-impl ClientArgs {
-    pub fn new(coordinator: String, auth: AuthArgs, ca: Option<PathBuf>) -> Self {
-        Self {
-            coordinator,
-            auth,
-            ca,
-        }
-    }
-
-    fn ca_pem(&self) -> anyhow::Result<Option<Vec<u8>>> {
-        self.ca
-            .as_ref()
-            .map(|p| std::fs::read(p).with_context(|| format!("--ca {}", p.display())))
-            .transpose()
-    }
-
-    /// A client whose calls give up after `timeout`.
-    async fn admin(
-        &self,
-        timeout: Duration,
-    ) -> anyhow::Result<AdminClient<InterceptedService<Channel, WithToken>>> {
-        let mut endpoint = Endpoint::from_shared(self.coordinator.clone())
-            .with_context(|| format!("--coordinator {}", self.coordinator))?
-            .connect_timeout(Duration::from_secs(5))
-            .timeout(timeout);
-        if let Some(ca) = self.ca_pem()? {
-            endpoint = endpoint
-                .tls_config(ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)))?;
-        }
-        let channel = endpoint
-            .connect()
-            .await
-            .with_context(|| format!("cannot reach {}", self.coordinator))?;
-        Ok(AdminClient::with_interceptor(
-            channel,
-            WithToken::new(self.auth.token()?),
-        ))
-    }
+    let channel = endpoint
+        .connect()
+        .await
+        .with_context(|| format!("cannot reach {}", client.coordinator))?;
+    Ok(AdminClient::with_interceptor(
+        channel,
+        WithToken::new(client.auth.token()?),
+    ))
 }
 
 /// How long an admin call may take, but a submission.
@@ -134,11 +79,8 @@ pub struct CoordinatorArgs {
     db: PathBuf,
     #[command(flatten)]
     auth: AuthArgs,
-    /// TLS certificate chain (PEM); with --tls-key, serve TLS.
-    #[arg(long, requires = "tls_key")]
-    tls_cert: Option<PathBuf>,
-    #[arg(long, requires = "tls_cert")]
-    tls_key: Option<PathBuf>,
+    #[command(flatten)]
+    tls: TlsArgs,
     /// Seconds a lease lasts without a heartbeat.
     #[arg(long, default_value_t = 30)]
     lease_secs: u64,
@@ -146,12 +88,12 @@ pub struct CoordinatorArgs {
     #[arg(long, default_value_t = 3)]
     max_attempts: u32,
     #[command(flatten)]
-    http: crate::status_page::HttpArgs,
+    http: HttpArgs,
 }
 
 pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
     let token = args.auth.token()?;
-    let tls = crate::status_page::read_tls(args.tls_cert.as_deref(), args.tls_key.as_deref())?;
+    let tls = args.tls.read()?;
     if token.is_none() && !args.listen.ip().is_loopback() {
         bail!(
             "--listen {}: refusing a non-loopback address without a token (--token-file or SWEEP_TOKEN)",
@@ -164,9 +106,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             .map_err(|e| e.to_string())
     });
     runtime()?.block_on(async {
-        let store = Store::open(&args.db)
-            .await
-            .with_context(|| format!("cannot open {}", args.db.display()))?;
+        let store = database::open(&args.db).await?;
         let config = Config {
             lease_for: Duration::from_secs(args.lease_secs.max(1)),
             max_attempts: args.max_attempts,
@@ -178,8 +118,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             .with_context(|| format!("--listen {}", args.listen))?;
         // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.
         println!("listening on {}", listener.local_addr()?);
-        let page =
-            crate::status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
+        let page = status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
         if let Some((_, url)) = &page {
             println!("status page on {url}");
         }
@@ -311,7 +250,7 @@ pub struct SubmitArgs {
 pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
     let (text, name) = read_plan_file(&args.plan)?;
     let response = runtime()?.block_on(async {
-        let mut admin = args.client.admin(SUBMIT_TIMEOUT).await?;
+        let mut admin = admin(&args.client, SUBMIT_TIMEOUT).await?;
         let request = pb::SubmitRequest {
             plan_toml: text,
             file_name: name,
@@ -335,20 +274,16 @@ pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
     }
 }
 
-pub fn remote_status(
-    client: &ClientArgs,
-    campaign: Option<&str>,
-    format: Format,
-) -> anyhow::Result<()> {
+/// A campaign's counts (or the whole store's) as the coordinator `client` names has them.
+pub fn status(client: &ClientArgs, campaign: Option<&str>) -> anyhow::Result<Status> {
     let s = runtime()?.block_on(async {
-        let mut admin = client.admin(ADMIN_TIMEOUT).await?;
+        let mut admin = admin(client, ADMIN_TIMEOUT).await?;
         let request = pb::StatusRequest {
             campaign_id: campaign.unwrap_or_default().to_string(),
         };
         anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
     })?;
-    let status = coordinator::grpc::convert::status_from_wire(&s);
-    crate::local::report_status(campaign.unwrap_or("(all)"), &status, None, format)
+    Ok(coordinator::grpc::convert::status_from_wire(&s))
 }
 
 #[derive(Args)]
@@ -360,7 +295,7 @@ pub struct CancelArgs {
 
 pub fn cancel(args: &CancelArgs, format: Format) -> anyhow::Result<()> {
     let cancelled = runtime()?.block_on(async {
-        let mut admin = args.client.admin(ADMIN_TIMEOUT).await?;
+        let mut admin = admin(&args.client, ADMIN_TIMEOUT).await?;
         let request = pb::CancelRequest {
             campaign_id: args.campaign.clone(),
         };
@@ -392,7 +327,7 @@ pub struct WorkersArgs {
 
 pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
     let workers = runtime()?.block_on(async {
-        let mut admin = args.client.admin(ADMIN_TIMEOUT).await?;
+        let mut admin = admin(&args.client, ADMIN_TIMEOUT).await?;
         anyhow::Ok(
             admin
                 .workers(pb::WorkersRequest {})

@@ -1,6 +1,5 @@
-//! Live figures and tables: the `report` crate's drawings of the store's rows, the same path as
-//! `sweep report` (the application injects its conversion of store rows to report rows, so the
-//! page and the command cannot drift apart).
+//! Live figures and tables: the `report` crate's drawings of the rows the `results` crate reads,
+//! the same path as `sweep report`, so the page and the command cannot drift apart.
 //!
 //! Cost: one drawing reads every result row of its kind and draws them, O(rows), in a blocking
 //! thread (never on the runtime's workers, so the coordinator's RPCs do not wait on it). A drawing
@@ -14,24 +13,25 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use coordinator::Store;
-use report::TableFormat;
+use serde::Serialize;
 
-use crate::snapshot::FigureLink;
+use coordinator::Store;
+use report::{Clock, TableFormat};
+use results::Statistic;
 
 /// A drawing is never redrawn sooner than this.
 pub const MIN_AGE: Duration = Duration::from_secs(2);
 /// A drawing may keep a core busy this fraction of the time.
 const DUTY: u32 = 10;
 
-/// How the application turns the store's rows into the report crate's (`sweep report` does the
-/// same): the overlap re-estimate from stored blocks (by the statistic of the tables, and of the
-/// figures; a point's visits pooled into one row), the EDMD τ_c clock.
-#[derive(Clone, Copy)]
-pub struct RowConversions {
-    pub overlap_table: fn(Vec<store::OverlapRow>) -> Vec<report::OverlapRow>,
-    pub overlap_figure: fn(Vec<store::OverlapRow>) -> Vec<report::OverlapRow>,
-    pub edmd: fn(Vec<store::EdmdRun>) -> Vec<report::EdmdRow>,
+/// A figure or table the page can show: there are done jobs of its kind.
+#[derive(Clone, Debug, Serialize)]
+pub struct FigureLink {
+    pub name: &'static str,
+    pub title: &'static str,
+    /// `svg` or `table` (JSON rows).
+    pub format: &'static str,
+    pub url: String,
 }
 
 /// What a name draws.
@@ -134,16 +134,14 @@ pub struct Drawn {
 #[derive(Clone)]
 pub struct Figures {
     store: Store,
-    rows: RowConversions,
     slots: Arc<HashMap<&'static str, Arc<tokio::sync::Mutex<Option<Drawn>>>>>,
 }
 
 impl Figures {
-    pub fn new(store: Store, rows: RowConversions) -> Self {
+    pub fn new(store: Store) -> Self {
         let slots = FIGURES.iter().map(|f| (f.name, Arc::default())).collect();
         Figures {
             store,
-            rows,
             slots: Arc::new(slots),
         }
     }
@@ -158,12 +156,11 @@ impl Figures {
             return drawn.clone();
         }
         let started = Instant::now();
-        let (store, rows) = (self.store.clone(), self.rows);
+        let store = self.store.clone();
         let runtime = tokio::runtime::Handle::current();
-        let body =
-            tokio::task::spawn_blocking(move || draw(&runtime, &store, rows, figure.drawing))
-                .await
-                .unwrap_or_else(|panic| Err(format!("drawing {} panicked: {panic}", figure.name)));
+        let body = tokio::task::spawn_blocking(move || draw(&runtime, &store, figure.drawing))
+            .await
+            .unwrap_or_else(|panic| Err(format!("drawing {} panicked: {panic}", figure.name)));
         let drawn = Drawn {
             done,
             body: body.map(Arc::new),
@@ -175,38 +172,35 @@ impl Figures {
     }
 }
 
-/// Reads the rows and draws, in a blocking thread.
+/// Reads the rows and draws, in a blocking thread: each table and figure estimated as `sweep
+/// report` estimates it by default (the tables' statistic, the figures', τ_c by CPU time).
 fn draw(
     runtime: &tokio::runtime::Handle,
     store: &Store,
-    rows: RowConversions,
     drawing: Drawing,
 ) -> Result<String, String> {
     match drawing {
-        Drawing::Table { precision } | Drawing::Fig2 { precision } => {
-            let stored = runtime
-                .block_on(store.overlap_rows())
+        Drawing::Table { precision } => {
+            let rows = runtime
+                .block_on(results::overlap_points(store, Statistic::FOR_TABLES))
                 .map_err(|e| e.to_string())?;
-            let convert = match drawing {
-                Drawing::Fig2 { .. } => rows.overlap_figure,
-                _ => rows.overlap_table,
-            };
-            let rows = convert(stored);
-            if let Drawing::Fig2 { .. } = drawing {
-                return report::fig2_svg(&rows, precision, report::Fig2Options::default())
-                    .map_err(|e| e.to_string());
-            }
             let table = report::table1(&rows, precision);
             if table.is_empty() {
                 return Err(format!("no {precision} overlap results yet"));
             }
             report::render_table(&table, TableFormat::Json).map_err(|e| e.to_string())
         }
-        Drawing::Fig7 | Drawing::Fig13 => {
-            let stored = runtime
-                .block_on(store.edmd_runs())
+        Drawing::Fig2 { precision } => {
+            let rows = runtime
+                .block_on(results::overlap_points(store, Statistic::FOR_SURFACES))
                 .map_err(|e| e.to_string())?;
-            let rows = (rows.edmd)(stored);
+            report::fig2_svg(&rows, precision, report::Fig2Options::default())
+                .map_err(|e| e.to_string())
+        }
+        Drawing::Fig7 | Drawing::Fig13 => {
+            let rows = runtime
+                .block_on(results::edmd_runs(store, Clock::Cpu))
+                .map_err(|e| e.to_string())?;
             match drawing {
                 Drawing::Fig13 => report::Fig13::new(&rows).and_then(|f| f.svg()),
                 _ => report::fig7_svg(&rows),

@@ -35,7 +35,7 @@ use serde::Serialize;
 use wire::auth::Token;
 
 use crate::access::{Asks, COOKIE, Credentials, Decision, Peer};
-use crate::figures::{Figures, RowConversions};
+use crate::figures::Figures;
 use crate::snapshot::Sampler;
 
 #[derive(Debug, thiserror::Error)]
@@ -53,6 +53,8 @@ pub enum Error {
     Tls(String),
     #[error("status page: {0}")]
     Store(#[from] store::Error),
+    #[error("status page: {0}")]
+    Results(#[from] results::Error),
     #[error("status page: {0}")]
     Io(#[from] std::io::Error),
 }
@@ -81,14 +83,13 @@ struct App {
 /// is the address served on: the policy trusts loopback clients only when it is loopback.
 pub async fn router(
     coordinator: Coordinator,
-    rows: RowConversions,
     listen: SocketAddr,
     token: Option<Token>,
     secure_cookie: bool,
 ) -> Result<(Router, tokio::task::JoinHandle<()>), Error> {
     let (sampler, sampling) = Sampler::start(coordinator.clone()).await?;
     let app = App {
-        figures: Figures::new(coordinator.store().clone(), rows),
+        figures: Figures::new(coordinator.store().clone()),
         coordinator,
         sampler,
         credentials: Credentials::new(token),
@@ -177,18 +178,11 @@ impl Bound {
     pub async fn serve(
         self,
         coordinator: Coordinator,
-        rows: RowConversions,
         shutdown: impl std::future::Future<Output = ()> + Send + 'static,
     ) -> Result<(), Error> {
         let listen = self.listener.local_addr()?;
-        let (router, sampling) = router(
-            coordinator,
-            rows,
-            listen,
-            self.options.token,
-            self.tls.is_some(),
-        )
-        .await?;
+        let (router, sampling) =
+            router(coordinator, listen, self.options.token, self.tls.is_some()).await?;
         let service = router.into_make_service_with_connect_info::<Peer>();
         let served = match self.tls {
             Some(acceptor) => {

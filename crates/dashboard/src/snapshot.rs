@@ -13,8 +13,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use coordinator::{Coordinator, Status};
+use results::OverlapQuality;
+
+use crate::figures::FigureLink;
 use serde::Serialize;
-use store::{FailureRecord, JobInHand, OverlapQuality};
+use store::{FailureRecord, JobInHand};
 use tokio::sync::{Notify, watch};
 
 /// The shortest time between two samples.
@@ -67,16 +70,6 @@ pub struct WorkerView {
     pub stale: bool,
     pub jobs_done: u64,
     pub in_hand: Vec<JobInHand>,
-}
-
-/// A figure or table the page can show: there are done jobs of its kind.
-#[derive(Clone, Debug, Serialize)]
-pub struct FigureLink {
-    pub name: &'static str,
-    pub title: &'static str,
-    /// `svg` or `table` (JSON rows).
-    pub format: &'static str,
-    pub url: String,
 }
 
 /// Everything the page shows, as of `taken_at`.
@@ -151,7 +144,7 @@ pub fn remaining(status: &Status, rate: Option<f64>, live_cores: usize) -> (Opti
 }
 
 /// What `sample` reads.
-async fn sample(coordinator: &Coordinator, history: &mut History) -> store::Result<Snapshot> {
+async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Result<Snapshot> {
     let store = coordinator.store();
     let now = unix_now();
     let stale_after = coordinator.config().lease_for.as_secs_f64() / 2.0;
@@ -192,7 +185,7 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> store::Resu
         let rate = history.rate(&c.id, now, finished);
         let (remaining_s, remaining_how) = remaining(&s, rate, live_cores);
         campaigns.push(CampaignView {
-            timing: store.overlap_quality(Some(&c.id)).await?,
+            timing: results::overlap_quality(store, Some(&c.id)).await?,
             progress: if s.total == 0 {
                 1.0
             } else {
@@ -238,7 +231,7 @@ impl Sampler {
     /// (or dropped with the runtime).
     pub async fn start(
         coordinator: Coordinator,
-    ) -> store::Result<(Sampler, tokio::task::JoinHandle<()>)> {
+    ) -> results::Result<(Sampler, tokio::task::JoinHandle<()>)> {
         let mut history = History::default();
         let first = sample(&coordinator, &mut history).await?;
         let (tx, rx) = watch::channel(Arc::new(first));

@@ -13,19 +13,10 @@ use axum::extract::ConnectInfo;
 use axum::http::{Request, StatusCode, header};
 use coordinator::{Config, Coordinator, NewCampaign, NewJob, Store, SystemClock, WorkerInfo};
 use dashboard::access::Peer;
-use dashboard::figures::RowConversions;
 use tower::ServiceExt;
 use wire::auth::Token;
 
 const TOKEN: &str = "policy-test-token";
-
-fn no_rows() -> RowConversions {
-    RowConversions {
-        overlap_table: |_| Vec::new(),
-        overlap_figure: |_| Vec::new(),
-        edmd: |_| Vec::new(),
-    }
-}
 
 async fn coordinator(dir: &tempfile::TempDir, jobs: usize) -> Coordinator {
     let store = Store::open(dir.path().join("c.db")).await.unwrap();
@@ -70,7 +61,6 @@ async fn router(coordinator: &Coordinator, listen: &str) -> Router {
     let listen: SocketAddr = listen.parse().unwrap();
     let (router, _sampler) = dashboard::router(
         coordinator.clone(),
-        no_rows(),
         listen,
         Some(Token::new(TOKEN).unwrap()),
         false,
@@ -315,7 +305,7 @@ async fn the_page_serves_https_with_the_given_certificate() {
         .trim_start_matches("https://")
         .trim_end_matches('/')
         .to_owned();
-    let server = tokio::spawn(bound.serve(coordinator, no_rows(), std::future::pending()));
+    let server = tokio::spawn(bound.serve(coordinator, std::future::pending()));
 
     let mut roots = rustls::RootCertStore::empty();
     roots.add(cert.der().clone()).unwrap();
@@ -366,39 +356,67 @@ async fn an_address_off_loopback_without_a_token_is_refused() {
     assert!(refused.to_string().contains("without a token"), "{refused}");
 }
 
-/// Superquadric runs of Fig. 13 (p = 2, 4 at X0 = 0.5 with LL), whatever the store holds: the
-/// conversion is where the application hands the store's rows to the report crate.
-fn superquadric_rows() -> RowConversions {
-    RowConversions {
-        edmd: |_| {
-            [(2.0, 90.0), (4.0, 800.0)]
+/// Superquadric runs of Fig. 13 (p = 2 and 4 at X0 = 0.5 with LL, the paper's state point),
+/// run by `jobs::run` and stored as a worker stores them.
+async fn run_superquadrics(coordinator: &Coordinator) {
+    let jobs: Vec<jobs::JobSpec> = [2.0, 4.0]
+        .into_iter()
+        .map(|p| {
+            let scene = format!(
+                "shape = \"superquadric\"\nexponents = [2.0, 2.0, {p}]\nn = 512\nphi = 0.256\n\
+                 x0 = 0.5\nneighbours = \"ll\"\ncollisions = 500\nequilibrate = 0\n"
+            );
+            jobs::JobSpec::Edmd(edmd::Scene::from_toml_str(&scene).unwrap())
+        })
+        .collect();
+    let new_jobs: Vec<NewJob> = jobs
+        .iter()
+        .map(|spec| NewJob {
+            id: spec.id(),
+            kind: spec.kind().into(),
+            params_json: spec.canonical_json(),
+            estimate_s: 1.0,
+            exclusive: false,
+            pass: 0,
+        })
+        .collect();
+    let campaign = NewCampaign {
+        id: "fig13".into(),
+        name: "fig13".into(),
+        plan_text: String::new(),
+    };
+    coordinator.submit(&campaign, &new_jobs).await.unwrap();
+    coordinator.register(&worker("w-fig13")).await.unwrap();
+    loop {
+        let leases = coordinator.lease("w-fig13", 2, true).await.unwrap();
+        if leases.is_empty() {
+            break;
+        }
+        for lease in leases {
+            let spec = jobs.iter().find(|s| s.id() == lease.job_id).unwrap();
+            let records: Vec<String> = jobs::run(spec, 1)
+                .unwrap()
                 .into_iter()
-                .map(|(p, tau_c_us)| report::EdmdRow {
-                    shape: "superquadric".into(),
-                    x0: 0.5,
-                    exponents: Some([2.0, 2.0, p]),
-                    neighbours: "ll".into(),
-                    n: 512,
-                    phi: 0.256,
-                    tau_c_us,
-                    collisions: 2000,
-                    // The accuracy knobs are left at one value for all: the figure's baseline.
-                    ..Default::default()
-                })
-                .collect()
-        },
-        ..no_rows()
+                .map(|r| serde_json::Value::Object(r).to_string())
+                .collect();
+            coordinator
+                .complete("w-fig13", &lease.job_id, lease.token, Some(0), &records)
+                .await
+                .unwrap();
+        }
     }
 }
 
-#[tokio::test]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_draws_fig13_from_superquadric_runs() {
-    let dir = tempfile::tempdir().unwrap();
-    let coordinator = coordinator(&dir, 1).await;
-    for (rows, drawn) in [(superquadric_rows(), true), (no_rows(), false)] {
+    for drawn in [true, false] {
+        let dir = tempfile::tempdir().unwrap();
+        let coordinator = coordinator(&dir, 0).await;
+        if drawn {
+            run_superquadrics(&coordinator).await;
+        }
         let (router, _sampler) = dashboard::router(
             coordinator.clone(),
-            rows,
             "127.0.0.1:8080".parse().unwrap(),
             Some(Token::new(TOKEN).unwrap()),
             false,

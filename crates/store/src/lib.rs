@@ -1,6 +1,7 @@
-//! SQLite persistence for sweep: campaigns, jobs and their leases, results, worker provenance, and the
-//! queries reports are built from. The store knows no physics: job parameters and result records are
-//! opaque JSON objects (only the SQL views in `/migrations` name their fields, for humans and reports).
+//! SQLite persistence for sweep: campaigns, jobs and their leases, results and worker provenance.
+//! The store knows no physics: job parameters and result records are opaque JSON objects that it
+//! returns as written (only the SQL views in `/migrations` name their fields, for `sweep query`);
+//! what a record contains is read by the `results` crate.
 //!
 //! Map of the crate:
 //! - `connect`: [`Store::open`] (read-write, applies migrations) and [`Store::open_read_only`];
@@ -11,8 +12,8 @@
 //!   [`Store::complete_batch`], [`Store::fail`], [`Store::expire_leases`]; the exclusive-job rule
 //!   and exactly-once results live here.
 //! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
-//!   [`Store::export`], [`Store::overlap_rows`], [`Store::overlap_quality`],
-//!   [`Store::query_read_only`].
+//!   [`Store::failed_jobs`], [`Store::results_of`] (a kind's jobs with their records),
+//!   [`Store::export`], [`Store::query_read_only`].
 //! - `activity`: [`Store::recent_failures`] (the `job_failures` log), [`Store::worker_activity`],
 //!   [`Store::has_done`]: what the live status page samples.
 //! - `writer`: group commit — the task that applies concurrent writes in one transaction.
@@ -38,8 +39,8 @@ pub use activity::{FailureRecord, JobInHand, WorkerActivity};
 pub use connect::Store;
 pub use error::{Error, Result};
 pub use types::{
-    CampaignInfo, CompleteOutcome, Completion, EdmdRun, ExportRow, FailOutcome, FailedJob, JobInfo,
-    JobState, Lease, LeaseRef, NewCampaign, NewJob, OverlapQuality, OverlapRow, OverlapVerdictRow,
-    QueryResult, Status, SubmitOutcome, WorkerInfo, WorkerRecord,
+    CampaignInfo, CompleteOutcome, Completion, ExportRow, FailOutcome, FailedJob, JobInfo,
+    JobResults, JobState, Lease, LeaseRef, NewCampaign, NewJob, QueryResult, Status, SubmitOutcome,
+    WorkerInfo, WorkerRecord,
 };
 pub use writer::WriteGroups;

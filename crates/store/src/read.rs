@@ -1,9 +1,7 @@
-//! Reading: progress, listings, export, report rows and ad-hoc read-only SQL.
+//! Reading: progress, listings, export, the records of a kind of job and read-only SQL.
 //! All of it goes through the read-only connections, so it never waits for the writer.
 
-use std::collections::{BTreeMap, HashMap};
-
-use sqlx::sqlite::{SqliteRow, SqliteValueRef};
+use sqlx::sqlite::SqliteValueRef;
 use sqlx::{
     AssertSqlSafe, Column, Decode, Executor, Row, SqlSafeStr, Sqlite, Statement, TypeInfo, ValueRef,
 };
@@ -11,8 +9,8 @@ use sqlx::{
 use crate::Store;
 use crate::error::{Error, Result};
 use crate::types::{
-    CampaignInfo, EdmdRun, ExportRow, FailedJob, JobInfo, JobState, OverlapQuality, OverlapRow,
-    OverlapVerdictRow, QueryResult, Status, WorkerInfo, WorkerRecord,
+    CampaignInfo, ExportRow, FailedJob, JobInfo, JobResults, JobState, QueryResult, Status,
+    WorkerInfo, WorkerRecord,
 };
 
 impl Store {
@@ -235,228 +233,32 @@ impl Store {
             .collect()
     }
 
-    /// Overlap timings, one row per (job, algorithm), ordered by precision, R*, L*, W*,
-    /// acceptance target and algorithm, then the point's other parameters and the visit (so the
-    /// visits of a point are consecutive): the means over repeats, every repeat's `ns_per_check`
-    /// and, for points measured in blocks, every block (so a report can re-estimate), with the
-    /// point's noise check. A done overlap job lacking a numeric field, or with a malformed
-    /// record, is reported as [`Error::Corrupt`] rather than skipped, so a table never silently
-    /// loses points.
-    ///
-    /// The records are read as stored and parsed once, here: with every block kept they are
-    /// about 1 kB each, and extracting fields in SQL would parse each several times.
-    pub async fn overlap_rows(&self) -> Result<Vec<OverlapRow>> {
-        let points = sqlx::query(
-            "SELECT p.job_id, CAST(p.l_star AS REAL), CAST(p.w_star AS REAL), CAST(p.r_star AS REAL),
-                    CAST(p.acceptance_target AS REAL), CAST(p.configurations AS INTEGER), p.precision,
-                    CAST(coalesce(json_extract(j.params, '$.visit'), 0) AS INTEGER),
-                    json_remove(j.params, '$.visit')
-             FROM overlap_points AS p JOIN jobs AS j ON j.id = p.job_id
-             WHERE p.job_id IN (SELECT job_id FROM results)",
+    /// Every job of `kind` that has results, with its parameters and its records (JSON objects,
+    /// in the order the job wrote them), in submission order. The store does not look inside
+    /// either: what a record of a kind contains is the results layer's business.
+    pub async fn results_of(&self, kind: &str) -> Result<Vec<JobResults>> {
+        let rows = sqlx::query(
+            "SELECT j.id, j.params, r.fields FROM jobs AS j JOIN results AS r ON r.job_id = j.id
+             WHERE j.kind = ?1 ORDER BY j.created_at, j.rowid, r.row_index",
         )
+        .bind(kind)
         .fetch_all(&self.reader)
         .await?;
-        let records = sqlx::query(
-            "SELECT r.job_id, r.fields FROM results AS r JOIN jobs AS j ON j.id = r.job_id
-             WHERE j.kind = 'overlap' ORDER BY r.job_id, r.row_index",
-        )
-        .fetch_all(&self.reader)
-        .await?;
-        let mut by_job: HashMap<String, PointRecords> = HashMap::with_capacity(points.len());
-        for row in &records {
-            let job_id: String = row.try_get(0)?;
-            let record: OverlapRecord = serde_json::from_str(row.try_get(1)?).map_err(|e| {
-                Error::Corrupt(format!("overlap job {job_id:?}: malformed record: {e}"))
-            })?;
-            by_job.entry(job_id).or_default().add(record);
-        }
-        let mut rows = Vec::new();
-        for point in &points {
-            let job_id: String = point.try_get(0)?;
-            let missing =
-                |what: &str| Error::Corrupt(format!("overlap job {job_id:?} lacks {what}"));
-            let number = |index: usize, name: &str| -> Result<f64> {
-                point
-                    .try_get::<Option<f64>, _>(index)?
-                    .ok_or_else(|| missing(name))
-            };
-            let (l_star, w_star, r_star) = (
-                number(1, "l_star")?,
-                number(2, "w_star")?,
-                number(3, "r_star")?,
-            );
-            let acceptance_target = number(4, "acceptance")?;
-            let configurations = point
-                .try_get::<Option<i64>, _>(5)?
-                .ok_or_else(|| missing("configurations"))?;
-            let precision = point
-                .try_get::<Option<String>, _>(6)?
-                .ok_or_else(|| missing("precision"))?;
-            let visit = u32::try_from(point.try_get::<i64, _>(7)?).map_err(|_| {
-                Error::Corrupt(format!("overlap job {job_id:?}: visit out of range"))
-            })?;
-            let point_params: String = point.try_get(8)?;
-            let Some(job) = by_job.remove(&job_id) else {
-                continue;
-            };
-            for (algorithm, t) in job.algorithms {
-                if !t.complete {
-                    return Err(missing("ms, ns_per_check or acceptance in a result record"));
-                }
-                let n = t.repeat_ns_per_check.len() as f64;
-                // Blocks of some repeats only (never written so) would bias a re-estimate.
-                let blocked = t.blocks.len() == t.repeat_ns_per_check.len();
-                rows.push(OverlapRow {
-                    job_id: job_id.clone(),
-                    l_star,
-                    w_star,
-                    r_star,
-                    acceptance_target,
-                    configurations,
-                    precision: precision.clone(),
-                    algorithm,
-                    mean_ms: t.sum_ms / n,
-                    ns_per_check: t.repeat_ns_per_check.iter().sum::<f64>() / n,
-                    acceptance: t.sum_acceptance / n,
-                    repeats: t.repeat_ns_per_check.len() as u32,
-                    repeat_ns_per_check: t.repeat_ns_per_check,
-                    block_ns_per_check: if blocked { t.blocks } else { Vec::new() },
-                    disturbed: job.disturbed,
-                    reruns: job.reruns,
-                    visit,
-                    point: point_params.clone(),
+        let mut jobs: Vec<JobResults> = Vec::new();
+        for row in &rows {
+            let job_id: &str = row.try_get(0)?;
+            if jobs.last().is_none_or(|j| j.job_id != job_id) {
+                jobs.push(JobResults {
+                    job_id: job_id.to_owned(),
+                    params_json: row.try_get(1)?,
+                    records: Vec::new(),
                 });
             }
+            if let Some(job) = jobs.last_mut() {
+                job.records.push(row.try_get(2)?);
+            }
         }
-        rows.sort_by(|a, b| {
-            a.precision
-                .cmp(&b.precision)
-                .then(a.r_star.total_cmp(&b.r_star))
-                .then(a.l_star.total_cmp(&b.l_star))
-                .then(a.w_star.total_cmp(&b.w_star))
-                .then(a.acceptance_target.total_cmp(&b.acceptance_target))
-                .then_with(|| a.algorithm.cmp(&b.algorithm))
-                .then_with(|| a.point.cmp(&b.point))
-                .then(a.visit.cmp(&b.visit))
-        });
-        Ok(rows)
-    }
-
-    /// How the overlap points of one campaign (or of the whole store) were measured: how many
-    /// carry a noise check, how many were still disturbed after their re-runs, how many were
-    /// re-run and what their measurement cost.
-    pub async fn overlap_quality(&self, campaign: Option<&str>) -> Result<OverlapQuality> {
-        let row = sqlx::query(
-            "SELECT count(*), total(m.disturbed), count(*) FILTER (WHERE m.reruns > 0), total(m.reruns),
-                    total(m.wall_s), total(m.timed_s)
-             FROM overlap_measurements AS m
-             WHERE ?1 IS NULL
-                OR m.job_id IN (SELECT job_id FROM campaign_jobs WHERE campaign_id = ?1)",
-        )
-        .bind(campaign)
-        .fetch_one(&self.reader)
-        .await?;
-        let count = |i: usize| -> Result<u64> {
-            let n: f64 = row
-                .try_get::<f64, _>(i)
-                .or_else(|_| row.try_get::<i64, _>(i).map(|n| n as f64))?;
-            Ok(n.max(0.0) as u64)
-        };
-        Ok(OverlapQuality {
-            checked: count(0)?,
-            disturbed: count(1)?,
-            rerun: count(2)?,
-            reruns: count(3)?,
-            wall_s: row.try_get(4)?,
-            timed_s: row.try_get(5)?,
-        })
-    }
-
-    /// Every done EDMD point, ordered by shape, X0, neighbour method, N, Δ_NNL and φ (then the
-    /// superquadric exponent p). A record
-    /// lacking a field the engine always writes is reported as [`Error::Corrupt`] rather than
-    /// skipped; fields added later (`tau_c_cpu_us`, `wall_s`, `cpu_s`) may be absent.
-    pub async fn edmd_runs(&self) -> Result<Vec<EdmdRun>> {
-        let reals = EDMD_REALS
-            .iter()
-            .map(|c| format!("CAST({c} AS REAL) AS {c}"))
-            .chain(
-                EDMD_INTEGERS
-                    .iter()
-                    .map(|c| format!("CAST({c} AS INTEGER) AS {c}")),
-            )
-            .collect::<Vec<_>>()
-            .join(", ");
-        let sql = format!(
-            "SELECT job_id, shape, neighbours, sequence_fingerprint, {reals} FROM edmd_runs
-             ORDER BY shape, x0, neighbours, n, delta_nnl, phi, eps_d, nr_tol, seed, exponent_p"
-        );
-        let rows = sqlx::query(AssertSqlSafe(sql).into_sql_str())
-            .fetch_all(&self.reader)
-            .await?;
-        rows.iter().map(edmd_run).collect()
-    }
-
-    /// Every (point, algorithm) of the overlap points run with `verdict_check`, ordered by
-    /// precision, algorithm and point. A row lacking a count is [`Error::Corrupt`].
-    pub async fn overlap_verdicts(&self) -> Result<Vec<OverlapVerdictRow>> {
-        let rows = sqlx::query(
-            "SELECT v.job_id, CAST(v.l_star AS REAL), CAST(v.w_star AS REAL), CAST(v.r_star AS REAL),
-                    v.precision, v.algorithm, CAST(v.ns_per_check AS REAL), v.bulk, v.shell,
-                    v.undecided, v.bulk_wrong, v.shell_wrong,
-                    CAST(json_extract(r.fields, '$.verdicts.shell_max_gap') AS REAL),
-                    v.shell_by_decade, v.shell_wrong_by_decade
-             FROM overlap_verdicts AS v
-             JOIN results AS r ON r.job_id = v.job_id AND json_type(r.fields, '$.verdicts') = 'object'
-             ORDER BY v.precision, v.algorithm, v.l_star, v.w_star, v.r_star",
-        )
-        .fetch_all(&self.reader)
-        .await?;
-        rows.iter()
-            .map(|row| {
-                let job_id: String = row.try_get(0)?;
-                let missing = |what: &str| {
-                    Error::Corrupt(format!("overlap job {job_id:?}: verdicts lack {what}"))
-                };
-                let real = |i: usize, name: &str| -> Result<f64> {
-                    row.try_get::<Option<f64>, _>(i)?
-                        .ok_or_else(|| missing(name))
-                };
-                let count = |i: usize, name: &str| -> Result<u64> {
-                    let n = row
-                        .try_get::<Option<i64>, _>(i)?
-                        .ok_or_else(|| missing(name))?;
-                    u64::try_from(n).map_err(|_| missing(name))
-                };
-                let counts = |i: usize, name: &str| -> Result<Vec<u64>> {
-                    let text = row
-                        .try_get::<Option<String>, _>(i)?
-                        .ok_or_else(|| missing(name))?;
-                    serde_json::from_str(&text).map_err(|_| missing(name))
-                };
-                Ok(OverlapVerdictRow {
-                    l_star: real(1, "l_star")?,
-                    w_star: real(2, "w_star")?,
-                    r_star: real(3, "r_star")?,
-                    precision: row
-                        .try_get::<Option<String>, _>(4)?
-                        .ok_or_else(|| missing("precision"))?,
-                    algorithm: row
-                        .try_get::<Option<String>, _>(5)?
-                        .ok_or_else(|| missing("algorithm"))?,
-                    ns_per_check: real(6, "ns_per_check (no timing record)")?,
-                    bulk: count(7, "bulk")?,
-                    shell: count(8, "shell")?,
-                    undecided: count(9, "undecided")?,
-                    bulk_wrong: count(10, "bulk_wrong")?,
-                    shell_wrong: count(11, "shell_wrong")?,
-                    shell_max_gap: real(12, "shell_max_gap")?,
-                    shell_by_decade: counts(13, "shell_by_decade")?,
-                    shell_wrong_by_decade: counts(14, "shell_wrong_by_decade")?,
-                    job_id,
-                })
-            })
-            .collect()
+        Ok(jobs)
     }
 
     /// Runs one ad-hoc query on a read-only connection (`sweep query`).
@@ -466,6 +268,16 @@ impl Store {
     /// string would all run, and a `PRAGMA` could change the pooled connection for later callers);
     /// the connection is opened read-only; and `PRAGMA query_only` is on.
     pub async fn query_read_only(&self, sql: &str) -> Result<QueryResult> {
+        self.query_read_only_with(sql, &[]).await
+    }
+
+    /// [`Store::query_read_only`] with values for the query's `?1`, `?2`, … (JSON null, boolean,
+    /// number or string): the generic rows the results layer aggregates in SQL.
+    pub async fn query_read_only_with(
+        &self,
+        sql: &str,
+        binds: &[serde_json::Value],
+    ) -> Result<QueryResult> {
         check_single_query(sql)?;
         let mut conn = self.reader.acquire().await?;
         let sql = AssertSqlSafe(sql.to_owned()).into_sql_str();
@@ -475,7 +287,20 @@ impl Store {
             .iter()
             .map(|c| c.name().to_owned())
             .collect();
-        let rows = statement.query().fetch_all(&mut *conn).await?;
+        let mut query = statement.query();
+        for value in binds {
+            query = match value {
+                serde_json::Value::Null => query.bind(None::<String>),
+                serde_json::Value::Bool(b) => query.bind(*b),
+                serde_json::Value::Number(n) => match n.as_i64() {
+                    Some(i) => query.bind(i),
+                    None => query.bind(n.as_f64()),
+                },
+                serde_json::Value::String(s) => query.bind(s.clone()),
+                other => return Err(Error::NotAQuery(format!("cannot bind {other}"))),
+            };
+        }
+        let rows = query.fetch_all(&mut *conn).await?;
         let rows = rows
             .iter()
             .map(|row| {
@@ -505,173 +330,6 @@ fn add_state_count(status: &mut Status, state: &str, count: i64, estimate_s: f64
         status.estimate_s_remaining += estimate_s;
     }
     Ok(())
-}
-
-/// Real-valued columns of `edmd_runs` that [`Store::edmd_runs`] reads.
-const EDMD_REALS: [&str; 25] = [
-    "phi",
-    "x0",
-    "exponent_n",
-    "exponent_m",
-    "exponent_p",
-    "delta_nnl",
-    "tau_c_us",
-    "pressure_z",
-    "pressure_z_err",
-    "eps_d",
-    "eps_nnl",
-    "nr_tol",
-    "nr_relax",
-    "sd_tol",
-    "brent_tol",
-    "energy_drift_rel",
-    "nr_iterations_mean",
-    "distance_calls_per_collision",
-    "searches_per_collision",
-    "init_s",
-    "wall_s",
-    "cpu_s",
-    "tau_c_cpu_us",
-    "tau_update_us",
-    "tau_predict_us",
-];
-/// Integer columns of `edmd_runs` that [`Store::edmd_runs`] reads.
-const EDMD_INTEGERS: [&str; 11] = [
-    "n",
-    "nr_max_iter",
-    "sd_max_iter",
-    "seed",
-    "collisions",
-    "overlaps",
-    "solver_failures",
-    "contact_nr_fallbacks",
-    "nnl_rebuilds",
-    "cell_crossings",
-    "sequence_block",
-];
-
-fn edmd_run(row: &SqliteRow) -> Result<EdmdRun> {
-    let job_id: String = row.try_get("job_id")?;
-    let missing = |what: &str| Error::Corrupt(format!("edmd job {job_id:?} lacks {what}"));
-    let optional = |name: &str| -> Result<Option<f64>> { Ok(row.try_get::<Option<f64>, _>(name)?) };
-    let number = |name: &str| -> Result<f64> { optional(name)?.ok_or_else(|| missing(name)) };
-    let integer = |name: &str| -> Result<i64> {
-        row.try_get::<Option<i64>, _>(name)?
-            .ok_or_else(|| missing(name))
-    };
-    let text = |name: &str| -> Result<String> {
-        row.try_get::<Option<String>, _>(name)?
-            .ok_or_else(|| missing(name))
-    };
-    Ok(EdmdRun {
-        shape: text("shape")?,
-        n: integer("n")?,
-        phi: number("phi")?,
-        x0: number("x0")?,
-        // A superquadric's three, or none.
-        exponents: match (
-            optional("exponent_n")?,
-            optional("exponent_m")?,
-            optional("exponent_p")?,
-        ) {
-            (Some(n), Some(m), Some(p)) => Some([n, m, p]),
-            (None, None, None) => None,
-            _ => return Err(missing("one of its three exponents")),
-        },
-        neighbours: text("neighbours")?,
-        delta_nnl: number("delta_nnl")?,
-        tau_c_us: number("tau_c_us")?,
-        tau_c_cpu_us: optional("tau_c_cpu_us")?,
-        pressure_z: number("pressure_z")?,
-        // NaN (one block) is written as JSON null.
-        pressure_z_err: optional("pressure_z_err")?,
-        eps_d: number("eps_d")?,
-        eps_nnl: number("eps_nnl")?,
-        nr_tol: number("nr_tol")?,
-        nr_max_iter: integer("nr_max_iter")?,
-        nr_relax: number("nr_relax")?,
-        sd_max_iter: integer("sd_max_iter")?,
-        sd_tol: number("sd_tol")?,
-        brent_tol: number("brent_tol")?,
-        seed: integer("seed")?,
-        collisions: integer("collisions")?,
-        energy_drift_rel: number("energy_drift_rel")?,
-        overlaps: integer("overlaps")?,
-        solver_failures: integer("solver_failures")?,
-        contact_nr_fallbacks: integer("contact_nr_fallbacks")?,
-        nr_iterations_mean: number("nr_iterations_mean")?,
-        distance_calls_per_collision: number("distance_calls_per_collision")?,
-        searches_per_collision: number("searches_per_collision")?,
-        nnl_rebuilds: integer("nnl_rebuilds")?,
-        cell_crossings: integer("cell_crossings")?,
-        init_s: optional("init_s")?,
-        wall_s: optional("wall_s")?,
-        cpu_s: optional("cpu_s")?,
-        tau_update_us: optional("tau_update_us")?,
-        tau_predict_us: optional("tau_predict_us")?,
-        sequence_fingerprint: row.try_get("sequence_fingerprint")?,
-        sequence_block: row.try_get("sequence_block")?,
-        job_id,
-    })
-}
-
-/// The fields of an overlap record that reports read (see `jobs::run`): a timing has an
-/// `algorithm`; the point record has the noise check. serde skips every other field.
-#[derive(serde::Deserialize)]
-struct OverlapRecord {
-    algorithm: Option<String>,
-    ms: Option<f64>,
-    ns_per_check: Option<f64>,
-    acceptance: Option<f64>,
-    block_ns_per_check: Option<Vec<f64>>,
-    disturbed: Option<bool>,
-    reruns: Option<u32>,
-}
-
-/// One job's records, gathered per algorithm.
-#[derive(Default)]
-struct PointRecords {
-    algorithms: BTreeMap<String, AlgorithmRecords>,
-    disturbed: Option<bool>,
-    reruns: Option<u32>,
-}
-
-struct AlgorithmRecords {
-    sum_ms: f64,
-    sum_acceptance: f64,
-    repeat_ns_per_check: Vec<f64>,
-    blocks: Vec<Vec<f64>>,
-    /// Every record had `ms`, `ns_per_check` and `acceptance`.
-    complete: bool,
-}
-
-impl PointRecords {
-    fn add(&mut self, record: OverlapRecord) {
-        let Some(algorithm) = record.algorithm else {
-            self.disturbed = self.disturbed.or(record.disturbed);
-            self.reruns = self.reruns.or(record.reruns);
-            return;
-        };
-        let t = self
-            .algorithms
-            .entry(algorithm)
-            .or_insert_with(|| AlgorithmRecords {
-                sum_ms: 0.0,
-                sum_acceptance: 0.0,
-                repeat_ns_per_check: Vec::new(),
-                blocks: Vec::new(),
-                complete: true,
-            });
-        match (record.ms, record.ns_per_check, record.acceptance) {
-            (Some(ms), Some(ns), Some(acceptance)) => {
-                t.sum_ms += ms;
-                t.sum_acceptance += acceptance;
-                t.repeat_ns_per_check.push(ns);
-            }
-            _ => t.complete = false,
-        }
-        t.blocks.extend(record.block_ns_per_check);
-    }
 }
 
 /// Maps a SQLite value to JSON by its storage class (not by the column's declared type, which

@@ -91,128 +91,13 @@ pub struct ExportRow {
     pub fields: serde_json::Map<String, serde_json::Value>,
 }
 
-/// One overlap job (point) and algorithm: the means over its repeats, and what a robust
-/// re-estimate needs.
+/// One job's results as stored: its parameters and its records, each a JSON object, in the
+/// order the job wrote them. Opaque to the store.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct OverlapRow {
+pub struct JobResults {
     pub job_id: String,
-    pub l_star: f64,
-    pub w_star: f64,
-    pub r_star: f64,
-    pub acceptance_target: f64,
-    pub configurations: i64,
-    pub precision: String,
-    pub algorithm: String,
-    pub mean_ms: f64,
-    pub ns_per_check: f64,
-    /// Measured acceptance (mean over repeats).
-    pub acceptance: f64,
-    pub repeats: u32,
-    /// Each repeat's `ns_per_check`, in no particular order.
-    pub repeat_ns_per_check: Vec<f64>,
-    /// Each repeat's blocks' ns/check, in no particular order of repeats; empty for points
-    /// measured before blocks were kept.
-    pub block_ns_per_check: Vec<Vec<f64>>,
-    /// Whether the machine was still disturbed after the re-runs; `None` without a noise check.
-    pub disturbed: Option<bool>,
-    pub reruns: Option<u32>,
-    /// Which visit of its point the job measured (0: the first, or the only one).
-    #[serde(default)]
-    pub visit: u32,
-    /// The point's parameters without its visit (the job's canonical params less `visit`): the
-    /// rows of one point's visits, and only those, share it.
-    #[serde(default)]
-    pub point: String,
-}
-
-/// How the overlap points of a campaign were measured (`sweep status`, reports).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct OverlapQuality {
-    /// Points measured with the noise check.
-    pub checked: u64,
-    /// Points still measured on a disturbed machine after their re-runs (flagged).
-    pub disturbed: u64,
-    /// Points re-run at least once because the machine was disturbed.
-    pub rerun: u64,
-    /// Re-runs in all.
-    pub reruns: u64,
-    /// Wall time of their measurements, re-runs included, and the part in the timed loops.
-    pub wall_s: f64,
-    pub timed_s: f64,
-}
-
-/// One done EDMD point (the `edmd_runs` view): its parameters, its time per collision and the
-/// checks that say whether the run was right.
-#[derive(Clone, Debug, PartialEq)]
-pub struct EdmdRun {
-    pub job_id: String,
-    pub shape: String,
-    pub n: i64,
-    pub phi: f64,
-    pub x0: f64,
-    /// A superquadric's exponents [n, m, p] (Eq. 77); `None` for other shapes.
-    pub exponents: Option<[f64; 3]>,
-    pub neighbours: String,
-    pub delta_nnl: f64,
-    pub tau_c_us: f64,
-    /// τ_c from the thread's CPU time; `None` for records written before it was kept.
-    pub tau_c_cpu_us: Option<f64>,
-    pub pressure_z: f64,
-    /// Standard error of Z; `None` when the run had too few blocks to tell.
-    pub pressure_z_err: Option<f64>,
-    pub eps_d: f64,
-    pub eps_nnl: f64,
-    pub nr_tol: f64,
-    pub nr_max_iter: i64,
-    pub nr_relax: f64,
-    pub sd_max_iter: i64,
-    pub sd_tol: f64,
-    pub brent_tol: f64,
-    pub seed: i64,
-    /// Collisions of the measured run.
-    pub collisions: i64,
-    pub energy_drift_rel: f64,
-    pub overlaps: i64,
-    pub solver_failures: i64,
-    /// Contact times found by bisection after Newton–Raphson failed.
-    pub contact_nr_fallbacks: i64,
-    pub nr_iterations_mean: f64,
-    pub distance_calls_per_collision: f64,
-    pub searches_per_collision: f64,
-    pub nnl_rebuilds: i64,
-    pub cell_crossings: i64,
-    pub init_s: Option<f64>,
-    /// Wall and CPU time of the whole job; `None` for records written before they were kept.
-    pub wall_s: Option<f64>,
-    pub cpu_s: Option<f64>,
-    /// Eq. 73 in time (wall clock): list updates and prediction per collision, in µs.
-    pub tau_update_us: Option<f64>,
-    pub tau_predict_us: Option<f64>,
-    /// The collision sequence's fingerprint (hex, 8 digits per block of `sequence_block`
-    /// collisions); `None` for records written before it was kept.
-    pub sequence_fingerprint: Option<String>,
-    pub sequence_block: Option<i64>,
-}
-
-/// One algorithm at one overlap point run with `verdict_check` (the `overlap_verdicts` view):
-/// its checking set's verdicts against the exact ones, and its mean ns/check at that point.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct OverlapVerdictRow {
-    pub job_id: String,
-    pub l_star: f64,
-    pub w_star: f64,
-    pub r_star: f64,
-    pub precision: String,
-    pub algorithm: String,
-    pub ns_per_check: f64,
-    pub bulk: u64,
-    pub shell: u64,
-    pub undecided: u64,
-    pub bulk_wrong: u64,
-    pub shell_wrong: u64,
-    pub shell_max_gap: f64,
-    pub shell_by_decade: Vec<u64>,
-    pub shell_wrong_by_decade: Vec<u64>,
+    pub params_json: String,
+    pub records: Vec<String>,
 }
 
 /// Result of an ad-hoc read-only query: column names and rows of JSON values

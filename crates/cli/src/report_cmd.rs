@@ -1,0 +1,236 @@
+//! `sweep report NAME`: the papers' tables and figures from a result database. The rows come from
+//! the `results` crate, the drawing and tabulating from `report`; this module picks the report,
+//! its statistic or clock, and where it goes.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::Args;
+use overlap::estimate::Statistic;
+use report::{Clock, LengthUnit, ReportError, TableFormat};
+
+use crate::database;
+use crate::output::{Format, print_json, print_text, write_json};
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64); EDMD: fig7 (τ_c against φ), fig8 (against X0, LL/NNL),
+    /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), fig13 (superquadrics against p),
+    /// accuracy (cost of each accuracy knob).
+    name: String,
+    #[arg(long)]
+    db: PathBuf,
+    /// Write here instead of stdout; the extension picks the format (.md .csv .tex .json .png .svg).
+    /// Figures 2–3 print their points (estimate and 95 % interval) with `--format json` and no --out.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Lengths on EDMD axes (Δ_NNL, ε_d): semi-axis (the paper's unit, the smallest semi-axis) or sigma
+    /// (the engine's and the plans' unit, the diameter of the sphere of equal volume).
+    #[arg(long, default_value = "semi-axis")]
+    length_unit: String,
+    /// EDMD τ_c by the thread's CPU time (cpu, the paper's definition: other work on a shared core does not
+    /// count) or by the wall clock (wall); records without a CPU τ_c (older ones) fall back to the wall clock.
+    #[arg(long, default_value = "cpu")]
+    clock: String,
+    /// Figures 2–3: a circle in every cell, its size the point's 95 % CI half-width.
+    #[arg(long)]
+    ci: bool,
+    /// Tables 1–2 and figures 2–3: each point's estimate from its timed blocks, `mean` (the papers'
+    /// mean time per configuration set; the tables' default), `median`, or `p5` (the 5th
+    /// percentile, the kernel's cost without the machine's noise; the figures' default).
+    #[arg(long, value_parser = clap::builder::ValueParser::new(str::parse::<Statistic>))]
+    statistic: Option<Statistic>,
+}
+
+/// The reports of the overlap kernels: (name, table or figure, precision).
+const OVERLAP: [(&str, bool, &str); 4] = [
+    ("table1", true, "f32"),
+    ("table2", true, "f64"),
+    ("fig2", false, "f32"),
+    ("fig3", false, "f64"),
+];
+
+/// The reports of the EDMD paper and the cost of accuracy.
+const EDMD: [&str; 7] = [
+    "fig7", "fig8", "fig9", "fig10", "fig11", "fig13", "accuracy",
+];
+
+pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    let name = args.name.as_str();
+    if let Some(&(_, table, precision)) = OVERLAP.iter().find(|(n, _, _)| *n == name) {
+        return match table {
+            true => table_report(args, precision, format),
+            false => figure_report(args, precision, format),
+        };
+    }
+    if EDMD.contains(&name) {
+        if args.statistic.is_some() {
+            bail!("--statistic applies to table1, table2, fig2 and fig3, not to {name}");
+        }
+        return edmd_report(args, format);
+    }
+    bail!(
+        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy)"
+    )
+}
+
+/// Table 1 (or 2), estimated by the tables' statistic unless `--statistic` says otherwise.
+fn table_report(args: &ReportArgs, precision: &str, format: Format) -> anyhow::Result<()> {
+    let statistic = args.statistic.unwrap_or(Statistic::FOR_TABLES);
+    let points = database::read(&args.db, async |store| {
+        Ok(results::overlap_points(store, statistic).await?)
+    })?;
+    let table = report::table1(&points, precision);
+    if table.is_empty() {
+        bail!(
+            "report {}: no {precision} overlap results in {}",
+            args.name,
+            args.db.display()
+        );
+    }
+    match &args.out {
+        Some(out) => {
+            let text = report::render_table(&table, TableFormat::from_path(out)?)?;
+            std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
+            eprintln!("wrote {}", out.display());
+        }
+        None => {
+            let format = match format {
+                Format::Json => TableFormat::Json,
+                Format::Csv => TableFormat::Csv,
+                Format::Table => TableFormat::Markdown,
+            };
+            print_text(&report::render_table(&table, format)?)?;
+        }
+    }
+    Ok(())
+}
+
+/// Figure 2 (or 3), estimated by the figures' statistic unless `--statistic` says otherwise:
+/// drawn, or its points as JSON.
+fn figure_report(args: &ReportArgs, precision: &str, format: Format) -> anyhow::Result<()> {
+    let statistic = args.statistic.unwrap_or(Statistic::FOR_SURFACES);
+    let points = database::read(&args.db, async |store| {
+        Ok(results::overlap_points(store, statistic).await?)
+    })?;
+    let json_out = args.out.as_deref().filter(|o| {
+        o.extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+    });
+    if json_out.is_some() || (args.out.is_none() && format == Format::Json) {
+        return write_json(&report::fig2_points(&points, precision)?, json_out);
+    }
+    let out = args.out.as_deref().with_context(|| {
+        format!(
+            "report {}: give --out FILE.png, FILE.svg or FILE.json (or --format json)",
+            args.name
+        )
+    })?;
+    report::fig2(
+        &points,
+        precision,
+        out,
+        report::Fig2Options { show_ci: args.ci },
+    )?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
+
+/// The EDMD figures and the accuracy report, with τ_c by `--clock`.
+fn edmd_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    let name = args.name.as_str();
+    let unit = LengthUnit::parse(&args.length_unit).with_context(|| {
+        format!(
+            "--length-unit {}: expected semi-axis or sigma",
+            args.length_unit
+        )
+    })?;
+    let clock = match args.clock.as_str() {
+        "cpu" => Clock::Cpu,
+        "wall" => Clock::Wall,
+        other => bail!("--clock {other}: expected cpu or wall"),
+    };
+    let json = format == Format::Json;
+    let out = args.out.as_deref();
+    if out.is_none() && !json && name != "accuracy" {
+        bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
+    }
+    let (rows, failed, verdicts) = database::read(&args.db, async |store| {
+        let rows = results::edmd_runs(store, clock).await?;
+        if name != "accuracy" {
+            return Ok((rows, Vec::new(), Vec::new()));
+        }
+        let failed = results::failed_edmd_runs(store).await?;
+        Ok((rows, failed, results::overlap_verdicts(store).await?))
+    })?;
+    if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
+        eprintln!(
+            "note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used"
+        );
+    }
+    if rows.is_empty() && verdicts.is_empty() {
+        bail!("report {name}: no EDMD results in {}", args.db.display());
+    }
+    match name {
+        "fig7" => {
+            let out = out.context("report fig7: give --out FILE.png or FILE.svg")?;
+            report::fig7(&rows, out)?;
+            eprintln!("wrote {}", out.display());
+        }
+        "fig8" => finish(report::fig8(&rows, out), json, out, |f| &f.missing)?,
+        "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig13" => finish(report::fig13(&rows, out), json, out, |f| &f.missing)?,
+        _ => accuracy(
+            report::accuracy_report(&rows, &failed, &verdicts)?,
+            json,
+            out,
+        )?,
+    }
+    Ok(())
+}
+
+/// Prints the figure's data as JSON when asked, says where it was drawn, and lists the paper's
+/// points the database lacks.
+fn finish<F: serde::Serialize>(
+    figure: Result<F, ReportError>,
+    json: bool,
+    out: Option<&Path>,
+    missing: impl Fn(&F) -> &Vec<String>,
+) -> anyhow::Result<()> {
+    let figure = figure?;
+    for point in missing(&figure) {
+        eprintln!("missing: {point}");
+    }
+    if json {
+        print_json(&figure)?;
+    }
+    if let Some(out) = out {
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+/// The accuracy report as JSON, Markdown (on stdout, or `.md`) or a plot.
+fn accuracy(study: report::AccuracyReport, json: bool, out: Option<&Path>) -> anyhow::Result<()> {
+    for point in &study.missing {
+        eprintln!("missing: {point}");
+    }
+    if json {
+        print_json(&study)?;
+    }
+    let Some(out) = out else {
+        if !json {
+            print_text(&report::accuracy_markdown(&study))?;
+        }
+        return Ok(());
+    };
+    match out.extension().and_then(|e| e.to_str()) {
+        Some("md") => std::fs::write(out, report::accuracy_markdown(&study))
+            .with_context(|| format!("cannot write {}", out.display()))?,
+        _ => report::accuracy_plot(&study, out)?,
+    }
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,51 @@
+//! `sweep status`: a campaign's counts, from a database or from a running coordinator.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::args::{AuthArgs, ClientArgs};
+use crate::database;
+use crate::output::{Format, print_status};
+
+#[derive(Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["db", "coordinator"])))]
+pub struct StatusArgs {
+    /// Read a result database directly.
+    #[arg(long)]
+    db: Option<PathBuf>,
+    /// Ask a running coordinator.
+    #[arg(long)]
+    coordinator: Option<String>,
+    #[command(flatten)]
+    auth: AuthArgs,
+    #[arg(long)]
+    ca: Option<PathBuf>,
+    /// One campaign (default: everything).
+    #[arg(long)]
+    campaign: Option<String>,
+}
+
+pub fn run(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
+    let campaign = args.campaign.as_deref();
+    let shown = campaign.unwrap_or("(all)");
+    match (&args.db, &args.coordinator) {
+        (Some(db), _) => {
+            let (status, quality) = database::read(db, async |store| {
+                let status = store.status(campaign).await?;
+                Ok((status, results::overlap_quality(store, campaign).await?))
+            })?;
+            print_status(shown, &status, Some(&quality), format)
+        }
+        (None, Some(url)) => {
+            let client = ClientArgs {
+                coordinator: url.clone(),
+                auth: args.auth.clone(),
+                ca: args.ca.clone(),
+            };
+            let status = crate::remote::status(&client, campaign)?;
+            print_status(shown, &status, None, format)
+        }
+        (None, None) => anyhow::bail!("give --db FILE or --coordinator URL"),
+    }
+}
