@@ -5,14 +5,15 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::audit::audit;
 use crate::ball::Ball;
 use crate::calendar::{Calendar, Event, Kind};
-use crate::cells::{Cells, Near};
+use crate::cells::Cells;
 use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_axis};
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{Surface, V3, image_offset};
-use crate::init::{Geom, initial_configuration, min_image, sort_along_z_curve};
+use crate::init::{Geom, initial_configuration, sort_along_z_curve};
 use crate::lists::{Lists, Region};
 use crate::nnl::Obp;
 use crate::rigid::{Body, Inertia, collide};
@@ -1038,31 +1039,6 @@ fn measured_collisions<M: Model>(
     eng.advance(n, on_collision)
 }
 
-/// Overlap audit of every pair with the independent test of [`Geom::overlaps`], at the
-/// nearest image; pairs are found through cells, O(N). (The box exceeds twice the bounding
-/// diameter, so no other image can touch.)
-pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
-    let reach = 2.0 * geom.bounding_radius();
-    let pos: Vec<V3> = bodies
-        .iter()
-        .map(|b| b.r.map(|x| x.rem_euclid(l)))
-        .collect();
-    let near = Near::new(&pos, l, reach);
-    let mut overlaps = 0;
-    for (i, a) in bodies.iter().enumerate() {
-        near.all_around(&pos[i], |j| {
-            if j > i {
-                let r = min_image(pos[j] - pos[i], l);
-                if r.norm() < reach && geom.overlaps(&a.rot, &bodies[j].rot, &r, tol) {
-                    overlaps += 1;
-                }
-            }
-            true
-        });
-    }
-    overlaps
-}
-
 fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
     let (shape, semi, exponents) = match geom {
         Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
@@ -1084,60 +1060,5 @@ fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
                 angular_velocity: arr(b.w),
             })
             .collect(),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::geometry::M3;
-    use crate::rigid::rotate;
-
-    /// The audit through cells counts exactly the pairs the O(N²) loop over all pairs does, for
-    /// spheres and ellipsoids, dilute and dense, with bodies near box faces and unwrapped positions.
-    #[test]
-    fn audit_matches_all_pairs() {
-        let brute = |bodies: &[Body], l: f64, geom: &Geom, tol: f64| {
-            let mut overlaps = 0;
-            for i in 0..bodies.len() {
-                for j in (i + 1)..bodies.len() {
-                    let r = min_image(bodies[j].r - bodies[i].r, l);
-                    if geom.overlaps(&bodies[i].rot, &bodies[j].rot, &r, tol) {
-                        overlaps += 1;
-                    }
-                }
-            }
-            overlaps
-        };
-        let mut rng = Rng::new(9);
-        let geoms = [
-            Geom::Sphere { sigma: 1.0 },
-            Geom::Ellipsoid(Ellipsoid::new(0.8, 0.4, 0.4)),
-        ];
-        for geom in geoms {
-            for (n, l) in [(400, 12.0), (300, 7.0), (40, 3.5)] {
-                let bodies: Vec<Body> = (0..n)
-                    .map(|_| Body {
-                        r: V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * (3.0 * l)
-                            - V3::repeat(l),
-                        v: V3::zeros(),
-                        t: 0.0,
-                        rot: rotate(
-                            &M3::identity(),
-                            &V3::new(rng.normal(), rng.normal(), rng.normal()),
-                            1.0,
-                        ),
-                        w: V3::zeros(),
-                    })
-                    .collect();
-                let expected = brute(&bodies, l, &geom, 1e-8);
-                assert!(expected > 0, "{geom:?} n {n}: the test needs overlaps");
-                assert_eq!(
-                    audit(&bodies, l, &geom, 1e-8),
-                    expected,
-                    "{geom:?} n {n} l {l}"
-                );
-            }
-        }
     }
 }

@@ -20,12 +20,13 @@
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
-//!   superquadrics are audited by [`support_distance::overlap_certified`] (a separating axis with a
-//!   positive support gap, from Gilbert's algorithm or Newton's normal)
-//!   and compressed with the contact scale of [`scale`].
+//!   superquadrics are compressed with the contact scale of [`scale`].
+//! - [`audit`]: the overlap audit of the final state, every pair found through cells and decided
+//!   independently of the engine's solvers; superquadrics by [`audit::overlap_certified`] (a
+//!   separating axis with a positive support gap, from Gilbert's algorithm or Newton's normal).
 //! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
 //! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.
-//! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
+//! - [`engine`]: the event loop and measurements: [`run`], [`RunReport`], [`FinalState`].
 //!
 //! Where this engine departs from the paper, and why:
 //! - The calendar holds one event per particle (its earliest collision, cell crossing or box
@@ -58,6 +59,7 @@
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
 //! and the isotropic moment of inertia (2/5) m min(a, b)² of their inscribed sphere.
 
+pub mod audit;
 pub mod ball;
 pub mod calendar;
 pub mod cells;
