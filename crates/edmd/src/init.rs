@@ -9,7 +9,7 @@
 //! steps does not grow with N, unlike a compression limited by the closest pair (some pair is
 //! always nearly in contact, so its steps shrink as N grows: O(N²) in all). The pushes leave pairs
 //! near contact, which the engine relaxes with a few collisions per particle before anything is
-//! measured (`engine::RELAX_COLLISIONS_PER_PARTICLE`).
+//! measured (`run::RELAX_COLLISIONS_PER_PARTICLE`).
 
 use crate::EdmdError;
 use crate::cells::Near;
