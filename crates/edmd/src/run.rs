@@ -6,10 +6,10 @@ use std::time::Instant;
 use crate::EdmdError;
 use crate::audit::audit;
 use crate::contact::ContactParams;
-use crate::distance::Tolerances;
+use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::engine::{Accounting, Engine, FirstCollision};
-use crate::geometry::Surface;
+use crate::geometry::{Surface, V3};
 use crate::init::{Geom, initial_configuration, sort_along_z_curve};
 use crate::model::{RigidModel, SphereModel};
 use crate::report::{FinalState, RunReport, final_state};
@@ -144,9 +144,11 @@ fn simulate<M: FirstCollision>(
     measure(eng, scene, geom, init, progress)
 }
 
-/// Collisions per particle run at the end of the initial state (see [`measure`]).
+/// Collisions per particle run at the end of the initial state (see [`relax`]).
 pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 
+/// The relaxation that ends the initial state, then `equilibrate` collisions, then the measured
+/// ones; the figures of those, and the final configuration.
 fn measure<M: FirstCollision>(
     mut eng: Engine<M>,
     scene: &Scene,
@@ -154,6 +156,27 @@ fn measure<M: FirstCollision>(
     init: Instant,
     progress: &mut dyn FnMut(u64),
 ) -> Result<(RunReport, FinalState), EdmdError> {
+    relax(&mut eng)?;
+    let init_s = init.elapsed().as_secs_f64();
+    let total = scene.equilibrate + scene.collisions;
+    let every = (total / 100).clamp(1, 10_000);
+    let mut tick = |done: u64| {
+        if done.is_multiple_of(every) {
+            progress(done);
+        }
+    };
+    eng.advance(scene.equilibrate, |e| tick(e.acc.collisions))?;
+    let measured = measured_run(&mut eng, scene.collisions, &mut tick)?;
+    progress(eng.acc.collisions);
+    let report = figures(&mut eng, scene, &geom, &measured, init_s);
+    let state = final_state(&eng.bodies, eng.l, &geom);
+    Ok((report, state))
+}
+
+/// Runs [`RELAX_COLLISIONS_PER_PARTICLE`] collisions per particle, then starts the sums of the
+/// measurements and the collision count afresh; the counters of crossings, rebuilds and
+/// separating contacts run on.
+fn relax<M: FirstCollision>(eng: &mut Engine<M>) -> Result<(), EdmdError> {
     // The compression leaves pairs pushed to near contact; a few collisions per particle relax
     // them (Z of hard spheres at φ = 0.45 is Kolafa's, within its error, after 5 per particle),
     // far faster than Monte Carlo would. They belong to the initial state, not to `equilibrate`.
@@ -170,18 +193,35 @@ fn measure<M: FirstCollision>(
         rebuild_s: eng.acc.rebuild_s,
         ..Default::default()
     };
-    let init_s = init.elapsed().as_secs_f64();
-    let total = scene.equilibrate + scene.collisions;
-    let every = (total / 100).clamp(1, 10_000);
-    let mut tick = |done: u64| {
-        if done.is_multiple_of(every) {
-            progress(done);
-        }
-    };
-    eng.advance(scene.equilibrate, |e| tick(e.acc.collisions))?;
+    Ok(())
+}
 
+/// Where the measured run started (its figures are differences from there), what it recorded
+/// on the way, and how long it took.
+struct Measured {
+    e0: f64,
+    p0: V3,
+    t0: f64,
+    stats0: SolverStats,
+    crossings0: u64,
+    rebuilds0: u64,
+    rebuild_s0: f64,
+    /// The collision virial and the kinetic-energy integral at the end of each block.
+    marks: Vec<(f64, f64)>,
+    /// Wall time of the measured collisions, in seconds.
+    elapsed: f64,
+    /// This thread's CPU time of the measured collisions, in seconds.
+    cpu_elapsed: f64,
+}
+
+/// The measured run: `collisions` collisions in up to 10 blocks, from sums started afresh and
+/// every body at the present time; it ends with every body at the present time again.
+fn measured_run<M: FirstCollision>(
+    eng: &mut Engine<M>,
+    collisions: u64,
+    tick: &mut impl FnMut(u64),
+) -> Result<Measured, EdmdError> {
     eng.sync_all();
-    let n = eng.bodies.len();
     let start_acc = Accounting {
         ke_trans: eng.acc.ke_trans,
         t_last: eng.t,
@@ -199,28 +239,41 @@ fn measure<M: FirstCollision>(
         ..start_acc
     };
     let (e0, p0, t0, stats0) = (eng.energy(), eng.momentum(), eng.t, eng.m.stats());
-    let blocks = scene.collisions.min(10);
+    let blocks = collisions.min(10);
     let mut marks: Vec<(f64, f64)> = Vec::with_capacity(blocks as usize);
     let (wall, cpu) = (Instant::now(), crate::clock::thread_cpu_seconds());
-    measured_collisions(&mut eng, scene.collisions, |e| {
+    measured_collisions(eng, collisions, |e| {
         let k = e.acc.collisions - base_collisions;
         tick(e.acc.collisions);
-        if (k * blocks).is_multiple_of(scene.collisions) {
+        if (k * blocks).is_multiple_of(collisions) {
             marks.push((e.acc.virial, e.acc.ke_int));
         }
     })?;
     let elapsed = wall.elapsed().as_secs_f64();
     let cpu_elapsed = crate::clock::thread_cpu_seconds() - cpu;
     eng.sync_all();
-    progress(eng.acc.collisions);
+    Ok(Measured {
+        e0,
+        p0,
+        t0,
+        stats0,
+        crossings0,
+        rebuilds0,
+        rebuild_s0,
+        marks,
+        elapsed,
+        cpu_elapsed,
+    })
+}
 
-    let stats = eng.m.stats();
-    let sim_time = eng.t - t0;
+/// Z = 1 + W / (2 K), W the collision virial and K the time integral of the kinetic energy, over
+/// the whole measured run, and its standard error from the blocks' own values of Z.
+fn pressure(acc: &Accounting, marks: &[(f64, f64)]) -> (f64, f64) {
     let z_of = |w: f64, k: f64| 1.0 + w / (2.0 * k);
-    let z = z_of(eng.acc.virial, eng.acc.ke_int);
+    let z = z_of(acc.virial, acc.ke_int);
     let mut zb = Vec::with_capacity(marks.len());
     let mut prev = (0.0, 0.0);
-    for &m in &marks {
+    for &m in marks {
         zb.push(z_of(m.0 - prev.0, m.1 - prev.1));
         prev = m;
     }
@@ -231,10 +284,37 @@ fn measure<M: FirstCollision>(
     } else {
         f64::NAN
     };
+    (z, z_err)
+}
+
+/// The report of the measured run, from the engine at its end (whose collision sequence it takes).
+fn figures<M: FirstCollision>(
+    eng: &mut Engine<M>,
+    scene: &Scene,
+    geom: &Geom,
+    measured: &Measured,
+    init_s: f64,
+) -> RunReport {
+    let Measured {
+        e0,
+        p0,
+        t0,
+        stats0,
+        crossings0,
+        rebuilds0,
+        rebuild_s0,
+        ref marks,
+        elapsed,
+        cpu_elapsed,
+    } = *measured;
+    let n = eng.bodies.len();
+    let stats = eng.m.stats();
+    let sim_time = eng.t - t0;
+    let (z, z_err) = pressure(&eng.acc, marks);
     let calls = (stats.distance_calls - stats0.distance_calls) as f64;
     let per_collision_us = |s: f64| s * 1e6 / scene.collisions as f64;
     let nnl_rebuild_s = eng.acc.rebuild_s - rebuild_s0;
-    let report = RunReport {
+    RunReport {
         collisions: scene.collisions,
         tau_c_us: per_collision_us(elapsed),
         tau_update_us: per_collision_us(nnl_rebuild_s),
@@ -246,7 +326,7 @@ fn measure<M: FirstCollision>(
         temperature: 2.0 * eng.acc.ke_int / (3.0 * n as f64 * sim_time),
         energy_drift_rel: (eng.energy() - e0).abs() / e0,
         momentum_drift: (eng.momentum() - p0).norm(),
-        overlaps: audit(&eng.bodies, eng.l, &geom, scene.audit_tol),
+        overlaps: audit(&eng.bodies, eng.l, geom, scene.audit_tol),
         solver_failures: stats.failures,
         contact_nr_fallbacks: stats.contact_fallbacks,
         distance_fallbacks: stats.distance_fallbacks,
@@ -268,9 +348,7 @@ fn measure<M: FirstCollision>(
         phi: scene.phi,
         init_s,
         sequence: std::mem::take(&mut eng.sequence),
-    };
-    let state = final_state(&eng.bodies, eng.l, &geom);
-    Ok((report, state))
+    }
 }
 
 /// The measured run's collisions, in a frame of their own so that a profiler can select them
