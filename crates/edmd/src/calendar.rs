@@ -178,11 +178,11 @@ impl<X: Copy> Calendar<X> {
     }
 
     fn entry(&self, k: usize) -> &Entry {
-        &self.groups[(k + 3) / 4].0[(k + 3) % 4]
+        &self.groups[k.div_ceil(4)].0[(k + 3) % 4]
     }
 
     fn entry_mut(&mut self, k: usize) -> &mut Entry {
-        &mut self.groups[(k + 3) / 4].0[(k + 3) % 4]
+        &mut self.groups[k.div_ceil(4)].0[(k + 3) % 4]
     }
 
     /// Puts `item` at the hole `i`, or above or below it where the heap order wants it.

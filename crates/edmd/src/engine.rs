@@ -1,167 +1,19 @@
 //! The event loop (Secs. 2.7 and 3.5): collisions, cell crossings, neighbour-list rebuilds,
-//! lazy free flight, measurements (Eq. 69, collision virial) and the final overlap audit.
+//! lazy free flight, and the sums the measurements are made of (Eq. 69, collision virial).
 
 use std::time::Instant;
 
-use serde::Serialize;
-
-use crate::ball::Ball;
 use crate::calendar::{Calendar, Event, Kind};
-use crate::cells::{Cells, Near};
-use crate::contact::{ContactParams, bounding_sphere_window, predict, separating_axis};
-use crate::distance::{SolverStats, Tolerances};
-use crate::ellipsoid::Ellipsoid;
+use crate::cells::Cells;
+use crate::contact::bounding_sphere_window;
 use crate::geometry::{Surface, V3, image_offset};
-use crate::init::{Geom, initial_configuration, min_image, sort_along_z_curve};
 use crate::lists::{Lists, Region};
-use crate::nnl::Obp;
-use crate::rigid::{Body, Inertia, collide};
-use crate::rng::Rng;
-use crate::scene::{Neighbours, Scene, ShapeKind};
+use crate::model::{Model, RigidModel, SphereModel};
+use crate::rigid::Body;
+use crate::scene::{Neighbours, Scene};
 use crate::sequence::Fingerprint;
 use crate::sphere::{self, Probe, Trajectory};
 use crate::{EdmdError, prefetch};
-
-/// What one particle kind costs to simulate: the analytic sphere, or the general rigid body.
-trait Model {
-    /// Stored with a predicted collision (contact point and normal for rigid bodies).
-    type Extra: Copy + Default;
-    /// The region a body's neighbour list is built for.
-    type Region: Region;
-    /// The shape every body has.
-    type Shape: Surface + Copy;
-    /// Whether bodies rotate; a model whose bodies never do advances their positions alone and
-    /// never reads their orientation in the event loop (the cache lines past position, velocity
-    /// and time).
-    const ROTATES: bool;
-    fn surface(&self) -> Self::Shape;
-    /// The earliest collision of body `i` (advanced to the engine's present time) if it comes
-    /// before `own`, the body's own event; otherwise `own`.
-    fn first_collision(
-        e: &mut Engine<Self>,
-        i: usize,
-        own: Event<Self::Extra>,
-    ) -> Event<Self::Extra>
-    where
-        Self: Sized;
-    /// Applies the collision of `a` with the image of `b` displaced by `offset`; returns the
-    /// impulse given to `b`, or `None` if the bodies separate.
-    fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, x: &Self::Extra) -> Option<V3>;
-    fn stats(&self) -> SolverStats;
-}
-
-/// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
-struct SphereModel {
-    sigma: f64,
-    /// Scratch: a neighbour list's trajectories with their images applied, contiguous for
-    /// [`sphere::first_contact`]. A body's position, velocity and time are the first cache line
-    /// of its [`Body`], the only one the sphere path reads.
-    gathered: Vec<Trajectory>,
-}
-
-impl SphereModel {
-    fn new(sigma: f64) -> Self {
-        SphereModel {
-            sigma,
-            gathered: Vec::new(),
-        }
-    }
-}
-
-impl Model for SphereModel {
-    type Extra = ();
-    type Region = Ball;
-    type Shape = Ellipsoid;
-    const ROTATES: bool = false;
-    fn surface(&self) -> Ellipsoid {
-        let r = 0.5 * self.sigma;
-        Ellipsoid::new(r, r, r)
-    }
-    #[inline]
-    fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<()>) -> Event<()> {
-        e.first_sphere_collision(i, own)
-    }
-    fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, _: &()) -> Option<V3> {
-        let n = ((b.r + offset) - a.r).normalize();
-        let un = (a.v - b.v).dot(&n);
-        if un <= 0.0 {
-            return None;
-        }
-        // Equal unit masses: Eq. (41) reduces to Δp = u·n.
-        a.v -= n * un;
-        b.v += n * un;
-        Some(n * un)
-    }
-    fn stats(&self) -> SolverStats {
-        SolverStats::default()
-    }
-}
-
-/// Hard rigid bodies of any [`Surface`] through the general algorithm of Sec. 2: ellipsoids (any
-/// X0, including 1) and superquadrics, each monomorphised on its own shape.
-struct RigidModel<S> {
-    e: S,
-    params: ContactParams,
-    inertia: Inertia,
-    stats: SolverStats,
-}
-
-impl<S: Surface + Copy> Model for RigidModel<S> {
-    type Extra = (V3, V3);
-    type Region = Obp;
-    type Shape = S;
-    const ROTATES: bool = true;
-    fn surface(&self) -> S {
-        self.e
-    }
-    fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<(V3, V3)>) -> Event<(V3, V3)> {
-        let a = e.bodies[i];
-        e.first_rigid_collision(i, &a, own)
-    }
-    fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, x: &(V3, V3)) -> Option<V3> {
-        let mut image = *b;
-        image.r += offset;
-        let impulse = collide(a, &mut image, &x.0, &x.1, self.inertia, self.inertia);
-        b.v = image.v;
-        b.w = image.w;
-        impulse
-    }
-    fn stats(&self) -> SolverStats {
-        self.stats
-    }
-}
-
-impl<S: Surface + Copy> RigidModel<S> {
-    fn new(e: S, params: ContactParams, inertia: Inertia) -> Self {
-        RigidModel {
-            e,
-            params,
-            inertia,
-            stats: SolverStats::default(),
-        }
-    }
-
-    /// The first contact before `horizon`.
-    fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
-        predict(
-            &self.e,
-            a,
-            &self.e,
-            b,
-            horizon,
-            &self.params,
-            &mut self.stats,
-        )
-        .map(|h| (h.t, (h.xc, h.n)))
-    }
-    /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
-    /// overlap, and an estimate of it to order the searches by.
-    fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64) {
-        let gap = separating_axis(&self.e, &a.pose_after(0.0), &self.e, &b.pose_after(0.0));
-        let lower = gap.safe_time(&self.e, a, &self.e, b);
-        (lower, gap.closing_estimate(a, b).max(lower))
-    }
-}
 
 enum Neighbourhood<R: Region> {
     Ll {
@@ -180,42 +32,49 @@ enum Neighbourhood<R: Region> {
     },
 }
 
-struct Engine<M: Model> {
-    m: M,
-    l: f64,
-    bodies: Vec<Body>,
+pub(crate) struct Engine<M: Model> {
+    pub(crate) m: M,
+    pub(crate) l: f64,
+    pub(crate) bodies: Vec<Body>,
     count: Vec<u32>,
     cal: Calendar<M::Extra>,
-    t: f64,
+    pub(crate) t: f64,
     inv_i: f64,
     nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
     /// Candidate partners: (estimate, lower bound, partner, image shift).
     order: Vec<(f64, f64, u32, [i32; 3])>,
-    acc: Accounting,
+    pub(crate) acc: Accounting,
     /// The first error of the event loop (a contact search no solver could resolve, a list beyond
     /// its limits); the loop stops on it.
     failure: Option<EdmdError>,
     /// The collision sequence so far, carried from one engine of a run to the next.
-    sequence: Fingerprint,
+    pub(crate) sequence: Fingerprint,
 }
 
+/// The counts and sums the measurements are made of, kept as events happen.
 #[derive(Clone, Copy, Debug, Default)]
-struct Accounting {
-    collisions: u64,
-    virial: f64,
-    ke_trans: f64,
-    ke_int: f64,
-    t_last: f64,
-    separating: u64,
-    crossings: u64,
-    rebuilds: u64,
+pub(crate) struct Accounting {
+    pub(crate) collisions: u64,
+    pub(crate) virial: f64,
+    pub(crate) ke_trans: f64,
+    pub(crate) ke_int: f64,
+    pub(crate) t_last: f64,
+    pub(crate) separating: u64,
+    pub(crate) crossings: u64,
+    pub(crate) rebuilds: u64,
     /// Wall time spent rebuilding boxes and lists (Eq. 73's list updates), in seconds.
-    rebuild_s: f64,
+    pub(crate) rebuild_s: f64,
 }
 
-impl<M: Model> Engine<M> {
-    fn new(m: M, l: f64, bodies: Vec<Body>, inv_i: f64, scene: &Scene) -> Result<Self, EdmdError> {
+impl<M: FirstCollision> Engine<M> {
+    pub(crate) fn new(
+        m: M,
+        l: f64,
+        bodies: Vec<Body>,
+        inv_i: f64,
+        scene: &Scene,
+    ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let lb = m.surface().bounding_radius();
         let nb = match scene.neighbours {
@@ -356,7 +215,7 @@ impl<M: Model> Engine<M> {
     }
 
     /// Processes events until `n` more collisions have happened; `on_collision` sees each one.
-    fn advance(
+    pub(crate) fn advance(
         &mut self,
         n: u64,
         mut on_collision: impl FnMut(&mut Self),
@@ -481,14 +340,14 @@ impl<M: Model> Engine<M> {
         }
     }
 
-    fn sync_all(&mut self) {
+    pub(crate) fn sync_all(&mut self) {
         let t = self.t;
         for b in self.bodies.iter_mut() {
             b.advance_to(t);
         }
     }
 
-    fn energy(&self) -> f64 {
+    pub(crate) fn energy(&self) -> f64 {
         self.bodies
             .iter()
             .map(|b| {
@@ -502,8 +361,36 @@ impl<M: Model> Engine<M> {
             .sum()
     }
 
-    fn momentum(&self) -> V3 {
+    pub(crate) fn momentum(&self) -> V3 {
         self.bodies.iter().fold(V3::zeros(), |p, b| p + b.v)
+    }
+}
+
+/// A body model's search for the first collision of a body among its neighbours: the sphere
+/// path's batched hot loop, or the rigid bodies' search in the order of lower bounds.
+pub(crate) trait FirstCollision: Model {
+    /// The earliest collision of body `i` (advanced to the engine's present time) if it comes
+    /// before `own`, the body's own event; otherwise `own`.
+    fn first_collision(
+        e: &mut Engine<Self>,
+        i: usize,
+        own: Event<Self::Extra>,
+    ) -> Event<Self::Extra>
+    where
+        Self: Sized;
+}
+
+impl FirstCollision for SphereModel {
+    #[inline]
+    fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<()>) -> Event<()> {
+        e.first_sphere_collision(i, own)
+    }
+}
+
+impl<S: Surface + Copy> FirstCollision for RigidModel<S> {
+    fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<(V3, V3)>) -> Event<(V3, V3)> {
+        let a = e.bodies[i];
+        e.first_rigid_collision(i, &a, own)
     }
 }
 
@@ -683,461 +570,4 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
 /// Image shift of j as seen from i with unwrapped positions: the cell shift plus the image counters.
 fn ll_shift(cell: [i8; 3], img_i: [i32; 3], img_j: [i32; 3]) -> [i32; 3] {
     [0, 1, 2].map(|k| cell[k] as i32 + img_i[k] - img_j[k])
-}
-
-/// The measured figures of one run (the JSON of `sweep edmd`).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct RunReport {
-    /// Collisions in the measured run.
-    pub collisions: u64,
-    /// τ_c = T_tot / N_coll (Eq. 69): wall time of the measured run per collision, in µs.
-    pub tau_c_us: f64,
-    /// τ_c from this thread's CPU time instead of the wall clock, in µs: the paper's "CPU time"
-    /// of Eq. (69); below `tau_c_us` when the core was shared with other work.
-    pub tau_c_cpu_us: f64,
-    /// Eq. (73) split in time (wall clock, as `tau_c_us`): Δt_u, the box and list rebuilds per
-    /// collision (timed one by one; the escape-time updates after each collision are too short
-    /// to time and stay in the prediction), and Δt_coll = `tau_c_us` − Δt_u, the prediction.
-    pub tau_update_us: f64,
-    pub tau_predict_us: f64,
-    /// Wall time of the measured run's box and list rebuilds (NNL; 0 with linked cells).
-    pub nnl_rebuild_s: f64,
-    /// Z = P/(ρ kT) = 1 + Σ r_ij·Δp_i / (3 N kT T), with the measured kT.
-    pub pressure_z: f64,
-    /// Standard error of Z from 10 block averages.
-    pub pressure_z_err: f64,
-    /// Measured kT = (2/3)⟨translational kinetic energy⟩/N, time-averaged.
-    pub temperature: f64,
-    /// |E_end − E_start| / E_start over the measured run (translational + rotational).
-    pub energy_drift_rel: f64,
-    /// |P_end − P_start| over the measured run, in units of m σ/τ (total momentum starts at 0).
-    pub momentum_drift: f64,
-    /// Overlapping pairs in the audit of the final state (every pair, found through cells).
-    pub overlaps: u64,
-    /// Distance or contact-time solves that failed, over the whole run (equilibration included).
-    pub solver_failures: u64,
-    /// Contact times found by bisection after Newton–Raphson on Eqs. (30) failed (whole run).
-    pub contact_nr_fallbacks: u64,
-    /// Distances decided by the support-function fallback after Newton–Raphson and steepest
-    /// descent failed (whole run; converged or a proved overlap, not failures).
-    pub distance_fallbacks: u64,
-    /// Newton–Raphson iterations per distance evaluation in the measured run (0 on the sphere path).
-    pub nr_iterations_mean: f64,
-    /// The most Newton–Raphson iterations one distance evaluation took (whole run).
-    pub nr_iterations_max: u64,
-    /// Distance evaluations per collision in the measured run.
-    pub distance_calls_per_collision: f64,
-    /// Pair contact-time searches per collision in the measured run (0 on the sphere path).
-    pub searches_per_collision: f64,
-    /// Mean time between collisions of a particle, t = N T / (2 N_coll).
-    pub mean_free_time: f64,
-    /// Simulated time of the measured run.
-    pub sim_time: f64,
-    /// Linked-cell crossings in the measured run.
-    pub cell_crossings: u64,
-    /// Bounding boxes rebuilt in the measured run, one body each (NNL).
-    pub nnl_rebuilds: u64,
-    /// Predicted collisions found separating when due (grazing at exact tangency).
-    pub separating_contacts: u64,
-    pub box_length: f64,
-    pub n: usize,
-    pub phi: f64,
-    /// Wall time of the initial state (s): lattice, melting, compression, first lists and events,
-    /// and the [`RELAX_COLLISIONS_PER_PARTICLE`] collisions per particle that relax it.
-    pub init_s: f64,
-    /// The collision sequence from the first collision of the run (relaxation included); kept
-    /// out of the report's JSON (a job stores it as hex, `sweep edmd` does not print it).
-    #[serde(skip)]
-    pub sequence: Fingerprint,
-}
-
-/// The final configuration, in the `--dump` format of DESIGN.md.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FinalState {
-    #[serde(rename = "box")]
-    pub box_: [f64; 3],
-    pub particles: Vec<ParticleDump>,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ParticleDump {
-    pub shape: &'static str,
-    pub semi_axes: [f64; 3],
-    /// Superquadric exponents; an ellipsoid (and a sphere) has 2 on every axis.
-    pub exponents: [f64; 3],
-    pub position: [f64; 3],
-    /// Rows = body axes in the lab frame.
-    pub orientation: [[f64; 3]; 3],
-    pub velocity: [f64; 3],
-    pub angular_velocity: [f64; 3],
-}
-
-/// Runs a scene: initial configuration, `equilibrate` collisions, then `collisions` measured ones.
-/// `progress` receives the number of collisions done so far (equilibration included), sparsely.
-pub fn run(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<RunReport, EdmdError> {
-    run_with_state(scene, progress).map(|(r, _)| r)
-}
-
-/// As [`run`], also returning the final configuration.
-pub fn run_with_state(
-    scene: &Scene,
-    progress: &mut dyn FnMut(u64),
-) -> Result<(RunReport, FinalState), EdmdError> {
-    scene.validate()?;
-    let [a, b, c] = scene.semi_axes();
-    // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4 (and,
-    // for superquadrics, of the sphere inscribed in the ellipsoid inscribed in them).
-    let rmin = a.min(b);
-    let inertia_rot = Inertia {
-        inv_m: 1.0,
-        inv_i: 1.0 / (0.4 * rmin * rmin),
-    };
-    let quadric = scene.superquadric();
-    let bounding = match quadric {
-        Some(q) => q.bounding_radius(),
-        None => a.max(b),
-    };
-    let vp = std::f64::consts::PI / 6.0;
-    let l = (scene.n as f64 * vp / scene.phi).cbrt();
-    // A body must not reach its own periodic image, nor a neighbour through two images.
-    if l <= 4.0 * bounding {
-        return Err(EdmdError::BoxTooSmall {
-            l,
-            needed: 4.0 * bounding,
-            why: "the box must exceed twice the bounding-sphere diameter",
-        });
-    }
-    let params = ContactParams {
-        eps_d: scene.eps_d,
-        brent_tol: scene.brent_tol,
-        tol: Tolerances {
-            nr_tol: scene.nr_tol,
-            nr_max_iter: scene.nr_max_iter,
-            nr_relax: scene.nr_relax,
-            sd_max_iter: scene.sd_max_iter,
-            sd_tol: scene.sd_tol,
-        },
-    };
-    match (scene.shape, quadric) {
-        (ShapeKind::Sphere, _) => simulate(
-            SphereModel::new(1.0),
-            Geom::Sphere { sigma: 1.0 },
-            Inertia {
-                inv_m: 1.0,
-                inv_i: 0.0,
-            },
-            scene,
-            progress,
-        ),
-        (ShapeKind::Superquadric, Some(q)) => simulate(
-            RigidModel::new(q, params, inertia_rot),
-            Geom::Superquadric(q),
-            inertia_rot,
-            scene,
-            progress,
-        ),
-        (ShapeKind::Ellipsoid, _) => {
-            let e = Ellipsoid::new(a, b, c);
-            simulate(
-                RigidModel::new(e, params, inertia_rot),
-                Geom::Ellipsoid(e),
-                inertia_rot,
-                scene,
-                progress,
-            )
-        }
-        (ShapeKind::Superquadric, None) => Err(EdmdError::Scene(crate::SceneError::Invalid {
-            key: "exponents",
-            line: None,
-            reason: "a superquadric needs valid `exponents` and `x0`".into(),
-        })),
-    }
-}
-
-/// The initial state (whose compression the model's own dynamics helps where Monte Carlo
-/// jams), then the measured run.
-fn simulate<M: Model>(
-    model: M,
-    geom: Geom,
-    inertia: Inertia,
-    scene: &Scene,
-    progress: &mut dyn FnMut(u64),
-) -> Result<(RunReport, FinalState), EdmdError> {
-    let mut rng = Rng::new(scene.seed);
-    let init = Instant::now();
-    let mut slot = Some(model);
-    // The collision sequence starts at the first collision of the first relaxation: the Monte
-    // Carlo state before it depends on the seed alone, not on the accuracy knobs.
-    let mut sequence = Fingerprint::default();
-    let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
-        let Some(m) = slot.take() else {
-            unreachable!("the model is put back after every relaxation")
-        };
-        let n = bodies.len() as u64;
-        let mut eng = Engine::new(m, l, bodies, inertia.inv_i, scene)?;
-        eng.sequence = std::mem::take(&mut sequence);
-        eng.advance(per_particle * n, |_| {})?;
-        eng.sync_all();
-        let Engine {
-            m,
-            bodies,
-            sequence: so_far,
-            ..
-        } = eng;
-        slot = Some(m);
-        sequence = so_far;
-        Ok(bodies)
-    };
-    let mut cfg = initial_configuration(scene.n, scene.phi, &geom, inertia, &mut rng, &mut relax)?;
-    sort_along_z_curve(&mut cfg.bodies, cfg.l);
-    let Some(m) = slot else {
-        unreachable!("the model is put back after every relaxation")
-    };
-    let mut eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene)?;
-    eng.sequence = sequence;
-    measure(eng, scene, geom, init, progress)
-}
-
-/// Collisions per particle run at the end of the initial state (see [`measure`]).
-pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
-
-fn measure<M: Model>(
-    mut eng: Engine<M>,
-    scene: &Scene,
-    geom: Geom,
-    init: Instant,
-    progress: &mut dyn FnMut(u64),
-) -> Result<(RunReport, FinalState), EdmdError> {
-    // The compression leaves pairs pushed to near contact; a few collisions per particle relax
-    // them (Z of hard spheres at φ = 0.45 is Kolafa's, within its error, after 5 per particle),
-    // far faster than Monte Carlo would. They belong to the initial state, not to `equilibrate`.
-    eng.advance(
-        RELAX_COLLISIONS_PER_PARTICLE * eng.bodies.len() as u64,
-        |_| {},
-    )?;
-    eng.acc = Accounting {
-        ke_trans: eng.acc.ke_trans,
-        t_last: eng.t,
-        separating: eng.acc.separating,
-        crossings: eng.acc.crossings,
-        rebuilds: eng.acc.rebuilds,
-        rebuild_s: eng.acc.rebuild_s,
-        ..Default::default()
-    };
-    let init_s = init.elapsed().as_secs_f64();
-    let total = scene.equilibrate + scene.collisions;
-    let every = (total / 100).clamp(1, 10_000);
-    let mut tick = |done: u64| {
-        if done.is_multiple_of(every) {
-            progress(done);
-        }
-    };
-    eng.advance(scene.equilibrate, |e| tick(e.acc.collisions))?;
-
-    eng.sync_all();
-    let n = eng.bodies.len();
-    let start_acc = Accounting {
-        ke_trans: eng.acc.ke_trans,
-        t_last: eng.t,
-        collisions: eng.acc.collisions,
-        ..Default::default()
-    };
-    let base_collisions = eng.acc.collisions;
-    let (crossings0, rebuilds0, rebuild_s0) =
-        (eng.acc.crossings, eng.acc.rebuilds, eng.acc.rebuild_s);
-    eng.acc = Accounting {
-        crossings: crossings0,
-        rebuilds: rebuilds0,
-        rebuild_s: rebuild_s0,
-        separating: eng.acc.separating,
-        ..start_acc
-    };
-    let (e0, p0, t0, stats0) = (eng.energy(), eng.momentum(), eng.t, eng.m.stats());
-    let blocks = scene.collisions.min(10);
-    let mut marks: Vec<(f64, f64)> = Vec::with_capacity(blocks as usize);
-    let (wall, cpu) = (Instant::now(), crate::clock::thread_cpu_seconds());
-    measured_collisions(&mut eng, scene.collisions, |e| {
-        let k = e.acc.collisions - base_collisions;
-        tick(e.acc.collisions);
-        if (k * blocks).is_multiple_of(scene.collisions) {
-            marks.push((e.acc.virial, e.acc.ke_int));
-        }
-    })?;
-    let elapsed = wall.elapsed().as_secs_f64();
-    let cpu_elapsed = crate::clock::thread_cpu_seconds() - cpu;
-    eng.sync_all();
-    progress(eng.acc.collisions);
-
-    let stats = eng.m.stats();
-    let sim_time = eng.t - t0;
-    let z_of = |w: f64, k: f64| 1.0 + w / (2.0 * k);
-    let z = z_of(eng.acc.virial, eng.acc.ke_int);
-    let mut zb = Vec::with_capacity(marks.len());
-    let mut prev = (0.0, 0.0);
-    for &m in &marks {
-        zb.push(z_of(m.0 - prev.0, m.1 - prev.1));
-        prev = m;
-    }
-    let z_err = if zb.len() > 1 {
-        let mean = zb.iter().sum::<f64>() / zb.len() as f64;
-        let var = zb.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / (zb.len() - 1) as f64;
-        (var / zb.len() as f64).sqrt()
-    } else {
-        f64::NAN
-    };
-    let calls = (stats.distance_calls - stats0.distance_calls) as f64;
-    let per_collision_us = |s: f64| s * 1e6 / scene.collisions as f64;
-    let nnl_rebuild_s = eng.acc.rebuild_s - rebuild_s0;
-    let report = RunReport {
-        collisions: scene.collisions,
-        tau_c_us: per_collision_us(elapsed),
-        tau_update_us: per_collision_us(nnl_rebuild_s),
-        tau_predict_us: per_collision_us(elapsed - nnl_rebuild_s),
-        nnl_rebuild_s,
-        tau_c_cpu_us: cpu_elapsed * 1e6 / scene.collisions as f64,
-        pressure_z: z,
-        pressure_z_err: z_err,
-        temperature: 2.0 * eng.acc.ke_int / (3.0 * n as f64 * sim_time),
-        energy_drift_rel: (eng.energy() - e0).abs() / e0,
-        momentum_drift: (eng.momentum() - p0).norm(),
-        overlaps: audit(&eng.bodies, eng.l, &geom, scene.audit_tol),
-        solver_failures: stats.failures,
-        contact_nr_fallbacks: stats.contact_fallbacks,
-        distance_fallbacks: stats.distance_fallbacks,
-        nr_iterations_mean: if calls > 0.0 {
-            (stats.nr_iterations - stats0.nr_iterations) as f64 / calls
-        } else {
-            0.0
-        },
-        nr_iterations_max: stats.nr_iterations_max,
-        distance_calls_per_collision: calls / scene.collisions as f64,
-        searches_per_collision: (stats.searches - stats0.searches) as f64 / scene.collisions as f64,
-        mean_free_time: n as f64 * sim_time / (2.0 * scene.collisions as f64),
-        sim_time,
-        cell_crossings: eng.acc.crossings - crossings0,
-        nnl_rebuilds: eng.acc.rebuilds - rebuilds0,
-        separating_contacts: eng.acc.separating,
-        box_length: eng.l,
-        n,
-        phi: scene.phi,
-        init_s,
-        sequence: std::mem::take(&mut eng.sequence),
-    };
-    let state = final_state(&eng.bodies, eng.l, &geom);
-    Ok((report, state))
-}
-
-/// The measured run's collisions, in a frame of their own so that a profiler can select them
-/// alone (`valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*measured_collisions*'`).
-#[inline(never)]
-fn measured_collisions<M: Model>(
-    eng: &mut Engine<M>,
-    n: u64,
-    on_collision: impl FnMut(&mut Engine<M>),
-) -> Result<(), EdmdError> {
-    eng.advance(n, on_collision)
-}
-
-/// Overlap audit of every pair with the independent test of [`Geom::overlaps`], at the
-/// nearest image; pairs are found through cells, O(N). (The box exceeds twice the bounding
-/// diameter, so no other image can touch.)
-pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
-    let reach = 2.0 * geom.bounding_radius();
-    let pos: Vec<V3> = bodies
-        .iter()
-        .map(|b| b.r.map(|x| x.rem_euclid(l)))
-        .collect();
-    let near = Near::new(&pos, l, reach);
-    let mut overlaps = 0;
-    for (i, a) in bodies.iter().enumerate() {
-        near.all_around(&pos[i], |j| {
-            if j > i {
-                let r = min_image(pos[j] - pos[i], l);
-                if r.norm() < reach && geom.overlaps(&a.rot, &bodies[j].rot, &r, tol) {
-                    overlaps += 1;
-                }
-            }
-            true
-        });
-    }
-    overlaps
-}
-
-fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
-    let (shape, semi, exponents) = match geom {
-        Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
-        Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z], [2.0; 3]),
-        Geom::Superquadric(q) => ("superquadric", q.s.into(), q.e.into()),
-    };
-    let arr = |v: V3| [v.x, v.y, v.z];
-    FinalState {
-        box_: [l; 3],
-        particles: bodies
-            .iter()
-            .map(|b| ParticleDump {
-                shape,
-                semi_axes: semi,
-                exponents,
-                position: arr(b.r.map(|x| x.rem_euclid(l))),
-                orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
-                velocity: arr(b.v),
-                angular_velocity: arr(b.w),
-            })
-            .collect(),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::geometry::M3;
-    use crate::rigid::rotate;
-
-    /// The audit through cells counts exactly the pairs the O(N²) loop over all pairs does, for
-    /// spheres and ellipsoids, dilute and dense, with bodies near box faces and unwrapped positions.
-    #[test]
-    fn audit_matches_all_pairs() {
-        let brute = |bodies: &[Body], l: f64, geom: &Geom, tol: f64| {
-            let mut overlaps = 0;
-            for i in 0..bodies.len() {
-                for j in (i + 1)..bodies.len() {
-                    let r = min_image(bodies[j].r - bodies[i].r, l);
-                    if geom.overlaps(&bodies[i].rot, &bodies[j].rot, &r, tol) {
-                        overlaps += 1;
-                    }
-                }
-            }
-            overlaps
-        };
-        let mut rng = Rng::new(9);
-        let geoms = [
-            Geom::Sphere { sigma: 1.0 },
-            Geom::Ellipsoid(Ellipsoid::new(0.8, 0.4, 0.4)),
-        ];
-        for geom in geoms {
-            for (n, l) in [(400, 12.0), (300, 7.0), (40, 3.5)] {
-                let bodies: Vec<Body> = (0..n)
-                    .map(|_| Body {
-                        r: V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * (3.0 * l)
-                            - V3::repeat(l),
-                        v: V3::zeros(),
-                        t: 0.0,
-                        rot: rotate(
-                            &M3::identity(),
-                            &V3::new(rng.normal(), rng.normal(), rng.normal()),
-                            1.0,
-                        ),
-                        w: V3::zeros(),
-                    })
-                    .collect();
-                let expected = brute(&bodies, l, &geom, 1e-8);
-                assert!(expected > 0, "{geom:?} n {n}: the test needs overlaps");
-                assert_eq!(
-                    audit(&bodies, l, &geom, 1e-8),
-                    expected,
-                    "{geom:?} n {n} l {l}"
-                );
-            }
-        }
-    }
 }

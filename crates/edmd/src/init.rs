@@ -9,7 +9,7 @@
 //! steps does not grow with N, unlike a compression limited by the closest pair (some pair is
 //! always nearly in contact, so its steps shrink as N grows: O(N²) in all). The pushes leave pairs
 //! near contact, which the engine relaxes with a few collisions per particle before anything is
-//! measured (`engine::RELAX_COLLISIONS_PER_PARTICLE`).
+//! measured (`run::RELAX_COLLISIONS_PER_PARTICLE`).
 
 use crate::EdmdError;
 use crate::cells::Near;
@@ -21,7 +21,6 @@ use crate::rigid::{Body, Inertia, orthonormalize, rotate};
 use crate::rng::Rng;
 use crate::scale;
 use crate::superquadric::Superquadric;
-use crate::support_distance::overlap_certified;
 
 /// The shape as the initialiser and the audit see it.
 #[derive(Clone, Copy, Debug)]
@@ -49,17 +48,6 @@ impl Geom {
             Geom::Sphere { sigma } => r.norm() / sigma,
             Geom::Ellipsoid(e) => contact_scale(e, rot_a, e, rot_b, r),
             Geom::Superquadric(q) => scale::contact_scale(q, rot_a, q, rot_b, r),
-        }
-    }
-
-    /// The audit's verdict: the bodies, both scaled by 1 − `tol` about their centres, overlap.
-    /// Independent of the engine's Newton–Raphson solvers: Perram–Wertheim for ellipsoids,
-    /// Gilbert's algorithm on support functions for superquadrics ([`overlap_certified`], which
-    /// counts a pair it cannot decide as overlapping).
-    pub fn overlaps(&self, rot_a: &M3, rot_b: &M3, r: &V3, tol: f64) -> bool {
-        match self {
-            Geom::Superquadric(q) => overlap_certified(q, rot_a, q, rot_b, r, tol),
-            _ => self.contact_scale(rot_a, rot_b, r) < 1.0 - tol,
         }
     }
 

@@ -2,11 +2,12 @@
 //! C. De Michele, "Simulating hard rigid bodies" (equation numbers in the docs refer to it).
 //! Pure computation: no files, no printing, no threads.
 //!
-//! Map of the modules, from geometry up to the event loop:
+//! Map of the modules, from geometry up to the run:
 //! - [`scene`]: the TOML scene, its defaults and validation ([`Scene`], [`SceneError`]).
 //! - [`geometry`]: implicit surfaces f(x) = 0, poses, lab-frame gradients and Hessians;
 //!   [`sphere`] (analytic path), [`ellipsoid`] (Eqs. 42–44) and [`superquadric`] (Eq. 77), one
-//!   shape per file; the engine's rigid-body model is generic over the [`geometry::Surface`] trait.
+//!   shape per file; the rigid-body model of [`model`] is generic over the [`geometry::Surface`]
+//!   trait.
 //! - [`rigid`]: free motion (Eqs. 3–6), ḋ_max (Eq. 32), the elastic collision (Eqs. 40–41).
 //! - [`distance`]: Newton–Raphson on Eqs. (23) with the relaxed step (26–29), the guess of
 //!   Sec. 3.2 and steepest descent (Sec. 2.3.2); negative distances for slight overlaps.
@@ -20,12 +21,20 @@
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
-//!   superquadrics are audited by [`support_distance::overlap_certified`] (a separating axis with a
-//!   positive support gap, from Gilbert's algorithm or Newton's normal)
-//!   and compressed with the contact scale of [`scale`].
-//! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities.
+//!   superquadrics are compressed with the contact scale of [`scale`].
+//! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities;
+//!   [`rng`]: the seeded generator it draws from.
 //! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.
-//! - [`engine`]: the event loop, measurements, audit: [`run`], [`RunReport`], [`FinalState`].
+//! - [`model`]: the body models, what one particle kind costs to simulate: the analytic sphere or
+//!   the general rigid body (its collision rule and the contact-time search of one pair).
+//! - [`engine`]: the event loop, generic over the model: collisions, cell crossings, box escapes,
+//!   each body's first-collision search, and the sums the measurements are made of.
+//! - [`audit`]: the overlap audit of the final state, every pair found through cells and decided
+//!   independently of the engine's solvers; superquadrics by [`audit::overlap_certified`] (a
+//!   separating axis with a positive support gap, from Gilbert's algorithm or Newton's normal).
+//! - [`run`](mod@run): a scene's set-up, initial state and measured phases ([`run()`],
+//!   [`run_with_state`]), timed by [`clock`]; [`report`]: what a run hands back ([`RunReport`],
+//!   [`FinalState`]).
 //!
 //! Where this engine departs from the paper, and why:
 //! - The calendar holds one event per particle (its earliest collision, cell crossing or box
@@ -58,6 +67,7 @@
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
 //! and the isotropic moment of inertia (2/5) m min(a, b)² of their inscribed sphere.
 
+pub mod audit;
 pub mod ball;
 pub mod calendar;
 pub mod cells;
@@ -69,10 +79,13 @@ pub mod engine;
 pub mod geometry;
 pub mod init;
 pub mod lists;
+pub mod model;
 pub mod nnl;
 pub mod pw;
+pub mod report;
 pub mod rigid;
 pub mod rng;
+pub mod run;
 pub mod scale;
 pub mod scene;
 pub mod sequence;
@@ -80,7 +93,8 @@ pub mod sphere;
 pub mod superquadric;
 pub mod support_distance;
 
-pub use engine::{FinalState, ParticleDump, RunReport, run, run_with_state};
+pub use report::{FinalState, ParticleDump, RunReport};
+pub use run::{run, run_with_state};
 pub use scene::{
     Neighbours, Scene, SceneError, ShapeKind, default_delta_nnl, default_neighbours,
     fill_shape_defaults,

@@ -1,0 +1,120 @@
+//! What a run hands back: its measured figures ([`RunReport`]) and its final configuration
+//! ([`FinalState`]).
+
+use serde::Serialize;
+
+use crate::geometry::V3;
+use crate::init::Geom;
+use crate::rigid::Body;
+use crate::sequence::Fingerprint;
+
+/// The measured figures of one run (the JSON of `sweep edmd`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunReport {
+    /// Collisions in the measured run.
+    pub collisions: u64,
+    /// τ_c = T_tot / N_coll (Eq. 69): wall time of the measured run per collision, in µs.
+    pub tau_c_us: f64,
+    /// τ_c from this thread's CPU time instead of the wall clock, in µs: the paper's "CPU time"
+    /// of Eq. (69); below `tau_c_us` when the core was shared with other work.
+    pub tau_c_cpu_us: f64,
+    /// Eq. (73) split in time (wall clock, as `tau_c_us`): Δt_u, the box and list rebuilds per
+    /// collision (timed one by one; the escape-time updates after each collision are too short
+    /// to time and stay in the prediction), and Δt_coll = `tau_c_us` − Δt_u, the prediction.
+    pub tau_update_us: f64,
+    pub tau_predict_us: f64,
+    /// Wall time of the measured run's box and list rebuilds (NNL; 0 with linked cells).
+    pub nnl_rebuild_s: f64,
+    /// Z = P/(ρ kT) = 1 + Σ r_ij·Δp_i / (3 N kT T), with the measured kT.
+    pub pressure_z: f64,
+    /// Standard error of Z from 10 block averages.
+    pub pressure_z_err: f64,
+    /// Measured kT = (2/3)⟨translational kinetic energy⟩/N, time-averaged.
+    pub temperature: f64,
+    /// |E_end − E_start| / E_start over the measured run (translational + rotational).
+    pub energy_drift_rel: f64,
+    /// |P_end − P_start| over the measured run, in units of m σ/τ (total momentum starts at 0).
+    pub momentum_drift: f64,
+    /// Overlapping pairs in the audit of the final state (every pair, found through cells).
+    pub overlaps: u64,
+    /// Distance or contact-time solves that failed, over the whole run (equilibration included).
+    pub solver_failures: u64,
+    /// Contact times found by bisection after Newton–Raphson on Eqs. (30) failed (whole run).
+    pub contact_nr_fallbacks: u64,
+    /// Distances decided by the support-function fallback after Newton–Raphson and steepest
+    /// descent failed (whole run; converged or a proved overlap, not failures).
+    pub distance_fallbacks: u64,
+    /// Newton–Raphson iterations per distance evaluation in the measured run (0 on the sphere path).
+    pub nr_iterations_mean: f64,
+    /// The most Newton–Raphson iterations one distance evaluation took (whole run).
+    pub nr_iterations_max: u64,
+    /// Distance evaluations per collision in the measured run.
+    pub distance_calls_per_collision: f64,
+    /// Pair contact-time searches per collision in the measured run (0 on the sphere path).
+    pub searches_per_collision: f64,
+    /// Mean time between collisions of a particle, t = N T / (2 N_coll).
+    pub mean_free_time: f64,
+    /// Simulated time of the measured run.
+    pub sim_time: f64,
+    /// Linked-cell crossings in the measured run.
+    pub cell_crossings: u64,
+    /// Bounding boxes rebuilt in the measured run, one body each (NNL).
+    pub nnl_rebuilds: u64,
+    /// Predicted collisions found separating when due (grazing at exact tangency).
+    pub separating_contacts: u64,
+    pub box_length: f64,
+    pub n: usize,
+    pub phi: f64,
+    /// Wall time of the initial state (s): lattice, melting, compression, first lists and events,
+    /// and the [`RELAX_COLLISIONS_PER_PARTICLE`](crate::run::RELAX_COLLISIONS_PER_PARTICLE) collisions per particle that relax it.
+    pub init_s: f64,
+    /// The collision sequence from the first collision of the run (relaxation included); kept
+    /// out of the report's JSON (a job stores it as hex, `sweep edmd` does not print it).
+    #[serde(skip)]
+    pub sequence: Fingerprint,
+}
+
+/// The final configuration, in the `--dump` format of DESIGN.md.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FinalState {
+    #[serde(rename = "box")]
+    pub box_: [f64; 3],
+    pub particles: Vec<ParticleDump>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParticleDump {
+    pub shape: &'static str,
+    pub semi_axes: [f64; 3],
+    /// Superquadric exponents; an ellipsoid (and a sphere) has 2 on every axis.
+    pub exponents: [f64; 3],
+    pub position: [f64; 3],
+    /// Rows = body axes in the lab frame.
+    pub orientation: [[f64; 3]; 3],
+    pub velocity: [f64; 3],
+    pub angular_velocity: [f64; 3],
+}
+
+pub(crate) fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
+    let (shape, semi, exponents) = match geom {
+        Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
+        Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z], [2.0; 3]),
+        Geom::Superquadric(q) => ("superquadric", q.s.into(), q.e.into()),
+    };
+    let arr = |v: V3| [v.x, v.y, v.z];
+    FinalState {
+        box_: [l; 3],
+        particles: bodies
+            .iter()
+            .map(|b| ParticleDump {
+                shape,
+                semi_axes: semi,
+                exponents,
+                position: arr(b.r.map(|x| x.rem_euclid(l))),
+                orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
+                velocity: arr(b.v),
+                angular_velocity: arr(b.w),
+            })
+            .collect(),
+    }
+}
