@@ -15,8 +15,8 @@
 
 mod accuracy;
 mod edmd_figs;
-mod fig;
 mod fig13;
+mod fig2;
 mod fig7;
 mod lines;
 mod minimum;
@@ -32,7 +32,7 @@ pub use accuracy::{
     AccuracyReport, FailedRun, accuracy, accuracy_markdown, accuracy_plot, accuracy_report,
 };
 pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
-pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
+pub use fig2::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};
 pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
