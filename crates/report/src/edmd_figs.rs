@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use crate::lines::{LinePlot, Panel, Series, Style};
 use crate::minimum::{Minimum, locate_minimum};
-use crate::render::render;
+use crate::render::{drawn, render};
 use crate::selection::{Baseline, EPS_D, Key, mean_by_x, timed};
 use crate::units::LengthUnit;
 use crate::{EdmdRow, ReportError, tau_label};
@@ -778,18 +778,6 @@ impl Fig11 {
             notes: Vec::new(),
         }
     }
-}
-
-/// `figure`, drawn into `path` when one is given.
-pub(crate) fn drawn<F>(
-    figure: F,
-    path: Option<&Path>,
-    draw: fn(&F, &Path) -> Result<(), ReportError>,
-) -> Result<F, ReportError> {
-    if let Some(path) = path {
-        draw(&figure, path)?;
-    }
-    Ok(figure)
 }
 
 /// Fig. 8's data, drawn into `path` when one is given.
