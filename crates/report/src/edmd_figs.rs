@@ -82,6 +82,39 @@ pub(crate) fn curve_series(
     series
 }
 
+/// τ_c against one knob at one NNL ellipsoid state point, the other knobs at the baseline: ε_d
+/// in Fig. 9, Δ_NNL in Figs. 10–11. Each figure fills its own part, and its JSON has only that
+/// part's fields.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct KnobCurve {
+    pub x0: f64,
+    pub phi: f64,
+    pub n: u32,
+    /// x of each point is the knob in `length_unit`.
+    pub points: Vec<CurvePoint>,
+    /// Fig. 9: ε_d (in `length_unit`) of the points whose runs found overlapping pairs; `None`
+    /// in Fig. 10, whose JSON has no such field.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overlapping: Option<Vec<f64>>,
+    /// Figs. 10–11: where τ_c is least over Δ_NNL, and Eq. 73 along the curve, its fields
+    /// printed beside the others; `None` in Fig. 9, whose JSON has none of them.
+    #[serde(flatten)]
+    pub optimum: Option<Optimum>,
+}
+
+/// The minimum of a curve over Δ_NNL, and the list updates' share of τ_c along it (Fig. 11
+/// reads the share at the minimum).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Optimum {
+    /// Δ*_NNL in `length_unit` (x) and the fitted τ_c there (y); `method` says whether the grid
+    /// brackets it.
+    pub minimum: Option<Minimum>,
+    /// Δ*_NNL in σ, the value to put in a plan.
+    pub minimum_sigma: Option<f64>,
+    /// Eq. 73 in time at each Δ_NNL of `points` that has it: the list updates' share.
+    pub split: Vec<SplitPoint>,
+}
+
 /// A state point (X0, φ, N) of the ellipsoid runs.
 type State = (Key, Key, u32);
 
@@ -309,19 +342,8 @@ impl Fig8 {
 pub struct Fig9 {
     pub length_unit: LengthUnit,
     pub tau_c: String,
-    pub curves: Vec<EpsCurve>,
+    pub curves: Vec<KnobCurve>,
     pub missing: Vec<String>,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct EpsCurve {
-    pub x0: f64,
-    pub phi: f64,
-    pub n: u32,
-    /// x of each point is ε_d in `length_unit`.
-    pub points: Vec<CurvePoint>,
-    /// ε_d (in `length_unit`) of the points whose runs found overlapping pairs.
-    pub overlapping: Vec<f64>,
 }
 
 impl Fig9 {
@@ -342,17 +364,18 @@ impl Fig9 {
                 entry.1.push(eps);
             }
         }
-        let curves: Vec<EpsCurve> = raw
+        let curves: Vec<KnobCurve> = raw
             .into_iter()
             .map(|((x0, phi, n), (points, mut overlapping))| {
                 overlapping.sort_by(f64::total_cmp);
                 overlapping.dedup();
-                EpsCurve {
+                KnobCurve {
                     x0: x0.0,
                     phi: phi.0,
                     n,
                     points: points_of(points),
-                    overlapping,
+                    overlapping: Some(overlapping),
+                    optimum: None,
                 }
             })
             .filter(|c| c.points.len() >= 2)
@@ -391,7 +414,10 @@ impl Fig9 {
                     series.extend(curve_series(
                         format!("φ = {}, N = {}", c.phi, c.n),
                         &c.points,
-                        (&c.overlapping, format!("overlaps found (φ = {})", c.phi)),
+                        (
+                            c.overlapping.as_deref().unwrap_or_default(),
+                            format!("overlaps found (φ = {})", c.phi),
+                        ),
                         colour,
                     ));
                 }
@@ -424,24 +450,8 @@ impl Fig9 {
 pub struct Fig10 {
     pub length_unit: LengthUnit,
     pub tau_c: String,
-    pub curves: Vec<DeltaCurve>,
+    pub curves: Vec<KnobCurve>,
     pub missing: Vec<String>,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct DeltaCurve {
-    pub x0: f64,
-    pub phi: f64,
-    pub n: u32,
-    /// x of each point is Δ_NNL in `length_unit`.
-    pub points: Vec<CurvePoint>,
-    /// Δ*_NNL in `length_unit` (x) and the fitted τ_c there (y); `method` says whether the grid
-    /// brackets it.
-    pub minimum: Option<Minimum>,
-    /// Δ*_NNL in σ, the value to put in a plan.
-    pub minimum_sigma: Option<f64>,
-    /// Eq. 73 in time at each Δ_NNL of `points` that has it: the list updates' share.
-    pub split: Vec<SplitPoint>,
 }
 
 /// Eq. 73 split in time at one x: Δt_u (box and list rebuilds) and Δt_coll (the rest, the
@@ -514,7 +524,7 @@ impl Fig10 {
                         style: Style::Measured,
                         colour,
                     });
-                    if let Some(m) = c.minimum {
+                    if let Some(m) = c.optimum.as_ref().and_then(|o| o.minimum) {
                         let located = m.bracketed();
                         series.push(Series {
                             label: if located {
@@ -555,7 +565,7 @@ impl Fig10 {
 }
 
 /// Every NNL ellipsoid state point with three or more Δ_NNL at the baseline knobs.
-fn delta_curves(rows: &[EdmdRow], unit: LengthUnit) -> Vec<DeltaCurve> {
+fn delta_curves(rows: &[EdmdRow], unit: LengthUnit) -> Vec<KnobCurve> {
     let baseline = Baseline::of(rows);
     let mut raw: BTreeMap<State, Vec<(f64, f64)>> = BTreeMap::new();
     let mut splits: BTreeMap<State, Vec<(f64, f64, f64)>> = BTreeMap::new();
@@ -575,14 +585,18 @@ fn delta_curves(rows: &[EdmdRow], unit: LengthUnit) -> Vec<DeltaCurve> {
             let split = splits.get(&key).map_or_else(Vec::new, |s| split_of(s));
             let points = points_of(points);
             let minimum = locate_minimum(&xy(&points));
-            DeltaCurve {
+            let optimum = Optimum {
+                minimum_sigma: minimum.map(|m| m.x / unit.convert(1.0, x0.0)),
+                minimum,
+                split,
+            };
+            KnobCurve {
                 x0: x0.0,
                 phi: phi.0,
                 n,
-                minimum_sigma: minimum.map(|m| m.x / unit.convert(1.0, x0.0)),
-                minimum,
                 points,
-                split,
+                overlapping: None,
+                optimum: Some(optimum),
             }
         })
         .filter(|c| c.points.len() >= 3)
@@ -590,11 +604,11 @@ fn delta_curves(rows: &[EdmdRow], unit: LengthUnit) -> Vec<DeltaCurve> {
 }
 
 /// The state points whose Δ grid does not bracket the minimum, as missing points.
-fn unbracketed(curves: &[DeltaCurve], unit: LengthUnit) -> Vec<String> {
+fn unbracketed(curves: &[KnobCurve], unit: LengthUnit) -> Vec<String> {
     curves
         .iter()
         .filter_map(|c| {
-            let m = c.minimum?;
+            let m = c.optimum.as_ref()?.minimum?;
             if m.bracketed() {
                 return None;
             }
@@ -646,18 +660,19 @@ impl Fig11 {
         let minima: Vec<LocatedMinimum> = curves
             .iter()
             .filter_map(|c| {
-                let m = c.minimum?;
+                let optimum = c.optimum.as_ref()?;
+                let m = optimum.minimum?;
                 Some(LocatedMinimum {
                     x0: c.x0,
                     phi: c.phi,
                     n: c.n,
                     delta_star: m.x,
-                    delta_star_sigma: c.minimum_sigma?,
+                    delta_star_sigma: optimum.minimum_sigma?,
                     tau_c_us: m.y,
                     bracketed: m.bracketed(),
                     method: m.method,
                     grid: [c.points.first()?.x, c.points.last()?.x],
-                    update_share: c
+                    update_share: optimum
                         .split
                         .iter()
                         .min_by(|a, b| (a.x / m.x).ln().abs().total_cmp(&(b.x / m.x).ln().abs()))
@@ -806,4 +821,37 @@ pub fn fig11(
     path: Option<&Path>,
 ) -> Result<Fig11, ReportError> {
     drawn(Fig11::new(rows, unit)?, path, Fig11::draw)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Figs. 9 and 10 print the fields their curves always had, in the same order, even where
+    /// the part is empty.
+    #[test]
+    fn a_knob_curve_prints_only_its_figure_s_part() {
+        let curve = |overlapping, optimum| KnobCurve {
+            x0: 2.0,
+            phi: 0.5,
+            n: 256,
+            points: Vec::new(),
+            overlapping,
+            optimum,
+        };
+        let json = |c: KnobCurve| serde_json::to_string(&c).expect("serialisable");
+        assert_eq!(
+            json(curve(Some(Vec::new()), None)),
+            r#"{"x0":2.0,"phi":0.5,"n":256,"points":[],"overlapping":[]}"#
+        );
+        let optimum = Optimum {
+            minimum: None,
+            minimum_sigma: None,
+            split: Vec::new(),
+        };
+        assert_eq!(
+            json(curve(None, Some(optimum))),
+            r#"{"x0":2.0,"phi":0.5,"n":256,"points":[],"minimum":null,"minimum_sigma":null,"split":[]}"#
+        );
+    }
 }
