@@ -13,7 +13,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::edmd_figs::{CurvePoint, curve_series, points_of, same};
+use crate::curves::{CurvePoint, curve_series, points_of, same};
 use crate::lines::{LinePlot, Panel, Series, Style};
 use crate::render::{drawn, render, render_svg};
 use crate::selection::{Baseline, Key, knobs, timed};

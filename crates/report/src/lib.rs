@@ -14,10 +14,14 @@
 //! fonts, so they render the same on a bare machine.
 
 mod accuracy;
-mod edmd_figs;
+mod curves;
+mod fig10;
+mod fig11;
 mod fig13;
 mod fig2;
 mod fig7;
+mod fig8;
+mod fig9;
 mod lines;
 mod minimum;
 mod overlap_accuracy;
@@ -31,9 +35,12 @@ use serde::{Deserialize, Serialize};
 pub use accuracy::{
     AccuracyReport, FailedRun, accuracy, accuracy_markdown, accuracy_plot, accuracy_report,
 };
-pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
 pub use fig2::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};
+pub use fig8::{Fig8, fig8};
+pub use fig9::{Fig9, fig9};
+pub use fig10::{Fig10, fig10};
+pub use fig11::{Fig11, fig11};
 pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
