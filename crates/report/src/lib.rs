@@ -14,6 +14,7 @@
 //! fonts, so they render the same on a bare machine.
 
 mod accuracy;
+mod accuracy_render;
 mod curves;
 mod fig10;
 mod fig11;
@@ -25,6 +26,7 @@ mod fig9;
 mod lines;
 mod minimum;
 mod overlap_accuracy;
+mod overlap_accuracy_render;
 mod render;
 mod selection;
 mod table;
@@ -32,9 +34,8 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use accuracy::{
-    AccuracyReport, FailedRun, accuracy, accuracy_markdown, accuracy_plot, accuracy_report,
-};
+pub use accuracy::{AccuracyReport, FailedRun, accuracy, accuracy_report};
+pub use accuracy_render::{accuracy_markdown, accuracy_plot};
 pub use fig2::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};
 pub use fig8::{Fig8, fig8};
