@@ -13,9 +13,9 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::edmd_figs::{CurvePoint, curve_series, drawn, points_of, same};
+use crate::curves::{CurvePoint, curve_series, points_of, same};
 use crate::lines::{LinePlot, Panel, Series, Style};
-use crate::render::{render, render_svg};
+use crate::render::{drawn, render, render_svg};
 use crate::selection::{Baseline, Key, knobs, timed};
 use crate::{EdmdRow, ReportError, tau_label};
 

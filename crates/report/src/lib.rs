@@ -1,26 +1,49 @@
 //! Tables and figures of `sweep` campaigns, as pure functions over result rows.
 //!
 //! The store aggregates each overlap point into one [`OverlapRow`] per algorithm; this crate
-//! never touches the database. It renders the papers' Tables 1–2 ([`table1`], then
-//! [`render_table`] as Markdown, CSV, LaTeX or JSON) and Figure 2 ([`fig2`], PNG or SVG). Ours
-//! compare a second precision, f64, where the papers compare a second language: Table 1 is
-//! `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`. Figure 7 of the EDMD paper, τ_c
-//! against φ, is [`fig7`] over [`EdmdRow`]s; Figures 8–11 ([`fig8`] … [`fig11`]), Figure 13
-//! (superquadrics against their exponent, [`fig13`]) and the cost of accuracy ([`accuracy`]) are
-//! data first (serialisable, for `--format json`), drawn second; a
-//! figure that would be empty is [`ReportError::MissingPoints`], naming what is missing.
+//! never touches the database. It renders the papers' Tables 1–2 and Figures 2–3 over
+//! [`OverlapRow`]s, and Figures 7–11 and 13 of the EDMD paper and the cost of accuracy over
+//! [`EdmdRow`]s. Ours compare a second precision, f64, where the papers compare a second
+//! language: Table 1 is `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`, and Figure 3
+//! is Figure 2 in f64. Figures 8–11, Figure 13 and the cost of accuracy are data first
+//! (serialisable, for `--format json`), drawn second; a figure that would be empty is
+//! [`ReportError::MissingPoints`], naming what is missing.
+//!
+//! One file per report:
+//!
+//! - Tables 1–2, `table.rs`: [`table1`], then [`render_table`] as Markdown, CSV, LaTeX or JSON.
+//! - Figures 2–3, `fig2.rs`: run time over the (L*, W*) plane, [`fig2`] (PNG or SVG).
+//! - Figure 7, `fig7.rs`: τ_c against φ, [`fig7`].
+//! - Figure 8, `fig8.rs`: τ_c against X0 with LL and NNL, and their ratio, [`fig8`].
+//! - Figure 9, `fig9.rs`: τ_c against ε_d, [`fig9`].
+//! - Figure 10, `fig10.rs`: τ_c against Δ_NNL and its minimum, [`fig10`].
+//! - Figure 11, `fig11.rs`: that minimum Δ*_NNL against φ and X0, [`fig11`].
+//! - Figure 13, `fig13.rs`: superquadrics against their exponent, [`fig13`].
+//! - The cost of accuracy, [`accuracy_report`]: the EDMD knobs in `accuracy.rs`, the overlap
+//!   kernels in `overlap_accuracy.rs`; drawn as [`accuracy_markdown`] and [`accuracy_plot`] by
+//!   `accuracy_render.rs` and `overlap_accuracy_render.rs`.
+//!
+//! What they share: the curves of Figures 8–13 (`curves.rs`), which runs a figure compares
+//! (`selection.rs`), a curve's minimum (`minimum.rs`), the unit of lengths on an axis
+//! (`units.rs`), line plots (`lines.rs`), and rendering with the bundled font (`render.rs`).
 //!
 //! Figures use the DejaVu Sans file shipped in `assets/fonts/` (compiled in), never system
 //! fonts, so they render the same on a bare machine.
 
 mod accuracy;
-mod edmd_figs;
-mod fig;
+mod accuracy_render;
+mod curves;
+mod fig10;
+mod fig11;
 mod fig13;
+mod fig2;
 mod fig7;
+mod fig8;
+mod fig9;
 mod lines;
 mod minimum;
 mod overlap_accuracy;
+mod overlap_accuracy_render;
 mod render;
 mod selection;
 mod table;
@@ -28,12 +51,14 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use accuracy::{
-    AccuracyReport, FailedRun, accuracy, accuracy_markdown, accuracy_plot, accuracy_report,
-};
-pub use edmd_figs::{Fig8, Fig9, Fig10, Fig11, fig8, fig9, fig10, fig11};
-pub use fig::{Fig2Options, fig2, fig2_points, fig2_svg};
+pub use accuracy::{AccuracyReport, FailedRun, accuracy, accuracy_report};
+pub use accuracy_render::{accuracy_markdown, accuracy_plot};
+pub use fig2::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};
+pub use fig8::{Fig8, fig8};
+pub use fig9::{Fig9, fig9};
+pub use fig10::{Fig10, fig10};
+pub use fig11::{Fig11, fig11};
 pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};

@@ -1,4 +1,5 @@
-//! What every figure shares: the bundled font, and rendering to PNG or SVG by the file's extension.
+//! What every figure shares: the bundled font, and rendering to PNG or SVG by the file's extension
+//! (for the figures that are data first, only when a file is asked for).
 
 use std::error::Error;
 use std::path::Path;
@@ -54,6 +55,18 @@ pub(crate) fn render(figure: &impl Drawing, path: &Path) -> Result<(), ReportErr
         path: path.display().to_string(),
         message: e.to_string(),
     })
+}
+
+/// `figure`, drawn into `path` when one is given.
+pub(crate) fn drawn<F>(
+    figure: F,
+    path: Option<&Path>,
+    draw: fn(&F, &Path) -> Result<(), ReportError>,
+) -> Result<F, ReportError> {
+    if let Some(path) = path {
+        draw(&figure, path)?;
+    }
+    Ok(figure)
 }
 
 /// Draws `figure` as an SVG document in memory (the status page serves it as is).

@@ -459,7 +459,7 @@ mod edmd_figures {
 
         let f9 = fig9(&rows, LengthUnit::Sigma, None).expect("fig9");
         assert_eq!(f9.curves.len(), 6);
-        assert!(f9.curves.iter().all(|c| c.overlapping == vec![1e-2]));
+        assert!(f9.curves.iter().all(|c| c.overlapping == Some(vec![1e-2])));
 
         // Δ* = 0.05/φ σ, exactly, where the grid brackets it; in the paper's unit it is that over
         // the smallest semi-axis.
@@ -487,8 +487,9 @@ mod edmd_figures {
         assert!(f10.missing.is_empty(), "{:?}", f10.missing);
         for curve in &f10.curves {
             // Every Δ but the baseline's 0.06 (run without the split) has it.
-            assert_eq!(curve.split.len(), DELTAS.len() - 1, "{curve:?}");
-            for s in &curve.split {
+            let split = &curve.optimum.as_ref().expect("Fig. 10's part").split;
+            assert_eq!(split.len(), DELTAS.len() - 1, "{curve:?}");
+            for s in split {
                 assert!(
                     (s.update_share - 1.0 / (1.0 + 10.0 * s.x)).abs() < 1e-12,
                     "{s:?}"

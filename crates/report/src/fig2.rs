@@ -1,4 +1,5 @@
 //! Figure 2 of the papers: run time over the (L*, W*) plane, one heat map per (algorithm, R*).
+//! Figure 3 is the same figure in f64 (`fig2(rows, "f64", …)`), as Table 2 is Table 1's.
 //!
 //! The colour scale of a row spans the 2nd to the 98th percentile of its cells, not their
 //! extremes: one point measured on a disturbed machine (2–3× slow) would otherwise stretch the
