@@ -1,50 +1,32 @@
-//! xoshiro256++ seeded through SplitMix64, plus Box–Muller normals.
+//! xoshiro256++ seeded through SplitMix64 (Blackman & Vigna), as `rand_xoshiro` implements them,
+//! plus Box–Muller normals.
 //!
-//! Written here rather than taken from a crate so that a run is reproducible from
-//! its seed forever, whatever a dependency does to its stream between versions.
+//! A run is reproducible from its seed only while the seed gives the same stream:
+//! `reference_stream_is_stable` pins the stream to the values of the hand-written generator this
+//! replaced, so a dependency update that changed it fails CI.
 
-/// SplitMix64: expands one 64-bit seed into well-mixed state words.
-fn splitmix64(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+use rand_xoshiro::Xoshiro256PlusPlus;
+use rand_xoshiro::rand_core::{Rng as _, SeedableRng};
 
-/// xoshiro256++ (Blackman & Vigna).
 #[derive(Clone, Debug)]
 pub struct Rng {
-    s: [u64; 4],
+    xoshiro: Xoshiro256PlusPlus,
     /// Second Box–Muller deviate, kept so no draw is wasted.
     spare: Option<f64>,
 }
 
 impl Rng {
+    /// The state is the first four SplitMix64 outputs from `seed` (`seed_from_u64`), the seeding
+    /// Blackman & Vigna recommend.
     pub fn new(seed: u64) -> Self {
-        let mut sm = seed;
-        let s = [
-            splitmix64(&mut sm),
-            splitmix64(&mut sm),
-            splitmix64(&mut sm),
-            splitmix64(&mut sm),
-        ];
-        Rng { s, spare: None }
+        Rng {
+            xoshiro: Xoshiro256PlusPlus::seed_from_u64(seed),
+            spare: None,
+        }
     }
 
     pub fn next_u64(&mut self) -> u64 {
-        let result = self.s[0]
-            .wrapping_add(self.s[3])
-            .rotate_left(23)
-            .wrapping_add(self.s[0]);
-        let t = self.s[1] << 17;
-        self.s[2] ^= self.s[0];
-        self.s[3] ^= self.s[1];
-        self.s[1] ^= self.s[2];
-        self.s[0] ^= self.s[3];
-        self.s[2] ^= t;
-        self.s[3] = self.s[3].rotate_left(45);
-        result
+        self.xoshiro.next_u64()
     }
 
     /// Uniform in [0, 1) with 53 random bits.
