@@ -76,7 +76,9 @@ fn f64_margin(cfg: &Configuration<f64>, half: &[f64; 3], r: f64) -> f64 {
     d2 - r * r
 }
 
-fn gamma(n: f64, u: f64) -> f64 {
+/// γₙ = nu/(1 − nu) (Higham, Lemma 3.1): n roundings of unit roundoff u change a value by at
+/// most γₙ relative to it. The γ₄ of [`rounding_band`], not the Γ function.
+fn gamma_n(n: f64, u: f64) -> f64 {
     n * u / (1.0 - n * u)
 }
 
@@ -98,13 +100,13 @@ pub fn rounding_band<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius
         let s: f64 = terms.clone().map(f64::abs).sum();
         let a: f64 = terms.sum();
         let c = cuboid.half[i].to_f64();
-        let delta = gamma(4.0, u) * (s + c);
+        let delta = gamma_n(4.0, u) * (s + c);
         let l = (a.abs() - c).max(0.0);
         band += 2.0 * (l + delta) * delta + delta * delta;
         d2 += l * l;
     }
     let r = radius.to_f64();
-    2.0 * (band + gamma(4.0, u) * d2 + u * r * r)
+    2.0 * (band + gamma_n(4.0, u) * d2 + u * r * r)
 }
 
 /// a + b = s + e exactly (Knuth's two-sum).
