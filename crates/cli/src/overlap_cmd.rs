@@ -6,7 +6,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use overlap::config::axes_from_quaternion;
 use overlap::{
-    Algorithm, Configuration, Cuboid, OverlapError, Precision, Real, min_distance, overlaps,
+    Algorithm, Configuration, Cuboid, Kernels, OverlapError, Precision, min_distance, overlaps,
 };
 use serde::Serialize;
 
@@ -81,7 +81,7 @@ pub fn run(args: &OverlapArgs, format: Format) -> anyhow::Result<()> {
 
 /// The verdicts of one row in precision `T`, or an error naming the row and column when `T`
 /// cannot judge it ([`overlap::range::check_case`]): never a confident wrong verdict.
-fn evaluate<T: Real>(row: usize, case: &Case) -> anyhow::Result<Verdicts> {
+fn evaluate<T: Kernels>(row: usize, case: &Case) -> anyhow::Result<Verdicts> {
     let exact = min_distance(
         &Configuration {
             r_sc: case.r_sc,
