@@ -64,7 +64,8 @@ fn parse_algorithm(s: &str) -> Result<Algorithm, String> {
     s.parse().map_err(|e: OverlapError| e.to_string())
 }
 
-/// The DESIGN.md contract (`results`, `stream_ns_per_config`) plus what keeps the figures honest.
+/// The JSON of `sweep bench overlap` that users rely on (`results`, `stream_ns_per_config`), plus
+/// what keeps the figures honest.
 #[derive(Serialize)]
 struct BenchReport {
     point: PointSpec,

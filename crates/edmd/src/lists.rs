@@ -15,7 +15,7 @@
 //! lists of all their neighbours. They live in one arena with the same room for every body, in
 //! 12-byte entries ([`Link`]), found by index without a header to read first; a rebuild asks for
 //! all the lines it will touch (mirrors, cell members) before it touches the first (what that
-//! gained is in ARCHITECTURE.md).
+//! gained is in MEASUREMENTS.md).
 
 use crate::cells::{Cells, Member};
 use crate::geometry::{Surface, V3, floor_i32, image_offset, round_nearest};

@@ -74,7 +74,7 @@ pub struct RunReport {
     pub sequence: Fingerprint,
 }
 
-/// The final configuration, in the `--dump` format of DESIGN.md.
+/// The final configuration, as `sweep edmd --dump` writes it (README).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FinalState {
     #[serde(rename = "box")]

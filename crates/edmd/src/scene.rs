@@ -127,7 +127,7 @@ pub fn default_neighbours(shape: ShapeKind) -> Neighbours {
 /// collision at φ = 0.45) for a longer list, and the balance favours it at every N measured:
 /// τ_c 0.84 against 1.30 µs at N = 256, and at N = 16384 callgrind counts 5631 instructions and
 /// 85 misses of a 512 KiB cache per collision against 6942 and 101 at 0.15 (Kolafa's Z the same
-/// to 1e-6; see ARCHITECTURE.md). Everything else keeps 0.15: the bounding parallelepipeds of
+/// to 1e-6; see MEASUREMENTS.md). Everything else keeps 0.15: the bounding parallelepipeds of
 /// rigid bodies have their own optimum (Figs. 10–11), and a sphere on linked cells has no lists,
 /// so its Δ_NNL, which hashes into the point's id, stays what it was.
 ///

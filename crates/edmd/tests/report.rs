@@ -1,4 +1,4 @@
-//! The JSON contract of `sweep edmd`: the report fields and the `--dump` format of DESIGN.md.
+//! The JSON contract of `sweep edmd` (README): the report fields and the `--dump` format.
 
 use edmd::{Neighbours, Scene, ShapeKind, run_with_state};
 
