@@ -426,7 +426,7 @@ fn main() {
         std::thread::sleep(Duration::from_millis(500));
         let done: u64 = reports.iter().map(|r| r.done.load(Ordering::Relaxed)).sum();
         samples.push((started.elapsed().as_secs_f64(), done, rss_mb(pid, "VmRSS:")));
-        if samples.len() % 10 == 0 {
+        if samples.len().is_multiple_of(10) {
             let (t, done, rss) = samples[samples.len() - 1];
             eprintln!("{t:.0} s: {done} jobs done, coordinator RSS {rss:.0} MB");
         }

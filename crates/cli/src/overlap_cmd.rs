@@ -159,7 +159,7 @@ fn read_cases(path: &std::path::Path) -> anyhow::Result<Vec<Case>> {
             }
         }
         let norm = (qw * qw + qx * qx + qy * qy + qz * qz).sqrt();
-        if !(norm > 1e-12) {
+        if norm.is_nan() || norm <= 1e-12 {
             bail!("row {row}, columns `qw,qx,qy,qz`: the zero quaternion is not a rotation");
         }
         let q = [qw, qx, qy, qz].map(|x| x / norm);

@@ -131,8 +131,8 @@ async fn a_small_queue_is_shared_fairly_among_the_slots() {
 
     let few: Vec<NewJob> = (1000..1003).map(|i| job(i, false)).collect();
     coordinator.submit(&campaign("d"), &few).await.unwrap();
-    for slot in 0..3 {
-        let grant = coordinator.lease(&workers[slot], 512, true).await.unwrap();
+    for (slot, worker) in workers.iter().enumerate().take(3) {
+        let grant = coordinator.lease(worker, 512, true).await.unwrap();
         assert_eq!(grant.len(), 1, "slot {slot} of a 3-job queue");
     }
 }

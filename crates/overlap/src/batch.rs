@@ -115,7 +115,7 @@ impl<'a, T: Real> BatchView<'a, T> {
     /// run's verdicts begin on a word of a verdict bitset (and its first block on a block).
     pub fn range(&self, configs: std::ops::Range<usize>) -> BatchView<'a, T> {
         assert!(
-            configs.start % 64 == 0,
+            configs.start.is_multiple_of(64),
             "a run starts on a multiple of 64 configurations, not {}",
             configs.start
         );

@@ -165,15 +165,15 @@ impl Expansion {
 
 fn expansion_margin(cfg: &Configuration<f64>, half: &[f64; 3], r: f64) -> Ordering {
     let mut margin = Expansion::default();
-    for i in 0..3 {
+    for (axis, &half) in cfg.axes.iter().zip(half) {
         let mut l = Expansion::default();
-        for j in 0..3 {
-            l.add_product(cfg.r_sc[j], cfg.axes[i][j]);
+        for (&r, &e) in cfg.r_sc.iter().zip(axis) {
+            l.add_product(r, e);
         }
         if l.sign() == Ordering::Less {
             l.negate();
         }
-        l.add(-half[i]);
+        l.add(-half);
         if l.sign() == Ordering::Greater {
             for &p in &l.0 {
                 for &q in &l.0 {

@@ -535,14 +535,15 @@ mod tests {
         }
     }
 
-    const STEADY: ((f64, f64), (f64, f64)) = ((1.0, 1.01), (2.0, 2.05));
+    /// What the machine gives one measurement: (compute, stream) references, each (before,
+    /// after).
+    type Machine = ((f64, f64), (f64, f64));
+
+    const STEADY: Machine = ((1.0, 1.01), (2.0, 2.05));
 
     /// Runs the re-run rule over a machine that gives these references, one per measurement
     /// (the last one repeated): the kept report and how many measurements were made.
-    fn run(
-        calibration: &mut Calibration,
-        machine: &[((f64, f64), (f64, f64))],
-    ) -> (PointReport, usize) {
+    fn run(calibration: &mut Calibration, machine: &[Machine]) -> (PointReport, usize) {
         let mut made = 0;
         let report = rerun_while_disturbed(calibration, |baseline_ns| {
             let (compute, stream) = machine[made.min(machine.len() - 1)];

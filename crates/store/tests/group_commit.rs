@@ -76,7 +76,7 @@ async fn concurrent_calls_share_transactions_and_keep_their_answers() {
         ((WORKERS * 2) as u64, 0, 0)
     );
     assert_eq!(
-        count(&store, "SELECT count(*) FROM results").await,
+        count(store, "SELECT count(*) FROM results").await,
         (WORKERS * 2) as i64
     );
     let after = store.write_groups();

@@ -298,10 +298,10 @@ impl<Q: JobQueue> Slot<Q> {
                 }
             }
         }
-        if let Some(call) = prefetch {
-            if let Ok(leased) = self.settle(call) {
-                self.give_back(leased.leases.iter().map(Lease::reference).collect());
-            }
+        if let Some(call) = prefetch
+            && let Ok(leased) = self.settle(call)
+        {
+            self.give_back(leased.leases.iter().map(Lease::reference).collect());
         }
         if let Some(report) = reporting {
             let _ = self.runtime.block_on(report);

@@ -10,6 +10,9 @@ use crate::real::Real;
 pub fn arvo<T: Real>(cfg: &impl ConfigurationView<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
     let r_s = [cfg.projection(0), cfg.projection(1), cfg.projection(2)];
     let mut d = T::ZERO;
+    // The loop over the axes i of Algorithm 1, as the paper writes it: a timed kernel keeps the
+    // papers' form.
+    #[allow(clippy::needless_range_loop)]
     for i in 0..3 {
         let (inf, sup) = (-cuboid.half[i], cuboid.half[i]);
         if r_s[i] < inf {

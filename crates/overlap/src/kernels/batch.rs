@@ -189,6 +189,7 @@ pub(crate) mod x86 {
             let f = |i| field!(_mm512_loadu_ps, block, i, 0);
             let (rx, ry, rz) = (f(0), f(1), f(2));
             let mut d = _mm512_setzero_ps();
+            #[allow(clippy::needless_range_loop)] // axis picks a field offset as well as c[axis]
             for axis in 0..3 {
                 let e = 3 + 3 * axis;
                 let a = _mm512_fmadd_ps(
@@ -220,6 +221,8 @@ pub(crate) mod x86 {
                 let f = |i| field!(_mm512_loadu_pd, block, i, at);
                 let (rx, ry, rz) = (f(0), f(1), f(2));
                 let mut d = _mm512_setzero_pd();
+                #[allow(clippy::needless_range_loop)]
+                // axis picks a field offset as well as c[axis]
                 for axis in 0..3 {
                     let e = 3 + 3 * axis;
                     let a = _mm512_fmadd_pd(
@@ -254,6 +257,8 @@ pub(crate) mod x86 {
                 let f = |i| field!(_mm256_loadu_ps, block, i, at);
                 let (rx, ry, rz) = (f(0), f(1), f(2));
                 let mut d = _mm256_setzero_ps();
+                #[allow(clippy::needless_range_loop)]
+                // axis picks a field offset as well as c[axis]
                 for axis in 0..3 {
                     let e = 3 + 3 * axis;
                     let a = _mm256_fmadd_ps(
@@ -288,6 +293,8 @@ pub(crate) mod x86 {
                 let f = |i| field!(_mm256_loadu_pd, block, i, at);
                 let (rx, ry, rz) = (f(0), f(1), f(2));
                 let mut d = _mm256_setzero_pd();
+                #[allow(clippy::needless_range_loop)]
+                // axis picks a field offset as well as c[axis]
                 for axis in 0..3 {
                     let e = 3 + 3 * axis;
                     let a = _mm256_fmadd_pd(
