@@ -15,7 +15,9 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::render::{DrawResult, Drawing, FONT, render, render_svg};
-use crate::{OverlapRow, ReportError, algorithm_rank, algorithm_title, join_statistics, quantile};
+use crate::{
+    OverlapPoint, ReportError, algorithm_rank, algorithm_title, join_statistics, quantile,
+};
 
 const PANEL_WIDTH: u32 = 330;
 const PANEL_HEIGHT: u32 = 290;
@@ -48,7 +50,7 @@ struct Cell {
 /// run time (ms), on a colour scale shared by an algorithm's row (the bar on its right), so
 /// that the R*-dependence the papers discuss is seen across a row.
 pub fn fig2(
-    rows: &[OverlapRow],
+    rows: &[OverlapPoint],
     precision: &str,
     path: &Path,
     options: Fig2Options,
@@ -58,7 +60,7 @@ pub fn fig2(
 
 /// Figure 2 as [`fig2`] draws it, as an SVG document in memory.
 pub fn fig2_svg(
-    rows: &[OverlapRow],
+    rows: &[OverlapPoint],
     precision: &str,
     options: Fig2Options,
 ) -> Result<String, ReportError> {
@@ -67,8 +69,11 @@ pub fn fig2_svg(
 
 /// The points of Figure 2 for `precision`, each with its estimate and interval, ordered by
 /// algorithm (the papers' order), R*, L* and W*: what `sweep report fig2 --format json` prints.
-pub fn fig2_points(rows: &[OverlapRow], precision: &str) -> Result<Vec<OverlapRow>, ReportError> {
-    let mut points: Vec<OverlapRow> = rows
+pub fn fig2_points(
+    rows: &[OverlapPoint],
+    precision: &str,
+) -> Result<Vec<OverlapPoint>, ReportError> {
+    let mut points: Vec<OverlapPoint> = rows
         .iter()
         .filter(|r| r.precision == precision)
         .cloned()
@@ -168,11 +173,11 @@ impl Drawing for Figure {
 
 impl Figure {
     fn new(
-        rows: &[OverlapRow],
+        rows: &[OverlapPoint],
         precision: &str,
         options: Fig2Options,
     ) -> Result<Self, ReportError> {
-        let rows: Vec<&OverlapRow> = rows
+        let rows: Vec<&OverlapPoint> = rows
             .iter()
             .filter(|r| r.precision == precision && r.mean_ms.is_finite())
             .collect();
@@ -437,16 +442,16 @@ mod tests {
     /// One point 3× slow (a disturbed measurement) no longer sets the top of the scale.
     #[test]
     fn one_slow_point_does_not_stretch_the_scale() {
-        let mut rows: Vec<OverlapRow> = (1..=10)
+        let mut rows: Vec<OverlapPoint> = (1..=10)
             .flat_map(|l| (1..=10).map(move |w| (l, w)))
-            .map(|(l, w)| OverlapRow {
+            .map(|(l, w)| OverlapPoint {
                 l_star: f64::from(l),
                 w_star: f64::from(w),
                 r_star: 5.0,
                 precision: "f32".into(),
                 algorithm: "qri".into(),
                 mean_ms: 20.0 + f64::from(l) * 0.1,
-                ..OverlapRow::default()
+                ..OverlapPoint::default()
             })
             .collect();
         rows[17].mean_ms = 60.0;

@@ -1,8 +1,8 @@
 //! Tables and figures of `sweep` campaigns, as pure functions over result rows.
 //!
-//! The store aggregates each overlap point into one [`OverlapRow`] per algorithm; this crate
-//! never touches the database. It renders the papers' Tables 1–2 and Figures 2–3 over
-//! [`OverlapRow`]s, and Figures 7–11 and 13 of the EDMD paper and the cost of accuracy over
+//! The `results` crate reads each overlap point into one [`OverlapPoint`] per algorithm (its
+//! visits pooled) and each EDMD run into an [`EdmdRow`]; this crate never touches the database. It renders the papers' Tables 1–2 and Figures 2–3 over
+//! [`OverlapPoint`]s, and Figures 7–11 and 13 of the EDMD paper and the cost of accuracy over
 //! [`EdmdRow`]s. Ours compare a second precision, f64, where the papers compare a second
 //! language: Table 1 is `table1(rows, "f32")`, Table 2 is `table1(rows, "f64")`, and Figure 3
 //! is Figure 2 in f64. Figures 8–11, Figure 13 and the cost of accuracy are data first
@@ -71,7 +71,7 @@ pub use units::LengthUnit;
 /// disturbed while it was measured.
 /// `sweep report fig2 --format json` prints these.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct OverlapRow {
+pub struct OverlapPoint {
     pub l_star: f64,
     pub w_star: f64,
     pub r_star: f64,
@@ -107,7 +107,7 @@ pub struct OverlapRow {
     pub visits: u32,
 }
 
-impl OverlapRow {
+impl OverlapPoint {
     /// Half the 95 % interval relative to the estimate, if there is one.
     pub fn relative_ci95(&self) -> Option<f64> {
         let (lo, hi) = (self.ci95_lo_ns_per_check?, self.ci95_hi_ns_per_check?);

@@ -7,7 +7,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    OverlapRow, ReportError, algorithm_rank, algorithm_title, join_statistics, quantile,
+    OverlapPoint, ReportError, algorithm_rank, algorithm_title, join_statistics, quantile,
     statistic_caption,
 };
 
@@ -32,9 +32,9 @@ pub struct Table1Row {
     /// Points re-run because the machine was disturbed.
     pub rerun: u64,
     /// The statistic of each point's blocks that the mean is over (`mean`, `median`, `p5`, or
-    /// several joined by `+`; see [`OverlapRow::statistic`]).
+    /// several joined by `+`; see [`OverlapPoint::statistic`]).
     pub statistic: String,
-    /// The fewest visits any of the points was measured in ([`OverlapRow::visits`]; 1 for a
+    /// The fewest visits any of the points was measured in ([`OverlapPoint::visits`]; 1 for a
     /// point measured once): with more, each point's interval includes how much its visits
     /// differ, and so does `ci95_ms`.
     #[serde(default)]
@@ -47,8 +47,9 @@ const Z95: f64 = 1.959_963_984_540_054;
 /// Averages `rows` of one `precision` over the (L*, W*) plane for each (R*, algorithm), ordered
 /// by R* then by the papers' algorithm order. Rows of other precisions are ignored. As in the
 /// papers, every point weighs the same, whatever its shape.
-pub fn table1(rows: &[OverlapRow], precision: &str) -> Vec<Table1Row> {
-    let mut selected: Vec<&OverlapRow> = rows.iter().filter(|r| r.precision == precision).collect();
+pub fn table1(rows: &[OverlapPoint], precision: &str) -> Vec<Table1Row> {
+    let mut selected: Vec<&OverlapPoint> =
+        rows.iter().filter(|r| r.precision == precision).collect();
     selected.sort_by(|a, b| {
         a.r_star
             .total_cmp(&b.r_star)
@@ -371,8 +372,8 @@ fn latex_escape(text: &str) -> String {
 mod tests {
     use super::*;
 
-    fn row(l: f64, w: f64, r: f64, precision: &str, algorithm: &str, mean_ms: f64) -> OverlapRow {
-        OverlapRow {
+    fn row(l: f64, w: f64, r: f64, precision: &str, algorithm: &str, mean_ms: f64) -> OverlapPoint {
+        OverlapPoint {
             l_star: l,
             w_star: w,
             r_star: r,
@@ -382,11 +383,11 @@ mod tests {
             ns_per_check: mean_ms * 500.0,
             acceptance: 0.4,
             repeats: 3,
-            ..OverlapRow::default()
+            ..OverlapPoint::default()
         }
     }
 
-    fn sample() -> Vec<OverlapRow> {
+    fn sample() -> Vec<OverlapPoint> {
         let mut rows = Vec::new();
         for (l, w) in [(1.0, 1.0), (1.0, 2.0), (2.0, 1.0), (2.0, 2.0)] {
             for r in [5.0, 0.05] {
@@ -436,9 +437,9 @@ mod tests {
         );
         let md = render_table(&t, TableFormat::Markdown).expect("renders");
         assert!(!md.contains("visits"), "{md}");
-        let visited: Vec<OverlapRow> = sample()
+        let visited: Vec<OverlapPoint> = sample()
             .into_iter()
-            .map(|r| OverlapRow {
+            .map(|r| OverlapPoint {
                 // A table row counts its least visited point.
                 visits: if r.r_star == 5.0 || r.l_star == 2.0 {
                     5

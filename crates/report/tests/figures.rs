@@ -1,10 +1,10 @@
 //! Figures 2 and 7 render to PNG and SVG with the bundled font only.
 
-use report::{Fig2Options, OverlapRow, ReportError, fig2, fig2_points};
+use report::{Fig2Options, OverlapPoint, ReportError, fig2, fig2_points};
 
 /// A synthetic campaign shaped like the papers' (20 × 20 × 3 points, six algorithms): QRI and
 /// QRF depend on the geometry, the vectorised kernels do not.
-fn campaign(precision: &str) -> Vec<OverlapRow> {
+fn campaign(precision: &str) -> Vec<OverlapPoint> {
     let mut rows = Vec::new();
     for r_star in [0.05, 0.5, 5.0] {
         for l in 1..=20 {
@@ -18,7 +18,7 @@ fn campaign(precision: &str) -> Vec<OverlapRow> {
                     ("ocsi", 11.5 + 0.01 * l_star),
                     ("ocsi_batch", 2.6 + 0.001 * w_star),
                 ] {
-                    rows.push(OverlapRow {
+                    rows.push(OverlapPoint {
                         l_star,
                         w_star,
                         r_star,
@@ -28,7 +28,7 @@ fn campaign(precision: &str) -> Vec<OverlapRow> {
                         ns_per_check: mean_ms * 500.0,
                         acceptance: 0.4,
                         repeats: 3,
-                        ..OverlapRow::default()
+                        ..OverlapPoint::default()
                     });
                 }
             }

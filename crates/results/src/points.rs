@@ -2,14 +2,14 @@
 //! point's visits pooled into one row.
 
 use overlap::estimate::{Estimate, Statistic};
-use report::OverlapRow;
+use report::OverlapPoint;
 use store::Store;
 
 use crate::error::Result;
 use crate::overlap::{OverlapVisit, overlap_visits};
 
 /// One row per (point, algorithm), estimated by `statistic`: what Tables 1–2 and Figs. 2–3 read.
-pub async fn overlap_points(store: &Store, statistic: Statistic) -> Result<Vec<OverlapRow>> {
+pub async fn overlap_points(store: &Store, statistic: Statistic) -> Result<Vec<OverlapPoint>> {
     Ok(pool(overlap_visits(store).await?, statistic))
 }
 
@@ -19,8 +19,8 @@ pub async fn overlap_points(store: &Store, statistic: Statistic) -> Result<Vec<O
 /// so does the table's); then a point's visits pooled by `overlap::estimate::pool_visits` (one
 /// visit: its row as it is). `visits` has the visits of a point next to each other, as
 /// [`overlap_visits`] orders them.
-pub fn pool(visits: Vec<OverlapVisit>, statistic: Statistic) -> Vec<OverlapRow> {
-    let visits: Vec<(OverlapRow, Option<Estimate>, String)> = visits
+pub fn pool(visits: Vec<OverlapVisit>, statistic: Statistic) -> Vec<OverlapPoint> {
+    let visits: Vec<(OverlapPoint, Option<Estimate>, String)> = visits
         .into_iter()
         .map(|v| {
             let point = v.point.clone();
@@ -35,7 +35,7 @@ pub fn pool(visits: Vec<OverlapVisit>, statistic: Statistic) -> Vec<OverlapRow> 
 }
 
 /// One visit's row, and its estimate (`None` where it has none).
-fn visit_row(v: OverlapVisit, statistic: Statistic) -> (OverlapRow, Option<Estimate>) {
+fn visit_row(v: OverlapVisit, statistic: Statistic) -> (OverlapPoint, Option<Estimate>) {
     let checks_ms = v.configurations as f64 * 1e-6;
     let (estimate, ns_per_check, mean_ms, statistic) = if v.block_ns_per_check.is_empty() {
         let estimate = overlap::estimate::mean_interval(&v.repeat_ns_per_check);
@@ -45,7 +45,7 @@ fn visit_row(v: OverlapVisit, statistic: Statistic) -> (OverlapRow, Option<Estim
         let ns = estimate.map_or(v.ns_per_check, |e| e.value);
         (estimate, ns, ns * checks_ms, statistic)
     };
-    let row = OverlapRow {
+    let row = OverlapPoint {
         l_star: v.l_star,
         w_star: v.w_star,
         r_star: v.r_star,
@@ -59,7 +59,7 @@ fn visit_row(v: OverlapVisit, statistic: Statistic) -> (OverlapRow, Option<Estim
         reruns: v.reruns,
         statistic: statistic.name().to_owned(),
         visits: 1,
-        ..OverlapRow::default()
+        ..OverlapPoint::default()
     };
     // ms per ns/check: the set's size, or for old rows the ratio the repeats' means give.
     let to_ms = if ns_per_check > 0.0 {
@@ -71,11 +71,11 @@ fn visit_row(v: OverlapVisit, statistic: Statistic) -> (OverlapRow, Option<Estim
 }
 
 /// `row` with the 95 % interval of `estimate`, in ns/check and, times `to_ms`, in ms.
-fn with_interval(row: OverlapRow, estimate: Option<Estimate>, to_ms: f64) -> OverlapRow {
+fn with_interval(row: OverlapPoint, estimate: Option<Estimate>, to_ms: f64) -> OverlapPoint {
     let finite = |x: f64| x.is_finite().then_some(x);
     let lo = estimate.and_then(|e| finite(e.lo));
     let hi = estimate.and_then(|e| finite(e.hi));
-    OverlapRow {
+    OverlapPoint {
         ci95_lo_ns_per_check: lo,
         ci95_hi_ns_per_check: hi,
         ci95_lo_ms: lo.map(|x| x * to_ms),
@@ -86,7 +86,7 @@ fn with_interval(row: OverlapRow, estimate: Option<Estimate>, to_ms: f64) -> Ove
 
 /// A point's visits (rows of one point and algorithm) as one row: the mean of their estimates
 /// with the pooled interval; a visit without an interval takes part by its value alone.
-fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
+fn pool_point(visits: &[(OverlapPoint, Option<Estimate>, String)]) -> OverlapPoint {
     let first = &visits[0].0;
     if let [(only, _, _)] = visits {
         return only.clone();
@@ -111,14 +111,14 @@ fn pool_point(visits: &[(OverlapRow, Option<Estimate>, String)]) -> OverlapRow {
         .collect();
     let pooled = overlap::estimate::pool_visits(&estimates);
     let n = visits.len() as f64;
-    let mean = |f: fn(&OverlapRow) -> f64| visits.iter().map(|(r, _, _)| f(r)).sum::<f64>() / n;
-    let any_flag = |f: fn(&OverlapRow) -> Option<bool>| {
+    let mean = |f: fn(&OverlapPoint) -> f64| visits.iter().map(|(r, _, _)| f(r)).sum::<f64>() / n;
+    let any_flag = |f: fn(&OverlapPoint) -> Option<bool>| {
         visits
             .iter()
             .filter_map(|(r, _, _)| f(r))
             .reduce(|a, b| a || b)
     };
-    let row = OverlapRow {
+    let row = OverlapPoint {
         mean_ms: mean(|r| r.mean_ms),
         ns_per_check: pooled.map_or_else(|| mean(|r| r.ns_per_check), |e| e.value),
         acceptance: mean(|r| r.acceptance),
