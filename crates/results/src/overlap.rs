@@ -46,7 +46,7 @@ pub struct OverlapVisit {
     /// Which visit of its point the job measured (0: the first, or the only one).
     pub visit: u32,
     /// The point's parameters without its visit (the canonical JSON of the job's spec less
-    /// `visit`): the visits of one point, and only those, share it.
+    /// `visit` and `verdict_check`): the visits of one point, and only those, share it.
     pub point: String,
 }
 
@@ -148,8 +148,11 @@ pub async fn overlap_visits(store: &Store) -> Result<Vec<OverlapVisit>> {
     let mut rows = Vec::new();
     for job in jobs(store).await? {
         let spec = &job.spec;
+        // Only the first visit runs the verdict check (it is about answers, not speed): the
+        // visits of a point differ in `visit` and `verdict_check` alone.
         let point = JobSpec::Overlap(PointSpec {
             visit: None,
+            verdict_check: None,
             ..spec.clone()
         })
         .canonical_json();

@@ -190,9 +190,17 @@ async fn a_timing_record_without_its_time_is_an_error_naming_the_job() {
     );
 }
 
-/// The visits of a point (`visit` absent for the first, then 1, 2, …) come back with their
-/// visit and one `point` (the spec less `visit`) that no other point shares, next to each
-/// other whatever their ids.
+/// The visits of a point (`visit` absent for the first, then 1, 2, …; only the first with the
+/// verdict check) come back with their visit and one `point` (the spec less `visit` and
+/// `verdict_check`) that no other point shares, next to each other whatever their ids, and pool
+/// into one row.
+fn point_of(spec: &JobSpec) -> PointSpec {
+    match spec {
+        JobSpec::Overlap(point) => point.clone(),
+        other => panic!("not an overlap point: {other:?}"),
+    }
+}
+
 #[tokio::test]
 async fn the_visits_of_a_point_come_together_and_pool_into_one_row() {
     let (_dir, _path, store) = temp_store().await;
@@ -203,8 +211,12 @@ async fn the_visits_of_a_point_come_together_and_pool_into_one_row() {
             ..point(l_star, 2.0, 5.0, Precision::F32)
         })
     };
+    // As a plan writes them: only the first visit runs the verdict check.
     let specs = [
-        visit(1.0, None),
+        JobSpec::Overlap(PointSpec {
+            verdict_check: Some(1000),
+            ..point_of(&visit(1.0, None))
+        }),
         visit(1.0, Some(1)),
         visit(1.0, Some(2)),
         visit(3.0, None),
@@ -231,7 +243,11 @@ async fn the_visits_of_a_point_come_together_and_pool_into_one_row() {
         rows[..3].iter().all(|r| r.point == rows[0].point),
         "{rows:?}"
     );
-    assert!(!rows[0].point.contains("visit"), "{}", rows[0].point);
+    assert!(
+        !rows[0].point.contains("visit") && !rows[0].point.contains("verdict_check"),
+        "{}",
+        rows[0].point
+    );
     assert_ne!(rows[3].point, rows[0].point);
     let points = results::overlap_points(&store, results::Statistic::Mean)
         .await
