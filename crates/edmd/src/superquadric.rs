@@ -157,7 +157,11 @@ pub fn bregman_floor(e: f64) -> f64 {
     floor * (1.0 - 1e-12)
 }
 
-/// Γ(x) for x > 0 by Lanczos' approximation (g = 7, 9 terms; relative error below 1e-14 here).
+/// Γ(x) for x > 0 by Lanczos' approximation (g = 7, 9 terms; relative error below 1e-14 here:
+/// at most 15 ULP over the volumes' arguments). Not `libm::tgamma`: it is closer (7 ULP), but
+/// it gives 118 of 153 superquadrics of the plans' exponents and aspect ratios semi-axes that
+/// differ in their last bits (up to 5 ULP), which would change every stored superquadric
+/// trajectory for no physical gain.
 fn gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
     const C: [f64; 9] = [
