@@ -46,7 +46,12 @@ pub struct BenchOverlapArgs {
     #[arg(long, default_value = "f32", value_parser = parse_precision)]
     precision: Precision,
     /// Comma-separated subset of arvo, qri, qrf, sse, ocsi, ocsi_batch.
-    #[arg(long, value_delimiter = ',', value_parser = parse_algorithm, default_value = "arvo,qri,qrf,sse,ocsi,ocsi_batch")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = parse_algorithm,
+        default_value = "arvo,qri,qrf,sse,ocsi,ocsi_batch"
+    )]
     algorithms: Vec<Algorithm>,
     /// Seed of the configuration sets.
     #[arg(long, default_value_t = 0)]

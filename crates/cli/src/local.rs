@@ -60,7 +60,12 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         anyhow::Ok(Coordinator::new(store, config, Arc::new(SystemClock))?)
     })?;
     let submitted = runtime.block_on(coordinator.submit(&campaign.campaign, &campaign.jobs))?;
-    tracing::info!(campaign = %submitted.campaign_id, new = submitted.new_jobs, known = submitted.already_known, "submitted");
+    tracing::info!(
+        campaign = %submitted.campaign_id,
+        new = submitted.new_jobs,
+        known = submitted.already_known,
+        "submitted"
+    );
 
     let prefix = format!("local:{}:", worker::provenance::hostname());
     let worker_id = format!("{prefix}{}", std::process::id());
@@ -68,10 +73,18 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     // back now rather than after its leases expire.
     runtime.block_on(async {
         for w in coordinator.store().workers().await? {
-            let pid = w.info.id.strip_prefix(&prefix).and_then(|p| p.parse::<u32>().ok());
+            let pid = w
+                .info
+                .id
+                .strip_prefix(&prefix)
+                .and_then(|p| p.parse::<u32>().ok());
             if w.running > 0 && pid.is_some_and(|pid| !system::process_alive(pid)) {
                 let reclaimed = coordinator.reclaim(&w.info.id).await?;
-                tracing::info!(worker = %w.info.id, reclaimed, "took back the jobs of a dead local run");
+                tracing::info!(
+                    worker = %w.info.id,
+                    reclaimed,
+                    "took back the jobs of a dead local run"
+                );
             }
         }
         anyhow::Ok(())

@@ -17,7 +17,11 @@ pub struct OverlapArgs {
     /// CSV with columns rx,ry,rz,radius,half_t,half_l,half_w,qw,qx,qy,qz (any order, a header row).
     #[arg(long)]
     input: PathBuf,
-    #[arg(long, default_value = "f32", value_parser = |s: &str| s.parse::<Precision>().map_err(|e: OverlapError| e.to_string()))]
+    #[arg(
+        long,
+        default_value = "f32",
+        value_parser = |s: &str| s.parse::<Precision>().map_err(|e: OverlapError| e.to_string())
+    )]
     precision: Precision,
 }
 

@@ -176,7 +176,12 @@ pub struct WorkerArgs {
     cores: Option<system::CoreList>,
     /// Run on the first N cores available to this process, for a scheduler that gives a count
     /// (Slurm's SLURM_CPUS_ON_NODE, a Kubernetes CPU limit) rather than a list.
-    #[arg(long, value_name = "N", conflicts_with = "cores", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(
+        long,
+        value_name = "N",
+        conflicts_with = "cores",
+        value_parser = clap::value_parser!(u32).range(1..)
+    )]
     core_count: Option<u32>,
     /// Jobs leased per call, instead of as many as fit 100 ms of the observed run time (one at a
     /// time for long jobs, up to 512 for short ones).
