@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::Args;
-use overlap::estimate::Statistic;
 use report::{Clock, LengthUnit, ReportError, TableFormat};
+use results::Statistic;
 
 use crate::database;
 use crate::output::{Format, print_json, print_text, write_json};

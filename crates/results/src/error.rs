@@ -11,6 +11,9 @@ pub enum Error {
         job: String,
         what: String,
     },
+    /// A total over many jobs' records that did not come back as a number.
+    #[error("stored data is inconsistent: {0}")]
+    Totals(String),
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

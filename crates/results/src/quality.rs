@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use store::Store;
 
-use crate::error::{Result, corrupt};
+use crate::error::{Error, Result};
 
 /// How the overlap points of a campaign were measured.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -40,13 +40,7 @@ pub async fn overlap_quality(store: &Store, campaign: Option<&str>) -> Result<Ov
     let number = |i: usize| {
         row.get(i)
             .and_then(serde_json::Value::as_f64)
-            .ok_or_else(|| {
-                corrupt(
-                    "overlap",
-                    campaign.unwrap_or("(any)"),
-                    format!("the noise checks' column {i} is not a number"),
-                )
-            })
+            .ok_or_else(|| Error::Totals(format!("the noise checks' total {i} is not a number")))
     };
     let count = |i: usize| number(i).map(|n| n.max(0.0) as u64);
     Ok(OverlapQuality {
