@@ -133,6 +133,7 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
             rustc: "simulated".into(),
             git_commit: "simulated".into(),
             profile: "release".into(),
+            allocation: None,
         };
         let lease_for = remote.register(&info).await.unwrap();
         let done = Arc::new(AtomicU64::new(0));
@@ -189,8 +190,8 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
                     let mut pace = Pace::default();
                     loop {
                         let started = Instant::now();
-                        let leases = match remote.lease(pace.batch()).await {
-                            Ok(leases) => leases,
+                        let leases = match remote.lease(pace.batch(), None).await {
+                            Ok(granted) => granted.leases,
                             Err(error) if error.is_transient() => {
                                 // Past its deadline in the coordinator's queue: the coordinator drops
                                 // the lease unapplied, and the slot asks again, as a worker does.

@@ -24,6 +24,11 @@ pub struct AuthArgs {
 }
 
 impl AuthArgs {
+    /// The token file given, if any.
+    pub fn token_file(&self) -> Option<&std::path::Path> {
+        self.token_file.as_deref()
+    }
+
     pub fn token(&self) -> anyhow::Result<Option<Token>> {
         let secret = match (&self.token_file, &self.token) {
             (Some(file), _) => std::fs::read_to_string(file)

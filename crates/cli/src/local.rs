@@ -118,6 +118,8 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         idle_poll: Duration::from_millis(50),
         lease_batch: None,
         lease_for: LOCAL_LEASE,
+        deadline: None,
+        idle_timeout: None,
     };
     let slots = Slots::start(queue, options, runtime.handle().clone())?;
 
@@ -180,7 +182,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
                 "{} new points, {} already known",
                 submitted.new_jobs, submitted.already_known
             );
-            print_status(&id, &status, Some(&quality), format)?;
+            print_status(&id, &status, Some(&quality), None, format)?;
         }
     }
     if let Some(reason) = halted {

@@ -3,7 +3,9 @@
 use std::io::{ErrorKind, Write};
 
 use anyhow::Context;
+use coordinator::autoalloc::Report;
 use serde::Serialize;
+use store::AllocationState;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {
@@ -76,6 +78,7 @@ pub fn print_status(
     campaign: &str,
     status: &store::Status,
     quality: Option<&results::OverlapQuality>,
+    allocations: Option<&Report>,
     format: Format,
 ) -> anyhow::Result<()> {
     match format {
@@ -83,6 +86,9 @@ pub fn print_status(
             let mut out = serde_json::json!({ "campaign": campaign, "status": status });
             if let Some(quality) = quality {
                 out["timing"] = serde_json::to_value(quality)?;
+            }
+            if let Some(allocations) = allocations {
+                out["allocations"] = serde_json::to_value(allocations)?;
             }
             print_json(&out)
         }
@@ -102,9 +108,112 @@ pub fn print_status(
                     q.checked, q.rerun, q.reruns, q.disturbed, q.wall_s, q.timed_s
                 );
             }
+            if let Some(report) = allocations {
+                print_allocation_summary(report);
+            }
             Ok(())
         }
     }
+}
+
+/// Unix seconds now, for ages.
+fn unix_now() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// A span of seconds the way a person reads it: `42 s`, `7 min`, `2.5 h`.
+fn span(seconds: f64) -> String {
+    let s = seconds.max(0.0);
+    if s < 120.0 {
+        format!("{s:.0} s")
+    } else if s < 7200.0 {
+        format!("{:.0} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
+    }
+}
+
+/// The allocations in a few lines: counts, the allocator's last decision, whether it is backing
+/// off, and why the latest failures failed.
+fn print_allocation_summary(report: &Report) {
+    let now = unix_now();
+    println!("allocations: {}", report.counts());
+    if !report.note.is_empty() {
+        let age = report
+            .updated_at
+            .map(|at| format!(" ({} ago)", span(now - at)))
+            .unwrap_or_default();
+        println!("allocator{age}: {}", report.note);
+    }
+    if let Some(at) = report.retry_at.filter(|&at| at > now) {
+        println!(
+            "backing off: {} failures in a row; next submission in {}",
+            report.failures,
+            span(at - now)
+        );
+    }
+    for view in report
+        .allocations
+        .iter()
+        .filter(|v| v.allocation.state == AllocationState::Failed)
+        .take(3)
+    {
+        let a = &view.allocation;
+        println!(
+            "failed allocation {} ({} ago): {}",
+            a.external_id.as_deref().unwrap_or("(not submitted)"),
+            span(now - a.ended_at.unwrap_or(a.submitted_at)),
+            a.reason
+        );
+    }
+}
+
+/// The allocations as a table, newest first: id, Slurm job, state, cores, when submitted and
+/// started, how long it ran, workers, jobs done, reason.
+pub fn print_allocations(report: &Report) {
+    let now = unix_now();
+    let rows: Vec<Vec<String>> = report
+        .allocations
+        .iter()
+        .map(|view| {
+            let a = &view.allocation;
+            let ran = a
+                .started_at
+                .map(|start| span(a.ended_at.unwrap_or(now) - start))
+                .unwrap_or_else(|| "-".into());
+            vec![
+                a.id.to_string(),
+                a.external_id.clone().unwrap_or_else(|| "-".into()),
+                a.state.as_str().to_owned(),
+                format!("{}/{}", a.cores, a.nodes),
+                format!("{} ago", span(now - a.submitted_at)),
+                a.started_at
+                    .map(|at| format!("{} ago", span(now - at)))
+                    .unwrap_or_else(|| "-".into()),
+                ran,
+                view.workers.to_string(),
+                view.jobs_done.map_or_else(|| "-".into(), |d| d.to_string()),
+                a.reason.clone(),
+            ]
+        })
+        .collect();
+    print_table(
+        &[
+            "allocation",
+            "slurm job",
+            "state",
+            "cores/nodes",
+            "submitted",
+            "started",
+            "ran",
+            "workers",
+            "jobs done",
+            "reason",
+        ],
+        &rows,
+    );
 }
 
 /// Prints a serialisable value as JSON to stdout, or writes it to `out`.

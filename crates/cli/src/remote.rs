@@ -9,6 +9,9 @@ use std::time::Duration;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use coordinator::autoalloc::config::AllocConfig;
+use coordinator::autoalloc::slurm::Slurm;
+use coordinator::autoalloc::{self, Allocator, Launch, Report};
 use coordinator::grpc::{ExpandPlan, ServeOptions};
 use coordinator::{Config, Coordinator, Status, SystemClock};
 use tonic::service::interceptor::InterceptedService;
@@ -21,7 +24,7 @@ use worker::{Slots, WorkerOptions};
 
 use crate::args::{AuthArgs, ClientArgs, HttpArgs, TlsArgs};
 use crate::campaign::{from_plan, read_plan_file};
-use crate::output::{Format, print_json, print_table};
+use crate::output::{Format, print_allocations, print_json, print_table};
 use crate::{database, status_page, system};
 
 /// An admin client of the coordinator `client` names, whose calls give up after `timeout`.
@@ -89,7 +92,15 @@ pub struct CoordinatorArgs {
     max_attempts: u32,
     #[command(flatten)]
     http: HttpArgs,
+    /// Submit Slurm allocations of workers while work is queued, as this file says (TOML:
+    /// time_limit, cores, nodes, max_in_flight, idle_timeout_s, partition, account, …; see
+    /// deploy/README.md).
+    #[arg(long, value_name = "FILE")]
+    slurm_alloc: Option<PathBuf>,
 }
+
+/// deploy/slurm/sweep.sbatch, what an allocation runs unless the allocation file names a script.
+const SWEEP_SBATCH: &str = include_str!("../../../deploy/slurm/sweep.sbatch");
 
 pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
     let token = args.auth.token()?;
@@ -100,6 +111,30 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             args.listen
         );
     }
+    // The allocation file and Slurm's commands are checked before the database is touched.
+    let allocating = match &args.slurm_alloc {
+        Some(file) => {
+            let config = AllocConfig::read(file).context("--slurm-alloc")?;
+            let slurm = Slurm::default();
+            let missing = slurm.missing();
+            if !missing.is_empty() {
+                bail!(
+                    "--slurm-alloc {}: cannot find {} on PATH (is this a Slurm submit host?)",
+                    file.display(),
+                    missing.join(", ")
+                );
+            }
+            let script = autoalloc::write_script(&config, SWEEP_SBATCH).with_context(|| {
+                format!(
+                    "--slurm-alloc {}: cannot write the allocations' script into {}",
+                    file.display(),
+                    config.directory.display()
+                )
+            })?;
+            Some((config, slurm, script))
+        }
+        None => None,
+    };
     let expand: ExpandPlan = Arc::new(|text: &str, file: &str| {
         from_plan(text, file)
             .map(|c| (c.campaign, c.jobs))
@@ -118,6 +153,23 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             .with_context(|| format!("--listen {}", args.listen))?;
         // The bound address (port 0 picks a free one) on stdout: scripts and tests read it.
         println!("listening on {}", listener.local_addr()?);
+        let allocator = match allocating {
+            Some((config, slurm, script)) => {
+                let bound = listener.local_addr()?;
+                let launch = Launch {
+                    script,
+                    coordinator_url: config
+                        .coordinator_url
+                        .clone()
+                        .unwrap_or_else(|| default_url(bound, tls.is_some())),
+                    export: allocation_env(&config, &args.auth)?,
+                };
+                tracing::info!(url = %launch.coordinator_url, directory = %config.directory.display(), "allocating Slurm workers");
+                let allocator = Allocator::new(config, launch, coordinator.clone(), slurm).await?;
+                Some(allocator.spawn())
+            }
+            None => None,
+        };
         let page = status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
         if let Some((_, url)) = &page {
             println!("status page on {url}");
@@ -138,6 +190,11 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
         if let Some((task, _)) = page {
             task.abort();
         }
+        if let Some(task) = allocator {
+            // Allocations in flight keep running; their workers end them (idle timeout,
+            // deadline), and a coordinator started again on this database follows them.
+            task.abort();
+        }
         served?;
         let writes = coordinator.store().write_groups();
         tracing::info!(
@@ -149,6 +206,37 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
         coordinator.store().close().await;
         anyhow::Ok(())
     })
+}
+
+/// How the nodes reach a coordinator bound to `bound` when the allocation file does not say:
+/// this host's name for a wildcard address, the address itself otherwise.
+fn default_url(bound: SocketAddr, tls: bool) -> String {
+    let scheme = if tls { "https" } else { "http" };
+    let host = if bound.ip().is_unspecified() {
+        worker::provenance::hostname()
+    } else {
+        match bound {
+            SocketAddr::V4(v4) => v4.ip().to_string(),
+            SocketAddr::V6(v6) => format!("[{}]", v6.ip()),
+        }
+    };
+    format!("{scheme}://{host}:{}", bound.port())
+}
+
+/// What an allocation's script needs besides the submitting environment: the binary, and the
+/// token file (a token from SWEEP_TOKEN reaches it through the environment itself).
+fn allocation_env(config: &AllocConfig, auth: &AuthArgs) -> anyhow::Result<Vec<(String, String)>> {
+    let sweep = match &config.sweep {
+        Some(sweep) => sweep.clone(),
+        None => std::env::current_exe().context("cannot tell where this sweep binary is")?,
+    };
+    let mut export = vec![("SWEEP".to_owned(), sweep.display().to_string())];
+    if let Some(file) = auth.token_file() {
+        let file = std::path::absolute(file)
+            .with_context(|| format!("--token-file {}", file.display()))?;
+        export.push(("SWEEP_TOKEN_FILE".to_owned(), file.display().to_string()));
+    }
+    Ok(export)
 }
 
 /// SIGINT or SIGTERM.
@@ -187,6 +275,17 @@ pub struct WorkerArgs {
     /// time for long jobs, up to 512 for short ones).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     lease_batch: Option<u32>,
+    /// Unix time by which every job must be done (an allocation's end less a margin): only jobs
+    /// expected to finish by then are leased; the worker stops then, or as soon as nothing
+    /// queued fits in what is left.
+    #[arg(long, value_name = "UNIX_SECONDS")]
+    deadline: Option<f64>,
+    /// Stop after this many seconds without a job (the coordinator has nothing queued).
+    #[arg(long, value_name = "SECONDS", value_parser = clap::value_parser!(u64).range(1..))]
+    idle_timeout: Option<u64>,
+    /// The batch system's id of the allocation this worker runs in, shown with the allocation.
+    #[arg(long, value_name = "ID", env = "SLURM_JOB_ID")]
+    allocation: Option<String>,
 }
 
 pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
@@ -196,8 +295,17 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
     };
     system::start_thread_pool()?;
     let runtime = runtime()?;
+    if let Some(deadline) = args.deadline
+        && !deadline.is_finite()
+    {
+        bail!("--deadline {deadline}: not a time");
+    }
     let worker_id = format!("{}:{}", worker::provenance::hostname(), std::process::id());
-    let info = worker::provenance::worker_info(worker_id.clone(), &cores);
+    let info = worker::WorkerInfo {
+        allocation: args.allocation.clone().filter(|a| !a.is_empty()),
+        ..worker::provenance::worker_info(worker_id.clone(), &cores)
+    };
+    let idle_timeout = args.idle_timeout.map(Duration::from_secs);
     let remote = {
         let _guard = runtime.enter();
         Remote::new(
@@ -207,13 +315,20 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
             worker_id,
         )?
     };
-    // Register with backoff: a worker may start before its coordinator.
+    // Register with backoff: a worker may start before its coordinator. One with an idle
+    // timeout gives up after it (an allocation that cannot reach its coordinator ends, saying
+    // why, instead of idling to its time limit).
     let lease_for = runtime.block_on(async {
         let mut wait = Duration::from_millis(100);
+        let started = std::time::Instant::now();
         loop {
             match remote.register(&info).await {
                 Ok(lease_for) => return anyhow::Ok(lease_for),
                 Err(error @ worker::QueueError::Refused(_)) => bail!("{error}"),
+                Err(error) if idle_timeout.is_some_and(|t| started.elapsed() >= t) => bail!(
+                    "cannot register with {} within the idle timeout: {error}",
+                    args.client.coordinator
+                ),
                 Err(error) => {
                     tracing::warn!(%error, "coordinator not reachable; retrying");
                     tokio::time::sleep(wait).await;
@@ -228,12 +343,19 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         idle_poll: Duration::from_millis(200),
         lease_batch: args.lease_batch,
         lease_for,
+        deadline: args.deadline,
+        idle_timeout,
     };
     let slots = Slots::start(Arc::new(remote), options, runtime.handle().clone())?;
     let halted = runtime.block_on(async {
         tokio::select! {
             _ = shutdown_signal() => None,
             reason = slots.halted() => Some(reason),
+            reason = slots.finished() => {
+                // Printed on stderr whatever RUST_LOG says: an allocation's output tells why it ended.
+                eprintln!("sweep worker: stopping: {reason}");
+                None
+            }
         }
     });
     tracing::info!("stopping: finishing the jobs in hand, returning the rest");
@@ -289,6 +411,28 @@ pub fn status(client: &ClientArgs, campaign: Option<&str>) -> anyhow::Result<Sta
         anyhow::Ok(admin.status(request).await.map_err(rpc_error)?.into_inner())
     })?;
     Ok(coordinator::grpc::convert::status_from_wire(&s))
+}
+
+/// The allocations of the coordinator `client` names (with the jobs each did if `jobs_done`:
+/// that reads every done job); `None` from a coordinator too old to tell.
+pub fn allocations(client: &ClientArgs, jobs_done: bool) -> anyhow::Result<Option<Report>> {
+    let response = runtime()?.block_on(async {
+        let mut admin = admin(client, ADMIN_TIMEOUT).await?;
+        match admin
+            .allocations(pb::AllocationsRequest { jobs_done })
+            .await
+        {
+            Ok(response) => anyhow::Ok(Some(response.into_inner())),
+            Err(status) if status.code() == tonic::Code::Unimplemented => Ok(None),
+            Err(status) => Err(rpc_error(status)),
+        }
+    })?;
+    response
+        .map(|r| {
+            coordinator::grpc::convert::allocations_from_wire(&r)
+                .map_err(|e| anyhow::anyhow!("coordinator: {e}"))
+        })
+        .transpose()
 }
 
 #[derive(Args)]
@@ -349,6 +493,7 @@ pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
             serde_json::json!({
                 "id": w.id, "hostname": w.hostname, "cores": w.cores, "cpu_model": w.cpu_model,
                 "git_commit": w.git_commit, "running": e.running, "last_seen_at": e.last_seen_at,
+                "allocation": (!w.allocation.is_empty()).then_some(&w.allocation),
             })
         })
         .collect();
@@ -364,12 +509,29 @@ pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
                         w.id,
                         cores.join(","),
                         e.running.to_string(),
+                        if w.allocation.is_empty() {
+                            "-".to_owned()
+                        } else {
+                            w.allocation
+                        },
                         w.cpu_model,
                         w.git_commit,
                     ]
                 })
                 .collect();
-            print_table(&["worker", "cores", "running", "cpu", "commit"], &table);
+            print_table(
+                &["worker", "cores", "running", "allocation", "cpu", "commit"],
+                &table,
+            );
+            if let Some(report) = allocations(&args.client, true)?
+                && (report.configured || !report.allocations.is_empty())
+            {
+                println!();
+                print_allocations(&report);
+                if !report.note.is_empty() {
+                    println!("allocator: {}", report.note);
+                }
+            }
             Ok(())
         }
     }

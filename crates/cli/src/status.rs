@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use coordinator::autoalloc::Report;
 
 use crate::args::{AuthArgs, ClientArgs};
 use crate::database;
@@ -31,11 +32,17 @@ pub fn run(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
     let shown = campaign.unwrap_or("(all)");
     match (&args.db, &args.coordinator) {
         (Some(db), _) => {
-            let (status, quality) = database::read(db, async |store| {
+            let (status, quality, allocations) = database::read(db, async |store| {
                 let status = store.status(campaign).await?;
-                Ok((status, results::overlap_quality(store, campaign).await?))
+                let allocations = Report::read(store, None, None).await?;
+                Ok((
+                    status,
+                    results::overlap_quality(store, campaign).await?,
+                    allocations,
+                ))
             })?;
-            print_status(shown, &status, Some(&quality), format)
+            let allocations = shown_allocations(allocations);
+            print_status(shown, &status, Some(&quality), allocations.as_ref(), format)
         }
         (None, Some(url)) => {
             let client = ClientArgs {
@@ -44,8 +51,16 @@ pub fn run(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
                 ca: args.ca.clone(),
             };
             let status = crate::remote::status(&client, campaign)?;
-            print_status(shown, &status, None, format)
+            let allocations =
+                crate::remote::allocations(&client, false)?.and_then(shown_allocations);
+            print_status(shown, &status, None, allocations.as_ref(), format)
         }
         (None, None) => anyhow::bail!("give --db FILE or --coordinator URL"),
     }
+}
+
+/// The allocations, where there is anything to say about them: a coordinator that allocates, or
+/// a database one did.
+fn shown_allocations(report: Report) -> Option<Report> {
+    (report.configured || !report.allocations.is_empty()).then_some(report)
 }

@@ -924,6 +924,7 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
             rustc: "rustc".into(),
             git_commit: "fixture".into(),
             profile: "release".into(),
+            allocation: None,
         };
         store.register_worker(&worker, 1.0).await.unwrap();
         let campaign = store::NewCampaign { id: "fig13".into(), name: "fig13".into(), plan_text: String::new() };

@@ -1,7 +1,7 @@
 //! Local mode: the worker slots of `sweep run` call this process's [`Coordinator`] through the
 //! same [`JobQueue`] contract a remote worker uses over gRPC.
 
-use queue::{CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError};
+use queue::{CompleteOutcome, Completion, FailOutcome, Granted, JobQueue, LeaseRef, QueueError};
 
 use crate::{Coordinator, Error};
 
@@ -22,9 +22,9 @@ fn queue_error(error: Error) -> QueueError {
 }
 
 impl JobQueue for Embedded {
-    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
+    async fn lease(&self, max_jobs: u32, seconds_left: Option<f64>) -> Result<Granted, QueueError> {
         self.coordinator
-            .lease(&self.worker_id, max_jobs, true)
+            .lease_within(&self.worker_id, max_jobs, true, seconds_left)
             .await
             .map_err(queue_error)
     }

@@ -16,6 +16,7 @@ use wire::v1::worker_server::{Worker, WorkerServer};
 
 use wire::convert::{complete_outcome_to_wire, fail_outcome_to_wire};
 
+use crate::autoalloc::Report;
 use crate::{Completion, Coordinator, Error, LeaseRef, NewCampaign, NewJob};
 
 /// Plan text and file name → the campaign and its jobs, or the one-line error a user sees.
@@ -63,6 +64,8 @@ fn status(error: Error) -> Status {
 pub mod convert {
     use super::pb;
     use crate::Status;
+    use crate::autoalloc::{AllocationView, Report};
+    use store::{Allocation, AllocationState};
 
     pub fn status_to_wire(s: &Status) -> pb::StatusResponse {
         pb::StatusResponse {
@@ -74,6 +77,77 @@ pub mod convert {
             cancelled: s.cancelled,
             estimate_s_remaining: s.estimate_s_remaining,
         }
+    }
+
+    pub fn allocations_to_wire(report: &Report) -> pb::AllocationsResponse {
+        pb::AllocationsResponse {
+            configured: report.configured,
+            failures: report.failures,
+            retry_at: report.retry_at.unwrap_or(0.0),
+            note: report.note.clone(),
+            updated_at: report.updated_at.unwrap_or(0.0),
+            allocations: report
+                .allocations
+                .iter()
+                .map(|view| {
+                    let a = &view.allocation;
+                    pb::allocations_response::Allocation {
+                        id: a.id,
+                        manager: a.manager.clone(),
+                        external_id: a.external_id.clone().unwrap_or_default(),
+                        state: a.state.as_str().to_owned(),
+                        nodes: a.nodes,
+                        cores: a.cores,
+                        time_limit_s: a.time_limit_s,
+                        submitted_at: a.submitted_at,
+                        started_at: a.started_at,
+                        ended_at: a.ended_at,
+                        reason: a.reason.clone(),
+                        workers: view.workers,
+                        jobs_done: view.jobs_done,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// The report as sent; an allocation in a state this side does not know is an error of the
+    /// peer, named.
+    pub fn allocations_from_wire(r: &pb::AllocationsResponse) -> Result<Report, String> {
+        let allocations = r
+            .allocations
+            .iter()
+            .map(|a| {
+                let state = AllocationState::parse(&a.state).ok_or_else(|| {
+                    format!("allocation {} has an unknown state {:?}", a.id, a.state)
+                })?;
+                Ok(AllocationView {
+                    allocation: Allocation {
+                        id: a.id,
+                        manager: a.manager.clone(),
+                        external_id: (!a.external_id.is_empty()).then(|| a.external_id.clone()),
+                        state,
+                        nodes: a.nodes,
+                        cores: a.cores,
+                        time_limit_s: a.time_limit_s,
+                        submitted_at: a.submitted_at,
+                        started_at: a.started_at,
+                        ended_at: a.ended_at,
+                        reason: a.reason.clone(),
+                    },
+                    workers: a.workers,
+                    jobs_done: a.jobs_done,
+                })
+            })
+            .collect::<Result<_, String>>()?;
+        Ok(Report {
+            configured: r.configured,
+            failures: r.failures,
+            retry_at: (r.retry_at > 0.0).then_some(r.retry_at),
+            note: r.note.clone(),
+            updated_at: (r.updated_at > 0.0).then_some(r.updated_at),
+            allocations,
+        })
     }
 
     pub fn status_from_wire(s: &pb::StatusResponse) -> Status {
@@ -121,13 +195,14 @@ impl Worker for Services {
         request: Request<pb::LeaseRequest>,
     ) -> Result<Response<pb::LeaseResponse>, Status> {
         let r = request.into_inner();
-        let leases = self
+        let granted = self
             .coordinator
-            .lease(&r.worker_id, r.max_jobs, true)
+            .lease_within(&r.worker_id, r.max_jobs, true, r.seconds_left)
             .await
             .map_err(status)?;
         Ok(Response::new(pb::LeaseResponse {
-            leases: leases.into_iter().map(Into::into).collect(),
+            leases: granted.leases.into_iter().map(Into::into).collect(),
+            passed_over: granted.passed_over,
         }))
     }
 
@@ -264,6 +339,22 @@ impl Admin for Services {
             })
             .collect();
         Ok(Response::new(pb::WorkersResponse { workers }))
+    }
+
+    async fn allocations(
+        &self,
+        request: Request<pb::AllocationsRequest>,
+    ) -> Result<Response<pb::AllocationsResponse>, Status> {
+        let store = self.coordinator.store();
+        let fail = |e: store::Error| status(e.into());
+        let done = match request.into_inner().jobs_done {
+            true => Some(store.allocation_jobs_done().await.map_err(fail)?),
+            false => None,
+        };
+        let report = Report::read(store, Some(self.coordinator.allocating()), done.as_ref())
+            .await
+            .map_err(fail)?;
+        Ok(Response::new(convert::allocations_to_wire(&report)))
     }
 }
 

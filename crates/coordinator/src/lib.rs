@@ -7,6 +7,11 @@
 //! - [`Coordinator`] (this file): the operations a worker or an admin needs, each a thin layer over
 //!   one [`store`] transaction that supplies the time and the retry policy.
 //! - [`clock`]: [`SystemClock`] for production, [`ManualClock`] for tests that advance time.
+//! - [`durations`]: how long each kind of job really takes against its estimate, learned from
+//!   the reports: what walltime-aware leasing ([`Coordinator::lease_within`]) and the allocator
+//!   expect a job to take.
+//! - [`autoalloc`]: the allocator of `--slurm-alloc`: submits Slurm allocations of workers while
+//!   work is queued, sized to it, and follows them.
 //! - [`grpc`]: the `sweep.v1` Worker and Admin services over this coordinator, with auth and TLS.
 //! - [`embedded`]: the [`queue::JobQueue`] of local mode, this coordinator called in-process.
 //!
@@ -14,7 +19,9 @@
 //! enforced inside the store's transactions, so they hold across processes sharing one database, not
 //! only inside one coordinator.
 
+pub mod autoalloc;
 pub mod clock;
+pub mod durations;
 pub mod embedded;
 pub mod grpc;
 
@@ -26,10 +33,11 @@ use serde::{Deserialize, Serialize};
 use tokio::task::JoinHandle;
 
 pub use clock::{Clock, ManualClock, SystemClock};
+pub use durations::Durations;
 pub use embedded::Embedded;
 pub use store::{
-    CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, NewCampaign, NewJob, Status, Store,
-    SubmitOutcome, WorkerInfo,
+    CompleteOutcome, Completion, FailOutcome, Granted, Lease, LeaseRef, NewCampaign, NewJob,
+    Status, Store, SubmitOutcome, WorkerInfo,
 };
 
 /// Errors of the coordinator.
@@ -105,7 +113,17 @@ pub struct Coordinator {
     /// Set by what may grow the queue or the slots (submit, register, a requeue): the share is
     /// recomputed at the next lease instead of up to [`SHARE_REFRESH_S`] later.
     share_stale: Arc<AtomicBool>,
+    /// What the reports taught about each kind's durations; first filled from the store's
+    /// latest done jobs when someone asks.
+    durations: Arc<std::sync::Mutex<Durations>>,
+    durations_seeded: Arc<tokio::sync::OnceCell<()>>,
+    queue_grew: Arc<tokio::sync::Notify>,
+    /// An allocator submits workers for this coordinator (set by [`autoalloc::Allocator`]).
+    allocating: Arc<AtomicBool>,
 }
+
+/// Done jobs a coordinator learns durations from when it starts on a database.
+const SEED_DURATIONS: u32 = 256;
 
 impl std::fmt::Debug for Coordinator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -134,7 +152,34 @@ impl Coordinator {
             clock,
             share: Arc::default(),
             share_stale: Arc::default(),
+            durations: Arc::default(),
+            durations_seeded: Arc::default(),
+            queue_grew: Arc::default(),
+            allocating: Arc::default(),
         })
+    }
+
+    /// What the reports taught about each kind's durations (seeded from the store's latest done
+    /// jobs on first use).
+    pub async fn durations(&self) -> Result<Durations> {
+        self.durations_seeded
+            .get_or_try_init(|| async {
+                let seen = self.store.recent_durations(SEED_DURATIONS).await?;
+                let mut durations = self.lock_durations();
+                // Oldest first, so the newest stay if there are more than a kind keeps.
+                seen.iter().rev().for_each(|ran| durations.observe(ran));
+                Ok::<(), Error>(())
+            })
+            .await?;
+        Ok(self.lock_durations().clone())
+    }
+
+    fn lock_durations(&self) -> std::sync::MutexGuard<'_, Durations> {
+        // Plain data: a panic while it was held cannot have left it half-changed in a way that
+        // matters (a ratio is pushed or not).
+        self.durations
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
     /// The most jobs one grant may take now: `min(queued, in_flight_budget) / active slots`, at
@@ -160,6 +205,27 @@ impl Coordinator {
 
     fn share_changed(&self) {
         self.share_stale.store(true, Ordering::Release);
+    }
+
+    /// The coordinator's clock, now (Unix seconds).
+    pub fn now(&self) -> f64 {
+        self.clock.now()
+    }
+
+    /// Notified whenever a submission may have queued jobs: what waits for work (the
+    /// allocator) wakes at once instead of at its next period.
+    pub fn queue_grew(&self) -> Arc<tokio::sync::Notify> {
+        self.queue_grew.clone()
+    }
+
+    /// Whether an allocator submits workers for this coordinator (`--slurm-alloc`).
+    pub fn allocating(&self) -> bool {
+        self.allocating.load(Ordering::Acquire)
+    }
+
+    /// Records that an allocator submits workers for this coordinator.
+    pub fn set_allocating(&self) {
+        self.allocating.store(true, Ordering::Release);
     }
 
     /// The underlying store, for reads (reports, export, queries).
@@ -204,6 +270,46 @@ impl Coordinator {
             .await?)
     }
 
+    /// [`Coordinator::lease`] for a worker with `seconds_left` (its allocation ends): only jobs
+    /// expected to finish within them, one after the other, each expected to take its estimate
+    /// times what its kind has been observed to take per second of estimate ([`Durations`]).
+    /// Without `seconds_left`, exactly [`Coordinator::lease`].
+    pub async fn lease_within(
+        &self,
+        worker_id: &str,
+        max_jobs: u32,
+        exclusive_ok: bool,
+        seconds_left: Option<f64>,
+    ) -> Result<Granted> {
+        let Some(seconds_left) = seconds_left else {
+            let leases = self.lease(worker_id, max_jobs, exclusive_ok).await?;
+            return Ok(Granted {
+                leases,
+                passed_over: 0,
+            });
+        };
+        let now = self.clock.now();
+        if max_jobs == 0 {
+            return Ok(Granted::default());
+        }
+        let max_jobs = max_jobs.min(self.fair_share(now).await?);
+        let within = store::Within {
+            seconds_left: seconds_left.max(0.0),
+            scale: self.durations().await?.scales(),
+        };
+        Ok(self
+            .store
+            .lease_within(
+                worker_id,
+                max_jobs,
+                self.config.lease_for,
+                now,
+                exclusive_ok,
+                Some(within),
+            )
+            .await?)
+    }
+
     /// Extends the worker's leases by [`Config::lease_for`] from now; returns those still valid.
     /// A lease missing from the answer was lost: the worker should drop that job.
     pub async fn heartbeat(&self, worker_id: &str, leases: &[LeaseRef]) -> Result<Vec<LeaseRef>> {
@@ -224,11 +330,18 @@ impl Coordinator {
         core_id: Option<u32>,
         records: &[String],
     ) -> Result<CompleteOutcome> {
-        let now = self.clock.now();
-        Ok(self
-            .store
-            .complete(worker_id, job_id, token, core_id, records, now)
-            .await?)
+        let completion = Completion {
+            job_id: job_id.to_owned(),
+            token,
+            core_id,
+            records: records.to_vec(),
+        };
+        let outcomes = self.complete_batch(worker_id, &[completion]).await?;
+        outcomes.first().copied().ok_or_else(|| {
+            Error::Store(store::Error::Corrupt(
+                "a completion produced no outcome".to_owned(),
+            ))
+        })
     }
 
     /// Reports many jobs of one worker in one transaction (see [`Store::complete_batch`]): the way to
@@ -239,10 +352,15 @@ impl Coordinator {
         completions: &[Completion],
     ) -> Result<Vec<CompleteOutcome>> {
         let now = self.clock.now();
-        Ok(self
+        let (outcomes, ran) = self
             .store
-            .complete_batch(worker_id, completions, now)
-            .await?)
+            .complete_batch_ran(worker_id, completions, now)
+            .await?;
+        if !ran.is_empty() {
+            let mut durations = self.lock_durations();
+            ran.iter().for_each(|r| durations.observe(r));
+        }
+        Ok(outcomes)
     }
 
     /// Reports a failed attempt; the job is retried until [`Config::max_attempts`].
@@ -324,6 +442,9 @@ impl Coordinator {
     pub async fn submit(&self, campaign: &NewCampaign, jobs: &[NewJob]) -> Result<SubmitOutcome> {
         let outcome = self.store.submit(campaign, jobs, self.clock.now()).await?;
         self.share_changed();
+        if outcome.new_jobs + outcome.requeued > 0 {
+            self.queue_grew.notify_one();
+        }
         Ok(outcome)
     }
 

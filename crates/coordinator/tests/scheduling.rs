@@ -22,6 +22,7 @@ fn worker(id: &str) -> WorkerInfo {
         rustc: "1.95".to_owned(),
         git_commit: "abc".to_owned(),
         profile: "release".to_owned(),
+        allocation: None,
     }
 }
 

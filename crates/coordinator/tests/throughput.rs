@@ -36,6 +36,7 @@ fn worker(id: &str) -> WorkerInfo {
         rustc: "1.95".to_owned(),
         git_commit: "bench".to_owned(),
         profile: "release".to_owned(),
+        allocation: None,
     }
 }
 

@@ -23,6 +23,11 @@ pub struct WorkerInfo {
     pub git_commit: String,
     /// Cargo build profile (`release`, `dev`, ...).
     pub profile: String,
+    /// The batch system's id of the allocation the worker runs in (a Slurm job id); `None` for a
+    /// worker started by hand. Not provenance: it only links a worker to the allocation that
+    /// brought it.
+    #[serde(default)]
+    pub allocation: Option<String>,
 }
 
 /// A job handed to a worker. The worker must quote `job_id` and `token` when it reports.
@@ -49,6 +54,23 @@ impl Lease {
             job_id: self.job_id.clone(),
             token: self.token,
         }
+    }
+}
+
+/// What a lease call got.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Granted {
+    pub leases: Vec<Lease>,
+    /// Queued jobs passed over because they are expected to take longer than the time the worker
+    /// said it has left (only when it said so). No lease and some passed over: nothing queued at
+    /// the head of the queue fits in what is left of the worker's allocation.
+    pub passed_over: u64,
+}
+
+impl Granted {
+    /// Whether queued work exists that the asking worker has no time left for, and none it has.
+    pub fn nothing_fits(&self) -> bool {
+        self.leases.is_empty() && self.passed_over > 0
     }
 }
 
@@ -119,7 +141,13 @@ impl QueueError {
 /// durable before the call returns `Ok`.
 pub trait JobQueue: Send + Sync + 'static {
     /// Leases up to `max_jobs` queued jobs, oldest first; none when nothing may be leased now.
-    fn lease(&self, max_jobs: u32) -> impl Future<Output = Result<Vec<Lease>, QueueError>> + Send;
+    /// With `seconds_left` (a worker whose allocation ends), only jobs expected to finish within
+    /// it, one after the other; [`Granted::passed_over`] counts those left for another worker.
+    fn lease(
+        &self,
+        max_jobs: u32,
+        seconds_left: Option<f64>,
+    ) -> impl Future<Output = Result<Granted, QueueError>> + Send;
     /// Extends `held`; answers the leases still valid.
     fn heartbeat(
         &self,

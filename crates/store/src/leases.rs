@@ -16,8 +16,14 @@ use sqlx::{Row, SqliteConnection};
 use crate::Store;
 use crate::campaigns::json_kind;
 use crate::error::{Error, Result};
-use crate::types::{CompleteOutcome, Completion, FailOutcome, JobState, Lease, LeaseRef};
+use crate::types::{
+    CompleteOutcome, Completion, FailOutcome, Granted, JobState, Lease, LeaseRef, Ran, Within,
+};
 use crate::workers::touch;
+
+/// Queued jobs a time-limited grant may look at beyond the jobs it asks for, to find ones that
+/// fit (see [`Store::lease_within`]).
+pub const SCAN_AHEAD: i64 = 1024;
 
 impl Store {
     /// Leases up to `max_jobs` queued jobs to `worker_id`, oldest submission first and within one in
@@ -39,6 +45,27 @@ impl Store {
         now: f64,
         exclusive_ok: bool,
     ) -> Result<Vec<Lease>> {
+        self.lease_within(worker_id, max_jobs, lease_for, now, exclusive_ok, None)
+            .await
+            .map(|granted| granted.leases)
+    }
+
+    /// [`Store::lease`] for a worker whose time is limited: with `within`, a queued job is leased
+    /// only if it and the jobs leased before it in this grant are expected to finish within
+    /// `within.seconds_left` (a job's expected duration is its estimate times its kind's scale);
+    /// the others are passed over, counted in [`Granted::passed_over`], and stay queued for another
+    /// worker. An exclusive job passed over is still a barrier: nothing after it is leased. At
+    /// most [`SCAN_AHEAD`] queued jobs beyond `max_jobs` are looked at, so a grant costs
+    /// O(`max_jobs` + [`SCAN_AHEAD`]) however long the queue.
+    pub async fn lease_within(
+        &self,
+        worker_id: &str,
+        max_jobs: u32,
+        lease_for: Duration,
+        now: f64,
+        exclusive_ok: bool,
+        within: Option<Within>,
+    ) -> Result<Granted> {
         let worker_id = worker_id.to_owned();
         self.write(max_jobs as usize, move |conn| {
             Box::pin(async move {
@@ -54,18 +81,43 @@ impl Store {
                 let (any_running, exclusive_running): (bool, bool) =
                     (running.try_get(0)?, running.try_get(1)?);
                 if max_jobs == 0 || exclusive_running {
-                    return Ok(Vec::new());
+                    return Ok(Granted::default());
                 }
-                let candidates = sqlx::query(
-                    "SELECT id, exclusive FROM jobs WHERE state = 'queued'
+                let candidates = match &within {
+                    None => sqlx::query(
+                        "SELECT id, exclusive FROM jobs WHERE state = 'queued'
              ORDER BY created_at, pass, id LIMIT ?1",
-                )
-                .bind(max_jobs)
+                    )
+                    .bind(max_jobs),
+                    Some(_) => sqlx::query(
+                        "SELECT id, exclusive, kind, estimate_s FROM jobs WHERE state = 'queued'
+             ORDER BY created_at, pass, id LIMIT ?1",
+                    )
+                    .bind(i64::from(max_jobs) + SCAN_AHEAD),
+                }
                 .fetch_all(&mut *conn)
                 .await?;
                 let mut chosen: Vec<String> = Vec::with_capacity(candidates.len());
+                let mut passed_over = 0;
+                let mut expected_s = 0.0;
                 for (index, row) in candidates.iter().enumerate() {
+                    if chosen.len() == max_jobs as usize {
+                        break;
+                    }
                     let exclusive: bool = row.try_get(1)?;
+                    if let Some(within) = &within {
+                        let kind: &str = row.try_get(2)?;
+                        let estimate_s: f64 = row.try_get(3)?;
+                        let takes = within.expected_s(kind, estimate_s);
+                        if expected_s + takes > within.seconds_left {
+                            passed_over += 1;
+                            if exclusive {
+                                break;
+                            }
+                            continue;
+                        }
+                        expected_s += takes;
+                    }
                     if exclusive {
                         if index == 0 && !any_running && exclusive_ok {
                             chosen.push(row.try_get(0)?);
@@ -75,7 +127,10 @@ impl Store {
                     chosen.push(row.try_get(0)?);
                 }
                 if chosen.is_empty() {
-                    return Ok(Vec::new());
+                    return Ok(Granted {
+                        leases: Vec::new(),
+                        passed_over,
+                    });
                 }
 
                 let token: i64 = sqlx::query(
@@ -124,7 +179,10 @@ impl Store {
                     })
                     .collect::<Result<Vec<Lease>>>()?;
                 leases.sort_by_key(|lease| position.get(lease.job_id.as_str()).copied());
-                Ok(leases)
+                Ok(Granted {
+                    leases,
+                    passed_over,
+                })
             })
         })
         .await
@@ -209,7 +267,7 @@ impl Store {
             core_id,
             records,
         };
-        let outcomes = self.complete_refs(worker_id, &[item], now).await?;
+        let (outcomes, _) = self.complete_refs(worker_id, &[item], now).await?;
         outcomes
             .first()
             .copied()
@@ -229,6 +287,20 @@ impl Store {
         completions: &[Completion],
         now: f64,
     ) -> Result<Vec<CompleteOutcome>> {
+        Ok(self
+            .complete_batch_ran(worker_id, completions, now)
+            .await?
+            .0)
+    }
+
+    /// [`Store::complete_batch`], also answering how long each accepted job took from its lease
+    /// to its report ([`Ran`]): what the coordinator learns a kind's real durations from.
+    pub async fn complete_batch_ran(
+        &self,
+        worker_id: &str,
+        completions: &[Completion],
+        now: f64,
+    ) -> Result<(Vec<CompleteOutcome>, Vec<Ran>)> {
         let items: Vec<CompletionRef<'_>> = completions
             .iter()
             .map(|c| CompletionRef {
@@ -249,7 +321,7 @@ impl Store {
         worker_id: &str,
         items: &[CompletionRef<'_>],
         now: f64,
-    ) -> Result<Vec<CompleteOutcome>> {
+    ) -> Result<(Vec<CompleteOutcome>, Vec<Ran>)> {
         let document = completions_document(items)?;
         let keys: Vec<(String, i64)> = items
             .iter()
@@ -257,22 +329,29 @@ impl Store {
             .collect();
         let worker_id = worker_id.to_owned();
         self.write(keys.len(), move |conn| Box::pin(async move {
-        let accepted: HashSet<String> = sqlx::query(
+        let rows = sqlx::query(
             "UPDATE jobs SET state = 'done', finished_at = ?2, lease_expires_at = NULL
              FROM (SELECT value ->> 'job_id' AS job_id, value ->> 'token' AS token
                    FROM json_each(?3)) AS c
              WHERE jobs.id = c.job_id AND +jobs.state = 'running' AND jobs.lease_owner = ?1
                AND jobs.lease_token = c.token
-             RETURNING jobs.id",
+             RETURNING jobs.id, jobs.kind, jobs.estimate_s, ?2 - coalesce(jobs.started_at, ?2)",
         )
         .bind(&worker_id)
         .bind(now)
         .bind(&document)
         .fetch_all(&mut *conn)
-        .await?
-        .iter()
-        .map(|row| row.try_get(0))
-        .collect::<std::result::Result<_, _>>()?;
+        .await?;
+        let mut accepted = HashSet::with_capacity(rows.len());
+        let mut ran = Vec::with_capacity(rows.len());
+        for row in &rows {
+            accepted.insert(row.try_get::<String, _>(0)?);
+            ran.push(Ran {
+                kind: row.try_get(1)?,
+                estimate_s: row.try_get(2)?,
+                ran_s: row.try_get(3)?,
+            });
+        }
         if !accepted.is_empty() {
             let accepted_ids = serde_json::to_string(&accepted)
                 .map_err(|e| Error::Corrupt(format!("cannot encode job ids: {e}")))?;
@@ -309,7 +388,7 @@ impl Store {
                 outcomes.push(CompleteOutcome::Late);
             }
         }
-        Ok(outcomes)
+        Ok((outcomes, ran))
         }))
         .await
     }

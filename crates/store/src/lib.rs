@@ -8,9 +8,13 @@
 //!   the writer/reader pools and pragmas.
 //! - `campaigns`: [`Store::submit`] and [`Store::cancel`].
 //! - `workers`: [`Store::register_worker`], [`Store::touch_worker`].
-//! - `leases`: the job life cycle — [`Store::lease`], [`Store::heartbeat`], [`Store::complete`],
-//!   [`Store::complete_batch`], [`Store::fail`], [`Store::expire_leases`]; the exclusive-job rule
-//!   and exactly-once results live here.
+//! - `leases`: the job life cycle — [`Store::lease`] (and [`Store::lease_within`] for a worker
+//!   whose time is limited), [`Store::heartbeat`], [`Store::complete`], [`Store::complete_batch`],
+//!   [`Store::fail`], [`Store::expire_leases`]; the exclusive-job rule and exactly-once results
+//!   live here.
+//! - `allocations`: the allocations of a batch system and the allocator's state
+//!   ([`Store::insert_allocation`], [`Store::allocations`], [`Store::set_allocator_state`]), and
+//!   what sizes them ([`Store::queue_sample`], [`Store::recent_durations`]).
 //! - `read`: [`Store::status`], [`Store::campaigns`], [`Store::workers`], [`Store::job`],
 //!   [`Store::failed_jobs`], [`Store::results_of`] (a kind's jobs with their records),
 //!   [`Store::export`], [`Store::query_read_only`].
@@ -26,6 +30,7 @@
 //! scheduler's clock can be simulated.
 
 mod activity;
+mod allocations;
 mod campaigns;
 mod connect;
 pub mod error;
@@ -38,9 +43,11 @@ mod writer;
 pub use activity::{FailureRecord, JobInHand, WorkerActivity};
 pub use connect::Store;
 pub use error::{Error, Result};
+pub use leases::SCAN_AHEAD;
 pub use types::{
-    CampaignInfo, CompleteOutcome, Completion, ExportRow, FailOutcome, FailedJob, JobInfo,
-    JobResults, JobState, Lease, LeaseRef, NewCampaign, NewJob, QueryResult, Status, SubmitOutcome,
-    WorkerInfo, WorkerRecord,
+    Allocation, AllocationState, AllocatorState, CampaignInfo, CompleteOutcome, Completion,
+    ExportRow, FailOutcome, FailedJob, Granted, JobInfo, JobResults, JobState, Lease, LeaseRef,
+    NewCampaign, NewJob, QueryResult, QueueSample, Ran, Status, SubmitOutcome, Within, WorkerInfo,
+    WorkerRecord,
 };
 pub use writer::WriteGroups;

@@ -112,7 +112,8 @@ impl Store {
         let rows = sqlx::query(
             "SELECT id, hostname, cores, cpu_model, cpu_flags, rustc, git_commit, profile,
                     registered_at, last_seen_at,
-                    (SELECT count(*) FROM jobs WHERE lease_owner = workers.id AND state = 'running')
+                    (SELECT count(*) FROM jobs WHERE lease_owner = workers.id AND state = 'running'),
+                    allocation
              FROM workers ORDER BY registered_at, id",
         )
         .fetch_all(&self.reader)
@@ -133,6 +134,7 @@ impl Store {
                         rustc: row.try_get(5)?,
                         git_commit: row.try_get(6)?,
                         profile: row.try_get(7)?,
+                        allocation: row.try_get(11)?,
                         id,
                     },
                     registered_at: row.try_get(8)?,

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 /// The queue contract's types, shared with workers that do not link the store.
-pub use queue::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, WorkerInfo};
+pub use queue::{CompleteOutcome, Completion, FailOutcome, Granted, Lease, LeaseRef, WorkerInfo};
 
 /// A campaign as submitted: its id is a hash of the plan, computed by the caller.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -170,4 +170,110 @@ pub struct JobInfo {
     pub started_at: Option<f64>,
     pub finished_at: Option<f64>,
     pub created_at: f64,
+}
+
+/// The time a worker has left, for [`crate::Store::lease_within`]: a job is expected to take its
+/// `estimate_s` times its kind's scale (the coordinator learns the scales from the durations it
+/// observes; a kind it has not seen takes 1).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Within {
+    pub seconds_left: f64,
+    pub scale: std::collections::HashMap<String, f64>,
+}
+
+impl Within {
+    /// The seconds a job of `kind` estimated at `estimate_s` is expected to take.
+    pub fn expected_s(&self, kind: &str, estimate_s: f64) -> f64 {
+        estimate_s * self.scale.get(kind).copied().unwrap_or(1.0)
+    }
+}
+
+/// How long a job took, from its lease to its report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Ran {
+    pub kind: String,
+    pub estimate_s: f64,
+    pub ran_s: f64,
+}
+
+/// The head of the queue, as the allocator sizes allocations from it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct QueueSample {
+    /// Queued jobs in all.
+    pub queued: u64,
+    /// Kind and estimate of the first queued jobs in lease order (a fixed shuffle of each plan,
+    /// so a fair sample of it).
+    pub head: Vec<(String, f64)>,
+}
+
+/// Where an allocation is in its life: `pending` (submitted, waiting in the batch system),
+/// `running`, then `ended` (it ran and stopped), `failed` (the submission failed, or it ended
+/// without ever starting a worker) or `cancelled` (by the allocator: nothing left to do).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AllocationState {
+    Pending,
+    Running,
+    Ended,
+    Failed,
+    Cancelled,
+}
+
+impl AllocationState {
+    /// The spelling used in the `allocations.state` column and in every output.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AllocationState::Pending => "pending",
+            AllocationState::Running => "running",
+            AllocationState::Ended => "ended",
+            AllocationState::Failed => "failed",
+            AllocationState::Cancelled => "cancelled",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<AllocationState> {
+        Some(match s {
+            "pending" => AllocationState::Pending,
+            "running" => AllocationState::Running,
+            "ended" => AllocationState::Ended,
+            "failed" => AllocationState::Failed,
+            "cancelled" => AllocationState::Cancelled,
+            _ => return None,
+        })
+    }
+
+    /// Pending or running: the batch system still has it.
+    pub fn is_open(self) -> bool {
+        matches!(self, AllocationState::Pending | AllocationState::Running)
+    }
+}
+
+/// One allocation as recorded (migration 0014).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Allocation {
+    pub id: i64,
+    /// `slurm`.
+    pub manager: String,
+    /// The batch system's id (a Slurm job id); `None` when the submission failed.
+    pub external_id: Option<String>,
+    pub state: AllocationState,
+    pub nodes: u32,
+    /// Cores of the whole allocation.
+    pub cores: u32,
+    pub time_limit_s: f64,
+    pub submitted_at: f64,
+    pub started_at: Option<f64>,
+    pub ended_at: Option<f64>,
+    /// Slurm's pending reason, how it ended, or why it failed.
+    pub reason: String,
+}
+
+/// The allocator's state: how many submissions or allocations failed in a row, when it may
+/// submit again, and its last decision in words.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct AllocatorState {
+    pub updated_at: f64,
+    pub failures: u32,
+    pub retry_at: Option<f64>,
+    pub note: String,
 }

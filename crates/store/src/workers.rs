@@ -43,12 +43,19 @@ impl Store {
                     }
                 }
                 touch(conn, &worker.id, now).await?;
+                if let Some(allocation) = &worker.allocation {
+                    sqlx::query("UPDATE workers SET allocation = ?2 WHERE id = ?1")
+                        .bind(&worker.id)
+                        .bind(allocation)
+                        .execute(&mut *conn)
+                        .await?;
+                }
             }
             None => {
                 sqlx::query(
                     "INSERT INTO workers (id, hostname, cores, cpu_model, cpu_flags, rustc, git_commit,
-                                          profile, registered_at, last_seen_at)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?9)",
+                                          profile, registered_at, last_seen_at, allocation)
+                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?9, ?10)",
                 )
                 .bind(&worker.id)
                 .bind(&worker.hostname)
@@ -59,6 +66,7 @@ impl Store {
                 .bind(&worker.git_commit)
                 .bind(&worker.profile)
                 .bind(now)
+                .bind(&worker.allocation)
                 .execute(&mut *conn)
                 .await?;
             }

@@ -16,6 +16,7 @@ impl From<WorkerInfo> for pb::WorkerInfo {
             rustc: info.rustc,
             git_commit: info.git_commit,
             profile: info.profile,
+            allocation: info.allocation.unwrap_or_default(),
         }
     }
 }
@@ -31,6 +32,7 @@ impl From<pb::WorkerInfo> for WorkerInfo {
             rustc: w.rustc,
             git_commit: w.git_commit,
             profile: w.profile,
+            allocation: (!w.allocation.is_empty()).then_some(w.allocation),
         }
     }
 }

@@ -14,7 +14,7 @@ pub mod provenance;
 pub mod remote;
 pub mod slots;
 
-pub use queue::{JobQueue, QueueError};
+pub use queue::{JobQueue, QueueError, WorkerInfo};
 pub use slots::{Slots, WorkerOptions};
 
 /// Why the slots could not start.

@@ -44,5 +44,6 @@ pub fn worker_info(id: String, cores: &[usize]) -> WorkerInfo {
             "release"
         }
         .into(),
+        allocation: None,
     }
 }

@@ -5,7 +5,7 @@ use std::collections::HashSet;
 use std::time::Duration;
 
 use queue::{
-    CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError, WorkerInfo,
+    CompleteOutcome, Completion, FailOutcome, Granted, JobQueue, LeaseRef, QueueError, WorkerInfo,
 };
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint};
@@ -89,20 +89,23 @@ impl Remote {
 }
 
 impl JobQueue for Remote {
-    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
+    async fn lease(&self, max_jobs: u32, seconds_left: Option<f64>) -> Result<Granted, QueueError> {
         let message = pb::LeaseRequest {
             worker_id: self.worker_id.clone(),
             max_jobs,
+            seconds_left,
         };
-        let leases = self
+        let answer = self
             .client
             .clone()
             .lease(request(message))
             .await
             .map_err(transport)?
-            .into_inner()
-            .leases;
-        Ok(leases.into_iter().map(Into::into).collect())
+            .into_inner();
+        Ok(Granted {
+            leases: answer.leases.into_iter().map(Into::into).collect(),
+            passed_over: answer.passed_over,
+        })
     }
 
     async fn heartbeat(&self, leases: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {

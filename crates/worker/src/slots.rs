@@ -43,21 +43,82 @@ pub struct WorkerOptions {
     /// How long a lease lasts without a heartbeat (the coordinator's setting). A leased job not
     /// started within half of it is given back.
     pub lease_for: Duration,
+    /// Unix time by which the worker's jobs must be done (its allocation ends, less a margin):
+    /// it leases only jobs the coordinator expects to finish by then, and stops then, or as soon
+    /// as nothing queued fits in what is left.
+    pub deadline: Option<f64>,
+    /// Stop once no slot has had a job for this long.
+    pub idle_timeout: Option<Duration>,
 }
 
 /// Leases currently held by this worker, by job id.
 type Held = Arc<Mutex<HashMap<String, LeaseRef>>>;
 
-/// Shared by the slots, the heartbeat and the owner of [`Slots`]: the stop flag, and why the worker
-/// halted by itself, if it did.
+/// Shared by the slots, the heartbeat and the owner of [`Slots`]: the stop flag, why the worker
+/// halted by itself (an error) or finished (its work done: idle, out of time), and which slots
+/// have work.
 struct Control {
     stop: AtomicBool,
     halted: watch::Sender<Option<String>>,
+    finished: watch::Sender<Option<String>>,
+    activity: Mutex<Activity>,
+}
+
+/// Which slots have work, and since when none has.
+struct Activity {
+    busy: Vec<bool>,
+    all_idle_since: Option<Instant>,
+}
+
+impl Activity {
+    /// Every slot idle from `since`.
+    fn idle(slots: usize, since: Instant) -> Activity {
+        Activity {
+            busy: vec![false; slots],
+            all_idle_since: Some(since),
+        }
+    }
+
+    /// Records whether `slot` has work, at `now`; answers how long no slot has had any.
+    fn mark(&mut self, slot: usize, busy: bool, now: Instant) -> Option<Duration> {
+        if let Some(b) = self.busy.get_mut(slot) {
+            *b = busy;
+        }
+        if self.busy.iter().any(|&b| b) {
+            self.all_idle_since = None;
+            return None;
+        }
+        let since = *self.all_idle_since.get_or_insert(now);
+        Some(now.saturating_duration_since(since))
+    }
 }
 
 impl Control {
     fn stopping(&self) -> bool {
         self.stop.load(Ordering::SeqCst)
+    }
+
+    /// Stops every slot because the worker's work is over (idle, out of time); the first reason
+    /// is kept.
+    fn finish(&self, reason: String) {
+        self.finished.send_if_modified(|finished| {
+            let first = finished.is_none();
+            if first {
+                tracing::info!(%reason, "the worker stops");
+                *finished = Some(reason);
+            }
+            first
+        });
+        self.stop.store(true, Ordering::SeqCst);
+    }
+
+    /// Records whether `slot` has work; answers how long no slot has had any.
+    fn mark(&self, slot: usize, busy: bool) -> Option<Duration> {
+        let mut activity = self
+            .activity
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        activity.mark(slot, busy, Instant::now())
     }
 
     /// Stops every slot because of an error no retry can fix; the first reason is kept.
@@ -101,12 +162,16 @@ impl Slots {
         let control = Arc::new(Control {
             stop: AtomicBool::new(false),
             halted: watch::Sender::new(None),
+            finished: watch::Sender::new(None),
+            activity: Mutex::new(Activity::idle(cores.len(), Instant::now())),
         });
         let held: Held = Arc::default();
         let threads = cores
             .into_iter()
-            .map(|core| {
+            .enumerate()
+            .map(|(index, core)| {
                 let slot = Slot {
+                    index,
                     reporter: Reporter {
                         queue: queue.clone(),
                         held: held.clone(),
@@ -147,6 +212,17 @@ impl Slots {
         match halted.wait_for(Option::is_some).await {
             Ok(reason) => reason.clone().unwrap_or_default(),
             // The sender lives in `self.control`: it cannot be dropped while `self` is borrowed.
+            Err(_) => std::future::pending().await,
+        }
+    }
+
+    /// Resolves, with the reason, once the worker has stopped because its work is over: idle for
+    /// [`WorkerOptions::idle_timeout`], at its [`WorkerOptions::deadline`], or nothing queued
+    /// fits in the time it has left. Never resolves otherwise.
+    pub async fn finished(&self) -> String {
+        let mut finished = self.control.finished.subscribe();
+        match finished.wait_for(Option::is_some).await {
+            Ok(reason) => reason.clone().unwrap_or_default(),
             Err(_) => std::future::pending().await,
         }
     }
@@ -201,17 +277,27 @@ async fn heartbeat_loop<Q: JobQueue>(
 }
 
 /// Jobs leased together, when they were asked for (their leases are at least that old), and how
-/// long the call took.
+/// long the call took; whether queued jobs exist that none fit the time left (`seconds_left`).
 struct Leased {
     leases: Vec<Lease>,
     asked_at: Instant,
     round_trip: Duration,
+    nothing_fits: bool,
+    seconds_left: Option<f64>,
+}
+
+fn unix_now() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// A lease call under way while the slot runs jobs.
 type Prefetch = tokio::task::JoinHandle<Result<Leased, QueueError>>;
 
 struct Slot<Q> {
+    /// Its place among the worker's slots.
+    index: usize,
     reporter: Reporter<Q>,
     core: core_affinity::CoreId,
     runtime: Handle,
@@ -260,13 +346,40 @@ impl<Q: JobQueue> Slot<Q> {
                 // A prefetch that found nothing may have been too early (our own job kept an
                 // exclusive one waiting): ask again now rather than idle.
                 Some(Ok(leased)) if !leased.leases.is_empty() => Ok(leased),
-                _ => self
-                    .runtime
-                    .block_on(lease_timed(&*self.reporter.queue, self.batch(&pace))),
+                _ => {
+                    let Some(left) = self.seconds_left() else {
+                        break;
+                    };
+                    self.runtime.block_on(lease_timed(
+                        &*self.reporter.queue,
+                        self.batch(&pace),
+                        left,
+                    ))
+                }
             };
             match leased {
-                Ok(leased) if leased.leases.is_empty() => self.sleep(self.options.idle_poll),
+                Ok(leased) if leased.nothing_fits => {
+                    self.control().finish(format!(
+                        "the jobs at the head of the queue are expected to take longer than the \
+                         {:.0} s this worker has left before its deadline",
+                        leased.seconds_left.unwrap_or(0.0)
+                    ));
+                }
+                Ok(leased) if leased.leases.is_empty() => {
+                    let idle = self.control().mark(self.index, false);
+                    if let (Some(idle), Some(timeout)) = (idle, self.options.idle_timeout)
+                        && idle >= timeout
+                    {
+                        self.control().finish(format!(
+                            "no job for {:.0} s (--idle-timeout)",
+                            idle.as_secs_f64()
+                        ));
+                    } else {
+                        self.sleep(self.options.idle_poll);
+                    }
+                }
                 Ok(leased) => {
+                    self.control().mark(self.index, true);
                     failures = 0;
                     pace.observe_lease(leased.round_trip);
                     let completions = self.run_leased(leased, &pool, &mut pace, &mut prefetch);
@@ -312,6 +425,21 @@ impl<Q: JobQueue> Slot<Q> {
         self.options.lease_batch.unwrap_or_else(|| pace.batch())
     }
 
+    /// Seconds to the deadline (`Some(None)` without one); `None` once it has passed, and
+    /// then the worker is told to stop.
+    fn seconds_left(&self) -> Option<Option<f64>> {
+        let Some(deadline) = self.options.deadline else {
+            return Some(None);
+        };
+        let left = deadline - unix_now();
+        if left <= 0.0 {
+            self.control()
+                .finish("reached its deadline (the end of its allocation less the margin)".into());
+            return None;
+        }
+        Some(Some(left))
+    }
+
     /// Waits for a prefetch; a failed one is logged (the slot asks again at once).
     fn settle(&self, call: Prefetch) -> Result<Leased, QueueError> {
         let result = self.runtime.block_on(call).unwrap_or_else(|e| {
@@ -354,13 +482,20 @@ impl<Q: JobQueue> Slot<Q> {
             if self.control().stopping() || leased.asked_at.elapsed() > self.options.lease_for / 2 {
                 break;
             }
+            // A job before took longer than expected: what is left may not finish in time.
+            if self.seconds_left().is_none() {
+                break;
+            }
             let Some(lease) = leases.next() else { break };
-            if prefetch.is_none() && pace.prefetch_now(total - started) {
+            if prefetch.is_none()
+                && pace.prefetch_now(total - started)
+                && let Some(left) = self.seconds_left()
+            {
                 let queue = self.reporter.queue.clone();
                 let batch = self.batch(pace);
                 *prefetch = Some(
                     self.runtime
-                        .spawn(async move { lease_timed(&*queue, batch).await }),
+                        .spawn(async move { lease_timed(&*queue, batch, left).await }),
                 );
             }
             started += 1;
@@ -407,13 +542,19 @@ impl<Q: JobQueue> Slot<Q> {
 }
 
 /// One lease call, timed from when it was asked.
-async fn lease_timed<Q: JobQueue>(queue: &Q, batch: u32) -> Result<Leased, QueueError> {
+async fn lease_timed<Q: JobQueue>(
+    queue: &Q,
+    batch: u32,
+    seconds_left: Option<f64>,
+) -> Result<Leased, QueueError> {
     let asked_at = Instant::now();
-    let leases = queue.lease(batch).await?;
+    let granted = queue.lease(batch, seconds_left).await?;
     Ok(Leased {
-        leases,
+        nothing_fits: granted.nothing_fits(),
+        leases: granted.leases,
         asked_at,
         round_trip: asked_at.elapsed(),
+        seconds_left,
     })
 }
 
@@ -566,5 +707,26 @@ fn run_job(lease: &Lease, pool: &rayon::ThreadPool) -> Result<Vec<String>, Strin
             .collect(),
         Ok(Err(error)) => Err(error.to_string()),
         Err(_) => Err(format!("job {} panicked", lease.job_id)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_worker_is_idle_only_while_every_slot_is() {
+        let start = Instant::now();
+        let at = |s: u64| start + Duration::from_secs(s);
+        let mut activity = Activity::idle(2, start);
+        assert_eq!(activity.mark(0, false, at(5)), Some(Duration::from_secs(5)));
+        assert_eq!(activity.mark(1, true, at(6)), None, "slot 1 has work");
+        assert_eq!(activity.mark(0, false, at(20)), None, "slot 1 still has");
+        // Slot 1 runs out at 30: the worker is idle from then, not from the start.
+        assert_eq!(activity.mark(1, false, at(30)), Some(Duration::ZERO));
+        assert_eq!(
+            activity.mark(0, false, at(42)),
+            Some(Duration::from_secs(12))
+        );
     }
 }

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use jobs::{JobSpec, NoopSpec};
-use queue::{CompleteOutcome, Completion, FailOutcome, Lease, LeaseRef, QueueError};
+use queue::{CompleteOutcome, Completion, FailOutcome, Granted, Lease, LeaseRef, QueueError};
 use worker::{JobQueue, Slots, WorkerOptions};
 
 /// What the fake coordinator does with a call.
@@ -62,13 +62,16 @@ impl Fake {
 }
 
 impl JobQueue for Fake {
-    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
+    async fn lease(&self, max_jobs: u32, _: Option<f64>) -> Result<Granted, QueueError> {
         if self.script.lock().unwrap().refuse_leases {
             return Err(QueueError::Refused("token revoked".into()));
         }
         let mut queued = self.queued.lock().unwrap();
         let n = (max_jobs as usize).min(queued.len());
-        Ok(queued.drain(..n).collect())
+        Ok(Granted {
+            leases: queued.drain(..n).collect(),
+            passed_over: 0,
+        })
     }
 
     async fn heartbeat(&self, held: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
@@ -121,6 +124,8 @@ fn options(lease_batch: u32) -> WorkerOptions {
         idle_poll: Duration::from_millis(10),
         lease_batch: Some(lease_batch),
         lease_for: Duration::from_secs(60),
+        deadline: None,
+        idle_timeout: None,
     }
 }
 

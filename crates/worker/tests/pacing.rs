@@ -5,7 +5,9 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use jobs::{JobSpec, NoopSpec};
-use queue::{CompleteOutcome, Completion, FailOutcome, JobQueue, Lease, LeaseRef, QueueError};
+use queue::{
+    CompleteOutcome, Completion, FailOutcome, Granted, JobQueue, Lease, LeaseRef, QueueError,
+};
 use worker::{Slots, WorkerOptions};
 
 /// A queue of `jobs` no-op jobs of `duration_ms`; hands out what is asked, or a fixed `forced`
@@ -48,11 +50,11 @@ impl Recorder {
 }
 
 impl JobQueue for Recorder {
-    async fn lease(&self, max_jobs: u32) -> Result<Vec<Lease>, QueueError> {
+    async fn lease(&self, max_jobs: u32, _: Option<f64>) -> Result<Granted, QueueError> {
         let mut state = self.state.lock().unwrap();
         let n = u64::from(self.forced.unwrap_or(max_jobs)).min(state.jobs - state.next);
         if n == 0 {
-            return Ok(Vec::new());
+            return Ok(Granted::default());
         }
         state.asked.push(max_jobs);
         let leases: Vec<Lease> = (state.next..state.next + n)
@@ -76,7 +78,10 @@ impl JobQueue for Recorder {
         state.next += n;
         state.outstanding += n;
         state.peak_outstanding = state.peak_outstanding.max(state.outstanding);
-        Ok(leases)
+        Ok(Granted {
+            leases,
+            passed_over: 0,
+        })
     }
 
     async fn heartbeat(&self, held: Vec<LeaseRef>) -> Result<Vec<LeaseRef>, QueueError> {
@@ -119,6 +124,8 @@ fn run(queue: Arc<Recorder>, lease_for: Duration, until_settled: u64) {
         idle_poll: Duration::from_millis(10),
         lease_batch: None,
         lease_for,
+        deadline: None,
+        idle_timeout: None,
     };
     let slots =
         Slots::start(queue.clone(), options, runtime.handle().clone()).expect("slots start");

@@ -25,6 +25,7 @@ pub async fn temp_store() -> (TempDir, std::path::PathBuf, Store) {
                 rustc: "rustc".into(),
                 git_commit: "abc123".into(),
                 profile: "release".into(),
+                allocation: None,
             },
             T0,
         )

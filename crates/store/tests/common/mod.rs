@@ -37,6 +37,7 @@ pub fn worker(id: &str) -> WorkerInfo {
         rustc: "rustc 1.95.0".to_owned(),
         git_commit: "abc123".to_owned(),
         profile: "release".to_owned(),
+        allocation: None,
     }
 }
 
