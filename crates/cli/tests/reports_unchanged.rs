@@ -20,10 +20,20 @@ fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
 }
 
-/// A copy of the fixture database (the status page opens it read-write).
+/// A copy of the fixture database, migrated to this sweep's schema as a user migrates an older
+/// database (opened once read-write: `sweep run` or `sweep coordinator` does it), so that the
+/// fixture stays the database an older sweep wrote and a new migration needs no new fixture.
 fn database(dir: &Path) -> PathBuf {
     let db = dir.join("campaign.db");
     std::fs::copy(fixtures().join("reports-campaign.db"), &db).expect("the fixture database");
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap()
+        .block_on(async {
+            let store = store::Store::open(&db).await.expect("the fixture migrates");
+            store.close().await;
+        });
     db
 }
 

@@ -115,8 +115,41 @@ function renderWorkers(snapshot) {
       el("td", { class: "mono", title: `${w.rustc}, ${w.profile}` }, w.git_commit.slice(0, 12)),
       el("td", {}, heartbeat),
       el("td", { class: "num" }, w.jobs_done),
-      el("td", {}, hand));
+      el("td", {}, hand),
+      el("td", { class: "mono" }, w.allocation || el("span", { class: "muted" }, "–")));
   }));
+}
+
+const ALLOCATION_CLASS = { pending: "warn", running: "ok", ended: "muted", failed: "bad", cancelled: "muted" };
+
+// The allocations of --slurm-alloc: the allocator's last decision (and its back-off), then one
+// row per allocation, newest first; a failed one says why in red.
+function renderAllocations(snapshot) {
+  const a = snapshot.allocations;
+  const section = $("allocations-section");
+  if (!a || (!a.configured && a.allocations.length === 0)) {
+    section.hidden = true;
+    return;
+  }
+  section.hidden = false;
+  const now = snapshot.taken_at;
+  const backoff = a.retry_at !== null && a.retry_at > now
+    ? el("span", { class: "bad" }, ` Backing off after ${a.failures} failures in a row: next submission in ${duration(a.retry_at - now)}.`)
+    : null;
+  $("allocator").replaceChildren(a.note ? `Allocator: ${a.note}` : "The allocator has not decided anything yet.", backoff || "");
+  if (a.allocations.length === 0) return;
+  const ago = (t) => (t === null ? "–" : `${duration(now - t)} ago`);
+  $("allocations").tBodies[0].replaceChildren(...a.allocations.map((x) => el("tr", { "data-allocation": x.id },
+    el("td", { class: "num" }, x.id),
+    el("td", { class: "mono" }, x.external_id || "–"),
+    el("td", { class: ALLOCATION_CLASS[x.state] || "" }, x.state),
+    el("td", { class: "num" }, x.cores, el("span", { class: "muted small" }, x.nodes > 1 ? ` on ${x.nodes} nodes` : "")),
+    el("td", {}, ago(x.submitted_at)),
+    el("td", {}, ago(x.started_at)),
+    el("td", {}, x.started_at === null ? "–" : duration((x.ended_at === null ? now : x.ended_at) - x.started_at)),
+    el("td", { class: "num" }, x.workers),
+    el("td", { class: "num" }, x.jobs_done === null ? "–" : x.jobs_done),
+    el("td", { class: x.state === "failed" ? "bad" : "muted" }, x.reason))));
 }
 
 function renderFailures(snapshot) {
@@ -204,6 +237,7 @@ async function refresh() {
       : el("a", { href: "/login" }, snapshot.token_configured ? "log in" : "read-only"));
     renderCampaigns(snapshot);
     renderWorkers(snapshot);
+    renderAllocations(snapshot);
     renderFailures(snapshot);
     await renderFigures(snapshot);
     $("updated").textContent = `sampled at ${when(snapshot.taken_at)}`;

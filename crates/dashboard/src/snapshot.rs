@@ -2,8 +2,9 @@
 //! is answered from the latest one, so a hundred open pages cost what one does.
 //!
 //! Cost: a sample is O(jobs) (the counts group every job of every campaign by state; jobs done
-//! per worker read the done jobs through the state index) plus O(running) for the jobs in hand
-//! and O(20) for the failures. The next sample starts [`MIN_PERIOD`] or ten times the last
+//! per worker read the done jobs through the state index, and jobs done per allocation are
+//! summed from them) plus O(running) for the jobs in hand, O(20) for the failures and O(50) for
+//! the allocations. The next sample starts [`MIN_PERIOD`] or ten times the last
 //! sample's duration after it, whichever is longer: whatever the campaign's size, sampling keeps
 //! at most a tenth of one core busy, on the read-only connections (never the writer). Each
 //! snapshot says what its sample cost (`sample_s`) and when the next is due.
@@ -12,6 +13,7 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use coordinator::autoalloc::Report;
 use coordinator::{Coordinator, Status};
 use results::OverlapQuality;
 
@@ -50,8 +52,9 @@ pub struct CampaignView {
     pub remaining_how: String,
 }
 
-/// One worker as the page shows it. The first fields are those of `sweep workers --format json`
-/// (`id`, `hostname`, `cores`, `cpu_model`, `git_commit`, `running`, `last_seen_at`).
+/// One worker as the page shows it. The fields of `sweep workers --format json` (`id`,
+/// `hostname`, `cores`, `cpu_model`, `git_commit`, `running`, `last_seen_at`, `allocation`) and
+/// more.
 #[derive(Clone, Debug, Serialize)]
 pub struct WorkerView {
     pub id: String,
@@ -70,6 +73,8 @@ pub struct WorkerView {
     pub stale: bool,
     pub jobs_done: u64,
     pub in_hand: Vec<JobInHand>,
+    /// The Slurm job id of the allocation it runs in, if any.
+    pub allocation: Option<String>,
 }
 
 /// Everything the page shows, as of `taken_at`.
@@ -86,6 +91,8 @@ pub struct Snapshot {
     pub workers: Vec<WorkerView>,
     pub failures: Vec<FailureRecord>,
     pub figures: Vec<FigureLink>,
+    /// The allocations of `--slurm-alloc` (empty, `configured: false`, without an allocator).
+    pub allocations: Report,
 }
 
 fn unix_now() -> f64 {
@@ -170,9 +177,23 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
                 stale: age > stale_after,
                 jobs_done: mine.jobs_done,
                 in_hand: mine.in_hand,
+                allocation: w.info.allocation,
             }
         })
         .collect();
+    // Jobs done per allocation, from what was just read per worker (no second pass over jobs).
+    let mut done_by_allocation: HashMap<String, u64> = HashMap::new();
+    for w in &workers {
+        if let Some(allocation) = &w.allocation {
+            *done_by_allocation.entry(allocation.clone()).or_default() += w.jobs_done;
+        }
+    }
+    let allocations = Report::read(
+        store,
+        Some(coordinator.allocating()),
+        Some(&done_by_allocation),
+    )
+    .await?;
     let live_cores = workers
         .iter()
         .filter(|w| !w.stale)
@@ -216,6 +237,7 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
         workers,
         failures: store.recent_failures(FAILURES).await?,
         figures,
+        allocations,
     })
 }
 

@@ -54,6 +54,7 @@ fn worker(id: &str) -> WorkerInfo {
         rustc: "1.95".into(),
         git_commit: "0123456789ab".into(),
         profile: "release".into(),
+        allocation: None,
     }
 }
 
