@@ -199,6 +199,14 @@ async fn nothing_is_submitted_while_nothing_is_queued() {
     let report = s.report().await;
     assert!(report.configured, "the allocator's state is recorded");
     assert_eq!(report.note, tick.note);
+    assert_eq!(report.updated_at, Some(1_000_000.0));
+    // The same decision is not written again at every tick, but at least every minute.
+    s.advance(30);
+    allocator.tick().await.unwrap();
+    assert_eq!(s.report().await.updated_at, Some(1_000_000.0));
+    s.advance(30);
+    allocator.tick().await.unwrap();
+    assert_eq!(s.report().await.updated_at, Some(1_000_060.0));
 }
 
 #[tokio::test]

@@ -77,8 +77,19 @@ impl AllocConfig {
             key: None,
             message: e.to_string(),
         })?;
-        let folder = path.parent().unwrap_or(Path::new("."));
-        let folder = std::path::absolute(folder).unwrap_or_else(|_| folder.to_owned());
+        // The folder of `alloc.toml` is "": the current directory. Paths go to sbatch, which
+        // resolves them against the allocation's working directory: they must be absolute.
+        let folder = match path.parent() {
+            Some(parent) if !parent.as_os_str().is_empty() => parent,
+            _ => Path::new("."),
+        };
+        let folder = std::path::absolute(folder).map_err(|e| ConfigError {
+            file: path.display().to_string(),
+            line: 0,
+            column: 0,
+            key: None,
+            message: format!("cannot tell its folder: {e}"),
+        })?;
         AllocConfig::parse(&text, path, &folder)
     }
 

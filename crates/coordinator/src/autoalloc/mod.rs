@@ -127,7 +127,12 @@ pub struct Allocator<B: Batch> {
     /// Allocations a worker has registered from (each counts as a success once).
     with_worker: HashSet<i64>,
     state: AllocatorState,
+    /// The state as last written.
+    saved: Option<AllocatorState>,
 }
+
+/// The allocator's state is written when it changes, and at least this often (seconds).
+pub const STATE_EVERY_S: f64 = 60.0;
 
 impl<B: Batch> Allocator<B> {
     /// An allocator that takes over the allocations a previous coordinator on the same
@@ -151,6 +156,7 @@ impl<B: Batch> Allocator<B> {
             left_s: HashMap::new(),
             with_worker: HashSet::new(),
             state,
+            saved: None,
         })
     }
 
@@ -235,7 +241,7 @@ impl<B: Batch> Allocator<B> {
         };
         let fitting_jobs = (fitting.len() as f64 * scale_up).round() as u64;
         let too_long = sample.queued.saturating_sub(fitting_jobs);
-        let work_s = fitting.iter().sum::<f64>() * scale_up;
+        let work_s = fitting.iter().sum::<f64>() * scale_up + 0.0; // an empty sum is -0
 
         // The supply: what the allocations in flight can still run.
         let supply_s: f64 = self
@@ -251,21 +257,25 @@ impl<B: Batch> Allocator<B> {
                 };
                 f64::from(a.cores) * left.clamp(0.0, usable_s)
             })
-            .sum();
+            .sum::<f64>()
+            + 0.0; // an empty sum is -0
         let in_flight = self.open.len() as u32;
-        let (pending, running) = self.open.iter().fold((0, 0), |(p, r), a| match a.state {
-            AllocationState::Running => (p, r + 1),
-            _ => (p + 1, r),
-        });
 
-        let mut words = format!(
-            "{} jobs queued ({fitting_jobs} fit an allocation, ≈ {work_s:.0} CPU-s expected); \
-             in flight: {pending} pending, {running} running ({supply_s:.0} CPU-s left)",
-            sample.queued
-        );
+        let mut words = if sample.queued == 0 {
+            String::new()
+        } else {
+            format!(
+                "{} jobs queued ({fitting_jobs} fit an allocation, ≈ {work_s:.0} CPU-s expected) \
+                 against {supply_s:.0} CPU-s left in the allocations in flight",
+                sample.queued
+            )
+        };
         if too_long > 0 {
+            if !words.is_empty() {
+                words.push_str("; ");
+            }
             words.push_str(&format!(
-                "; {too_long} queued jobs are expected to take longer than an allocation's {usable_s:.0} s \
+                "{too_long} queued jobs are expected to take longer than an allocation's {usable_s:.0} s \
                  (time limit less the stop margin): no allocation can run them"
             ));
         }
@@ -342,7 +352,14 @@ impl<B: Batch> Allocator<B> {
                 ),
             }
         };
-        tick.note = format!("{decision}. {words}");
+        let (pending, running) = self.open.iter().fold((0, 0), |(p, r), a| match a.state {
+            AllocationState::Running => (p, r + 1),
+            _ => (p + 1, r),
+        });
+        if !words.is_empty() {
+            words.push_str(". ");
+        }
+        tick.note = format!("{decision}. {words}In flight: {pending} pending, {running} running.");
         self.save_state(now, &tick.note).await?;
         Ok(tick)
     }
@@ -501,13 +518,24 @@ impl<B: Batch> Allocator<B> {
         Ok(accepted)
     }
 
+    /// Records the allocator's state when it changed, and at least every [`STATE_EVERY_S`] (its
+    /// `updated_at` tells the allocator is alive): not a write per tick.
     async fn save_state(&mut self, now: f64, note: &str) -> Result<(), Error> {
-        self.state.updated_at = now;
+        let changed = self.state.note != note || self.saved.as_ref() != Some(&self.state);
+        let due = self
+            .saved
+            .as_ref()
+            .is_none_or(|saved| now - saved.updated_at >= STATE_EVERY_S);
         self.state.note = note.to_owned();
+        if !(changed || due) {
+            return Ok(());
+        }
+        self.state.updated_at = now;
         self.coordinator
             .store()
             .set_allocator_state(&self.state)
             .await?;
+        self.saved = Some(self.state.clone());
         Ok(())
     }
 
