@@ -10,7 +10,17 @@
 #   4. checks the database: every point done exactly once; what was done before each stop is
 #      untouched after it; only the points in hand at the hard stop ran twice (their first run
 #      left no result); the last allocation ran exactly what was left; Table 1 and Figure 2 built,
-#   5. runs the login-node variant: a coordinator outside Slurm, `sweep.sbatch --coordinator URL`.
+#   5. runs the login-node variant: a coordinator outside Slurm, `sweep.sbatch --coordinator URL`,
+#   6. automatic allocations (`sweep coordinator --slurm-alloc FILE`, no hand-submitted worker): a
+#      campaign of mixed short and long points (40 of 0.3 s, 8 of 15 s) with allocations of one
+#      core and a one-minute time limit, two in flight at most, far shorter than the campaign:
+#      allocations appear, every point is done exactly once and before the time limit of the
+#      allocation that ran it (no lease lost, no job run twice), more allocations than may be in
+#      flight take over one after the other, and once the queue is empty they end and no new one
+#      is submitted; `sweep workers` and `sweep status` show them,
+#   7. a broken sbatch argument (a partition that does not exist): the error is shown by `sweep
+#      status` and `sweep workers`, sbatch is tried once in 12 s (not looped), nothing runs; and a
+#      coordinator that cannot find sbatch refuses to start, writing nothing.
 # Needs root (apt-get, daemons). Run by hand, or in CI with SWEEP_SLURM_TEST=1 (see .ci/run).
 # Usage: deploy/slurm/test-on-localhost.sh [path/to/sweep]   (default: target/release/sweep)
 set -euo pipefail
@@ -40,8 +50,10 @@ cleanup() {
         sleep 1
     fi
     if [[ -n $munge_pid ]]; then kill "$munge_pid" 2>/dev/null || true; fi
-    # The test's coordinator for step 5, if it is still up.
-    if [[ -f $work/login.pid ]]; then kill "$(cat "$work/login.pid")" 2>/dev/null || true; fi
+    # The test's coordinators of steps 5 to 7, if they are still up.
+    for pid in "$work"/login.pid "$work"/coordinator-*.pid; do
+        if [[ -f $pid ]]; then kill "$(cat "$pid")" 2>/dev/null || true; fi
+    done
     if [[ ${KEEP:-0} == 1 ]]; then echo "kept $work"; else rm -rf "$work"; fi
 }
 trap cleanup EXIT
@@ -212,5 +224,105 @@ wait_gone "$third" 300
 db=$login_db check "login-node variant: every point done by the allocation's worker" \
     "SELECT count(*) FROM jobs WHERE state = 'done'" 40
 kill "$(cat "$work/login.pid")" && rm "$work/login.pid"
+
+# 6. Automatic allocations: the coordinator submits sweep.sbatch's workers-only form itself, as
+#    the work asks; no worker is submitted by hand.
+printf 'name = "auto"\n[[noop]]\ncount = 40\nduration_ms = 300\n[[noop]]\ncount = 8\nduration_ms = 15000\n' \
+    >"$shared/auto.toml"
+printf '%s\n' 'time_limit = "1:00"' 'cores = 1' 'max_in_flight = 2' 'idle_timeout_s = 5' \
+    'stop_margin_s = 15' 'check_every_s = 2' "directory = \"$shared/allocations\"" >"$shared/alloc.toml"
+# start_coordinator NAME DB ALLOCATION_FILE: a coordinator that allocates; its URL in $url.
+start_coordinator() {
+    sweep coordinator --listen 127.0.0.1:0 --db "$2" --token-file "$shared/sweep/token" \
+        --lease-secs 5 --slurm-alloc "$3" >"$work/$1.out" 2>"$work/$1.log" &
+    echo $! >"$work/coordinator-$1.pid"
+    for _ in $(seq 100); do grep -q '^listening on' "$work/$1.out" && break; sleep 0.1; done
+    url=http://$(sed -n 's/^listening on //p' "$work/$1.out")
+}
+stop_coordinator() { kill "$(cat "$work/coordinator-$1.pid")" && rm "$work/coordinator-$1.pid"; }
+# Allocations of the allocator that Slurm still has.
+in_flight() { squeue --noheader --name=sweep-workers --states=PENDING,CONFIGURING,RUNNING,COMPLETING --format=%i | wc -l; }
+db=$shared/auto.db
+start_coordinator auto "$db" "$shared/alloc.toml"
+K=(--coordinator "$url" --token-file "$shared/sweep/token")
+submitted_at=$(date +%s)
+sweep submit "$shared/auto.toml" "${K[@]}" >/dev/null 2>&1
+peak=0 shown=0
+for _ in $(seq 600); do
+    now_in_flight=$(in_flight)
+    peak=$((now_in_flight > peak ? now_in_flight : peak))
+    left=$(q "SELECT count(*) FROM jobs WHERE state <> 'done'")
+    if [[ $shown -eq 0 && $now_in_flight -gt 0 ]]; then
+        shown=1
+        say "allocations appear: $now_in_flight in flight $(($(date +%s) - submitted_at)) s after the submission"
+        sweep workers "${K[@]}" | sed -n '/^allocation/,$p'
+    fi
+    open=$(q "SELECT count(*) FROM allocations WHERE state IN ('pending', 'running')")
+    [[ $left -eq 0 && $now_in_flight -eq 0 && $open -eq 0 ]] && break
+    sleep 0.5
+done
+if [[ $left -ne 0 || $now_in_flight -ne 0 || $open -ne 0 ]]; then
+    echo "FAILED: $left points left, $now_in_flight allocations in flight, $open open"; cat "$work/auto.log"; exit 1
+fi
+say "every point done and every allocation ended $(($(date +%s) - submitted_at)) s after the submission; at most $peak in flight at once (squeue)"
+sweep workers "${K[@]}"
+sweep status "${K[@]}"
+check "every point done" "SELECT count(*) FROM jobs WHERE state = 'done'" 48
+check "every point run once (one attempt each: no lease lost, nothing run twice)" "SELECT count(*) FROM jobs WHERE attempts <> 1" 0
+check "no attempt failed or expired" "SELECT count(*) FROM job_failures" 0
+check "no report refused as late" "SELECT count(*) FROM late_reports" 0
+check "each point's results from one worker" \
+    "SELECT count(*) FROM (SELECT job_id FROM results GROUP BY job_id HAVING count(DISTINCT worker_id) > 1)" 0
+check "every point run by a worker of an allocation" \
+    "SELECT count(*) FROM jobs AS j JOIN workers AS w ON w.id = j.lease_owner WHERE w.allocation IS NULL" 0
+check "every allocation ended by itself (none failed, none hit its time limit)" \
+    "SELECT count(*) FROM allocations WHERE state <> 'ended' OR reason <> 'COMPLETED'" 0
+check "more allocations than may be in flight: new ones took over" "SELECT count(*) > 2 FROM allocations" 1
+check "never more than 2 in flight (the allocator's records)" \
+    "SELECT max(n) <= 2 FROM (SELECT count(*) AS n FROM allocations AS a JOIN allocations AS b
+         ON b.submitted_at <= a.submitted_at AND a.submitted_at < b.ended_at GROUP BY a.id)" 1
+check "every allocation ran points" \
+    "SELECT count(*) FROM allocations AS a WHERE NOT EXISTS (SELECT 1 FROM workers AS w
+         JOIN jobs AS j ON j.lease_owner = w.id WHERE w.allocation = a.external_id)" 0
+check "every point finished before the time limit of the allocation that ran it" \
+    "SELECT count(*) FROM jobs AS j JOIN workers AS w ON w.id = j.lease_owner
+         JOIN allocations AS a ON a.external_id = w.allocation
+     WHERE j.finished_at >= a.started_at + a.time_limit_s" 0
+say "closest to a time limit, a point finished $(q "SELECT printf('%.1f', min(a.started_at + a.time_limit_s - j.finished_at)) FROM jobs AS j JOIN workers AS w ON w.id = j.lease_owner JOIN allocations AS a ON a.external_id = w.allocation") s before it (the workers stop 15 s before)"
+say "why the workers stopped: $(sed -n 's/^sweep worker: stopping: //p' "$shared"/allocations/slurm-*.out | sed 's/[0-9][0-9.]* s/N s/g' | sort | uniq -c | tr -s ' ' | paste -sd ';' -)"
+grep -q 'no job for' "$shared"/allocations/slurm-*.out || { echo "FAILED: no worker stopped for its idle timeout"; exit 1; }
+allocations_then=$(q "SELECT count(*) FROM allocations")
+sleep 8
+check "with the queue empty, no allocation is submitted (8 s, 4 checks)" "SELECT count(*) FROM allocations" "$allocations_then"
+stop_coordinator auto
+
+# 7. A broken sbatch argument: shown, and not retried in a loop.
+sed 's/^cores = 1$/cores = 1\npartition = "nope"/' "$shared/alloc.toml" >"$shared/broken.toml"
+refused_before=$(grep -c 'Invalid partition name specified' "$work/slurmctld.log" || true)
+db=$shared/broken.db
+start_coordinator broken "$db" "$shared/broken.toml"
+K=(--coordinator "$url" --token-file "$shared/sweep/token")
+printf 'name = "broken"\n[[noop]]\ncount = 4\nduration_ms = 100\n' >"$shared/broken-plan.toml"
+sweep submit "$shared/broken-plan.toml" "${K[@]}" >/dev/null 2>&1
+sleep 12
+refused=$(($(grep -c 'Invalid partition name specified' "$work/slurmctld.log" || true) - refused_before))
+sweep status "${K[@]}" | tee "$work/broken.status"
+sweep workers "${K[@]}" | tee "$work/broken.workers"
+[[ $refused -eq 1 ]] || { echo "FAILED: slurmctld refused $refused submissions in 12 s, expected one"; exit 1; }
+say "ok: slurmctld saw one submission in 12 s (6 checks of the allocator): it backs off, it does not loop"
+grep -q 'backing off: 1 failures in a row' "$work/broken.status" || { echo "FAILED: sweep status does not say it backs off"; exit 1; }
+grep -q 'failed allocation .*Invalid partition name specified' "$work/broken.status" || { echo "FAILED: sweep status does not show sbatch's error"; exit 1; }
+grep -q 'failed .*sbatch failed: .*Invalid partition name specified' "$work/broken.workers" || { echo "FAILED: sweep workers does not show sbatch's error"; exit 1; }
+say "ok: sweep status and sweep workers show sbatch's error"
+check "nothing ran" "SELECT count(*) FROM jobs WHERE state = 'queued'" 4
+stop_coordinator broken
+# No sbatch on PATH: refused before anything is written.
+if out=$(PATH=/nonexistent "$shared/bin/sweep" coordinator --listen 127.0.0.1:0 --db "$shared/none.db" \
+    --slurm-alloc "$shared/alloc.toml" 2>&1); then
+    echo "FAILED: a coordinator started without sbatch"; exit 1
+fi
+echo "$out"
+[[ $out == *"cannot find sbatch, squeue, scancel on PATH"* && ! -e $shared/none.db ]] || { echo "FAILED: $out"; exit 1; }
+say "ok: without sbatch the coordinator refuses to start, in one line, and writes no database"
 
 say "passed in $(($(date +%s) - started)) s"
