@@ -11,6 +11,7 @@
 use std::collections::{HashMap, HashSet};
 use std::time::Duration;
 
+use futures_util::TryStreamExt;
 use sqlx::{Row, SqliteConnection};
 
 use crate::Store;
@@ -83,7 +84,7 @@ impl Store {
                 if max_jobs == 0 || exclusive_running {
                     return Ok(Granted::default());
                 }
-                let candidates = match &within {
+                let query = match &within {
                     None => sqlx::query(
                         "SELECT id, exclusive FROM jobs WHERE state = 'queued'
              ORDER BY created_at, pass, id LIMIT ?1",
@@ -94,16 +95,19 @@ impl Store {
              ORDER BY created_at, pass, id LIMIT ?1",
                     )
                     .bind(i64::from(max_jobs) + SCAN_AHEAD),
-                }
-                .fetch_all(&mut *conn)
-                .await?;
-                let mut chosen: Vec<String> = Vec::with_capacity(candidates.len());
+                };
+                // Row by row: a grant whose first jobs fit reads no further.
+                let mut candidates = query.fetch(&mut *conn);
+                let mut chosen: Vec<String> = Vec::with_capacity(max_jobs as usize);
                 let mut passed_over = 0;
                 let mut expected_s = 0.0;
-                for (index, row) in candidates.iter().enumerate() {
-                    if chosen.len() == max_jobs as usize {
-                        break;
-                    }
+                let mut seen = 0;
+                while chosen.len() < max_jobs as usize
+                    && let Some(row) = candidates.try_next().await?
+                {
+                    // Whether this job heads the queue.
+                    let first = seen == 0;
+                    seen += 1;
                     let exclusive: bool = row.try_get(1)?;
                     if let Some(within) = &within {
                         let kind: &str = row.try_get(2)?;
@@ -119,13 +123,14 @@ impl Store {
                         expected_s += takes;
                     }
                     if exclusive {
-                        if index == 0 && !any_running && exclusive_ok {
+                        if first && !any_running && exclusive_ok {
                             chosen.push(row.try_get(0)?);
                         }
                         break;
                     }
                     chosen.push(row.try_get(0)?);
                 }
+                drop(candidates);
                 if chosen.is_empty() {
                     return Ok(Granted {
                         leases: Vec::new(),
