@@ -420,6 +420,117 @@ fn a_coordinator_will_not_listen_off_loopback_without_a_token() {
     );
 }
 
+/// `--slurm-alloc`: a bad allocation file, or no sbatch to submit with, is refused in one line
+/// naming the file, line and key (or the command), before the database is created.
+#[test]
+fn a_bad_allocation_file_or_a_missing_sbatch_is_refused_before_anything_is_written() {
+    let cluster = Cluster::new();
+    let coordinator = |alloc: &str, path: &str| {
+        Command::new(SWEEP)
+            .args(["coordinator", "--listen", "127.0.0.1:0", "--db"])
+            .arg(&cluster.db)
+            .args(["--slurm-alloc", alloc])
+            .env("PATH", path)
+            .output()
+            .unwrap()
+    };
+    let bad = cluster.plan(
+        "bad-alloc.toml",
+        "time_limit = \"1:00:00\"\ncores = 4\npartiton = \"short\"\n",
+    );
+    let out = coordinator(&bad, "/usr/bin:/bin");
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(said.lines().count(), 1, "{said}");
+    assert!(
+        said.contains("bad-alloc.toml:3:1: unknown field `partiton`"),
+        "{said}"
+    );
+    let no_limit = cluster.plan("no-limit.toml", "cores = 4\ntime_limit = \"soon\"\n");
+    let said =
+        String::from_utf8_lossy(&coordinator(&no_limit, "/usr/bin:/bin").stderr).into_owned();
+    assert!(
+        said.contains("no-limit.toml:2:14: key `time_limit`: \"soon\" is not a Slurm time limit"),
+        "{said}"
+    );
+    // A good file where Slurm's commands cannot be found.
+    let good = cluster.plan("alloc.toml", "time_limit = \"1:00:00\"\ncores = 4\n");
+    let empty = cluster.path("empty-path");
+    std::fs::create_dir(&empty).unwrap();
+    let out = coordinator(&good, empty.to_str().unwrap());
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        said.contains("cannot find sbatch, squeue, scancel on PATH"),
+        "{said}"
+    );
+    assert!(!cluster.db.exists(), "the database was created anyway");
+}
+
+/// A worker whose allocation ends (`--deadline`) runs only what is expected to finish by then,
+/// leaves the rest queued and stops by itself, saying why; one with nothing to do stops after
+/// `--idle-timeout`. Both through a real coordinator (the time left travels in the lease call).
+#[test]
+fn a_worker_runs_only_what_fits_before_its_deadline_and_stops_when_idle() {
+    let cluster = Cluster::new();
+    let (_coordinator, url) = cluster.coordinator_with("127.0.0.1:0", &["--lease-secs", "10"]);
+    let plan = cluster.plan(
+        "mixed.toml",
+        "name = \"mixed\"\n[[noop]]\ncount = 3\nduration_ms = 50\n\
+         [[noop]]\ncount = 1\nduration_ms = 600000\n",
+    );
+    let campaign = cluster.submit(&url, &plan)["campaign"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    let deadline = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64()
+        + 30.0;
+    let worker = cluster.worker_with(
+        &url,
+        "0",
+        Some(cluster.token()),
+        &["--deadline", &deadline.to_string(), "--allocation", "4242"],
+    );
+    let listed = cluster.registered_workers(&url);
+    assert_eq!(listed[0]["allocation"], "4242");
+    let out = worker_output(worker, Duration::from_secs(60));
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(
+        said.contains("stopping: the jobs at the head of the queue are expected to take longer"),
+        "{said}"
+    );
+    let status = cluster.status(&url);
+    assert_eq!(
+        (status["done"].as_u64(), status["queued"].as_u64()),
+        (Some(3), Some(1))
+    );
+    assert_eq!(
+        cluster.count("SELECT count(*) FROM job_failures"),
+        0,
+        "the long job was never started"
+    );
+
+    // With the long job cancelled nothing is queued: a worker with an idle timeout stops.
+    let cancelled = cluster.sweep(&[
+        "cancel",
+        &campaign,
+        "--coordinator",
+        &url,
+        "--token-file",
+        cluster.token(),
+    ]);
+    assert!(cancelled.status.success());
+    let idle = cluster.worker_with(&url, "0", Some(cluster.token()), &["--idle-timeout", "1"]);
+    let out = worker_output(idle, Duration::from_secs(60));
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("stopping: no job for"), "{said}");
+}
+
 /// TLS end to end: a CA made here, a coordinator serving its certificate, a worker and the admin
 /// commands verifying it with `--ca`; a client without the CA cannot talk to it.
 #[test]
