@@ -280,7 +280,8 @@ pub struct WorkerArgs {
     /// queued fits in what is left.
     #[arg(long, value_name = "UNIX_SECONDS")]
     deadline: Option<f64>,
-    /// Stop after this many seconds without a job (the coordinator has nothing queued).
+    /// Stop after this many seconds without a job (the coordinator has nothing queued), or
+    /// without reaching the coordinator at the start.
     #[arg(long, value_name = "SECONDS", value_parser = clap::value_parser!(u64).range(1..))]
     idle_timeout: Option<u64>,
     /// The batch system's id of the allocation this worker runs in, shown with the allocation.
