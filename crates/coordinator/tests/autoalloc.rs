@@ -457,6 +457,12 @@ async fn nothing_is_submitted_while_squeue_fails() {
         "{}",
         tick.note
     );
+    // Nor is what squeue cannot confirm as pending cancelled: it may have started since.
+    s.coordinator.cancel("c").await.unwrap();
+    s.coordinator.cancel("more").await.unwrap();
+    let tick = allocator.tick().await.unwrap();
+    assert!(tick.cancelled.is_empty());
+    assert!(s.slurm.state().cancelled.is_empty());
 }
 
 #[tokio::test]

@@ -280,11 +280,12 @@ impl<B: Batch> Allocator<B> {
             ));
         }
         let decision = if sample.queued == 0 {
-            for allocation in self
+            // Only what squeue just said is pending: one that started meanwhile may hold jobs.
+            let pending = self
                 .open
                 .iter_mut()
-                .filter(|a| a.state == AllocationState::Pending)
-            {
+                .filter(|a| followed.is_ok() && a.state == AllocationState::Pending);
+            for allocation in pending {
                 let Some(id) = allocation.external_id.clone() else {
                     continue;
                 };
