@@ -31,11 +31,17 @@ pub fn run(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
     let shown = campaign.unwrap_or("(all)");
     match (&args.db, &args.coordinator) {
         (Some(db), _) => {
-            let (status, quality) = database::read(db, async |store| {
+            let (status, quality, shifts) = database::read(db, async |store| {
                 let status = store.status(campaign).await?;
-                Ok((status, results::overlap_quality(store, campaign).await?))
+                let quality = results::overlap_quality(store, campaign).await?;
+                let shifts = results::machine_history(store).await?;
+                Ok((status, quality, shifts))
             })?;
-            print_status(shown, &status, Some(&quality), format)
+            let shifts: Vec<_> = shifts
+                .into_iter()
+                .filter(|s| campaign.is_none_or(|c| c == s.campaign))
+                .collect();
+            print_status(shown, &status, Some((&quality, &shifts)), format)
         }
         (None, Some(url)) => {
             let client = ClientArgs {

@@ -86,6 +86,11 @@ pub struct Snapshot {
     pub workers: Vec<WorkerView>,
     pub failures: Vec<FailureRecord>,
     pub figures: Vec<FigureLink>,
+    /// Why the page draws nothing, or nothing for some kind of done job.
+    pub figures_absent: Vec<String>,
+    /// Done jobs by kind (which figures can be drawn).
+    #[serde(skip)]
+    pub done_by_kind: Vec<(String, u64)>,
 }
 
 fn unix_now() -> f64 {
@@ -201,12 +206,12 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
             cancelled_at: c.cancelled_at,
         });
     }
-    let mut figures = Vec::new();
-    for (kind, links) in crate::figures::BY_KIND {
-        if store.has_done(kind).await? {
-            figures.extend(links.iter().map(|f| f.link()));
-        }
-    }
+    let done_by_kind = store.done_by_kind().await?;
+    let figures = crate::figures::BY_KIND
+        .iter()
+        .filter(|(kind, _)| done_by_kind.iter().any(|(k, _)| k == kind))
+        .flat_map(|(_, figures)| figures.iter().map(|f| f.link()))
+        .collect();
     Ok(Snapshot {
         taken_at: now,
         sample_s: 0.0,
@@ -216,6 +221,8 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
         workers,
         failures: store.recent_failures(FAILURES).await?,
         figures,
+        figures_absent: crate::figures::absent(&done_by_kind),
+        done_by_kind,
     })
 }
 

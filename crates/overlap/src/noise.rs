@@ -15,7 +15,7 @@
 //! points ([`Calibration`]): a slow phase that covers a whole point is invisible to a
 //! before/after comparison.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -24,11 +24,14 @@ use std::time::Instant;
 const COMPUTE_STEPS_PER_BLOCK: u64 = 8192;
 /// Blocks of the compute reference: about 1.5 ms in all.
 const COMPUTE_BLOCKS: usize = 128;
-/// The compute reference may differ by this much (relative) from the fastest recent one.
-pub const COMPUTE_TOLERANCE: f64 = 0.05;
-/// The memory reference may differ by this much between the start and the end of a point
-/// (memory bandwidth is noisier than a core's clock).
-pub const STREAM_TOLERANCE: f64 = 0.15;
+/// The slowest compute reference of a point may be this many times the fastest recent one.
+pub const COMPUTE_TOLERANCE: f64 = 1.10;
+/// The plain read may be this many times slower at one end of a point than at the other, or
+/// than the fastest recent read of sets of the same size (memory bandwidth is noisier than a
+/// core's clock).
+pub const STREAM_TOLERANCE: f64 = 1.5;
+/// The share of its core a thread must have had during its timed passes.
+pub const CORE_SHARE_MIN: f64 = 0.95;
 /// Compute references a thread remembers: a machine that got slower for good (a neighbour
 /// that never leaves) becomes the new normal after this many, instead of flagging every point.
 const CALIBRATION_WINDOW: usize = 16;
@@ -71,21 +74,51 @@ pub fn compute_reference_ns() -> f64 {
 #[derive(Clone, Debug, Default)]
 pub struct Calibration {
     recent: VecDeque<f64>,
+    /// The plain reads of recent sets, by size class ([`size_class`]): a read is only compared
+    /// with reads of sets that sit in the same level of the memory hierarchy.
+    streams: BTreeMap<u32, VecDeque<f64>>,
+}
+
+/// The size class of a set of `bytes`: its power of two.
+fn size_class(bytes: u64) -> u32 {
+    bytes.max(1).ilog2()
+}
+
+/// The fastest of `recent`, if any.
+fn fastest(recent: &VecDeque<f64>) -> Option<f64> {
+    recent.iter().copied().reduce(f64::min)
+}
+
+/// Appends a finite positive `value`, forgetting the oldest beyond [`CALIBRATION_WINDOW`].
+fn remember(recent: &mut VecDeque<f64>, value: f64) {
+    if value.is_finite() && value > 0.0 {
+        if recent.len() == CALIBRATION_WINDOW {
+            recent.pop_front();
+        }
+        recent.push_back(value);
+    }
 }
 
 impl Calibration {
     /// The fastest recent compute reference, if any.
     pub fn baseline_ns(&self) -> Option<f64> {
-        self.recent.iter().copied().reduce(f64::min)
+        fastest(&self.recent)
     }
 
     pub fn remember(&mut self, compute_ns: f64) {
-        if compute_ns.is_finite() && compute_ns > 0.0 {
-            if self.recent.len() == CALIBRATION_WINDOW {
-                self.recent.pop_front();
-            }
-            self.recent.push_back(compute_ns);
-        }
+        remember(&mut self.recent, compute_ns);
+    }
+
+    /// The fastest recent plain read of a set of about `bytes`, ns per configuration, if any.
+    pub fn stream_baseline_ns(&self, bytes: u64) -> Option<f64> {
+        self.streams.get(&size_class(bytes)).and_then(fastest)
+    }
+
+    pub fn remember_stream(&mut self, bytes: u64, stream_ns: f64) {
+        remember(
+            self.streams.entry(size_class(bytes)).or_default(),
+            stream_ns,
+        );
     }
 }
 
@@ -96,38 +129,57 @@ pub struct References {
     pub compute_ns_after: f64,
     /// The fastest compute reference of the thread's recent points before this one, if any.
     pub compute_ns_baseline: Option<f64>,
-    /// Plain read of the arrays, ns per configuration.
+    /// The plain read of the first set and of the last one, each timed after an untimed read
+    /// of the fresh set: ns per configuration, the 5th percentile of the read's blocks.
     pub stream_ns_before: f64,
     pub stream_ns_after: f64,
+    /// The fastest plain read of sets of this size class on this thread before this point.
+    pub stream_ns_baseline: Option<f64>,
+    /// The thread's CPU time over the wall time of the timed passes: the share of its core it
+    /// had while it was timed (NaN where the system has no thread CPU clock).
+    pub core_share: f64,
 }
 
 impl References {
     /// Why this measurement is not to be trusted, or `None` if the machine looked steady.
     pub fn disturbance(&self) -> Option<String> {
+        if self.core_share < CORE_SHARE_MIN {
+            return Some(format!(
+                "the timed passes took {:.2}× the CPU time the thread got: another process ran on its core (tolerance {:.2}×)",
+                1.0 / self.core_share,
+                1.0 / CORE_SHARE_MIN
+            ));
+        }
         let (before, after) = (self.compute_ns_before, self.compute_ns_after);
         let fastest = self
             .compute_ns_baseline
             .map_or(before.min(after), |b| b.min(before).min(after));
         let slowest = before.max(after);
-        if slowest > fastest * (1.0 + COMPUTE_TOLERANCE) {
-            let (what, slow) = if after > before {
-                ("after", after)
-            } else {
-                ("before", before)
-            };
+        if slowest > fastest * COMPUTE_TOLERANCE {
+            let what = if after > before { "after" } else { "before" };
             return Some(format!(
-                "the core ran {:.1} % slower {what} the point than at its fastest recent reference (tolerance {:.0} %)",
-                (slow / fastest - 1.0) * 100.0,
-                COMPUTE_TOLERANCE * 100.0
+                "the core ran {:.2}× slower {what} the point than at its fastest recent reference (tolerance {COMPUTE_TOLERANCE:.2}×)",
+                slowest / fastest,
             ));
         }
         let (s0, s1) = (self.stream_ns_before, self.stream_ns_after);
-        if s0.max(s1) > s0.min(s1) * (1.0 + STREAM_TOLERANCE) {
+        if s0.max(s1) > s0.min(s1) * STREAM_TOLERANCE {
+            let (slow, fast) = if s1 > s0 {
+                ("end", "start")
+            } else {
+                ("start", "end")
+            };
             return Some(format!(
-                "the plain read of the arrays took {:.1} % {} at the end of the point than at its start (tolerance {:.0} %)",
-                (s0.max(s1) / s0.min(s1) - 1.0) * 100.0,
-                if s1 > s0 { "longer" } else { "less" },
-                STREAM_TOLERANCE * 100.0
+                "the plain read of the arrays was {:.2}× slower at the {slow} of the point than at its {fast} (tolerance {STREAM_TOLERANCE:.2}×)",
+                s0.max(s1) / s0.min(s1),
+            ));
+        }
+        if let Some(baseline) = self.stream_ns_baseline
+            && s0.min(s1) > baseline * STREAM_TOLERANCE
+        {
+            return Some(format!(
+                "the plain read of the arrays was {:.2}× slower than the fastest recent read of sets this size on this core (tolerance {STREAM_TOLERANCE:.2}×)",
+                s0.min(s1) / baseline,
             ));
         }
         None
@@ -145,19 +197,21 @@ mod tests {
             compute_ns_baseline: baseline,
             stream_ns_before: stream.0,
             stream_ns_after: stream.1,
+            stream_ns_baseline: None,
+            core_share: 0.999,
         }
     }
 
     #[test]
-    fn steady_references_pass_and_moved_ones_are_flagged() {
+    fn steady_references_pass_and_moved_ones_are_flagged_with_the_ratio() {
         assert_eq!(
             references((1.00, 1.02), Some(0.99), (2.0, 2.1)).disturbance(),
             None
         );
-        let slow_after = references((1.00, 1.10), Some(1.0), (2.0, 2.0))
+        let slow_after = references((1.00, 1.20), Some(1.0), (2.0, 2.0))
             .disturbance()
             .expect("flagged");
-        assert!(slow_after.contains("10.0 % slower after"), "{slow_after}");
+        assert!(slow_after.contains("1.20× slower after"), "{slow_after}");
         // Slow from start to end, but slower than this thread's recent points: a long slow phase.
         assert!(
             references((1.2, 1.2), Some(1.0), (2.0, 2.0))
@@ -169,10 +223,49 @@ mod tests {
                 .disturbance()
                 .is_none()
         );
-        let memory = references((1.0, 1.0), None, (2.0, 2.5))
+        let memory = references((1.0, 1.0), None, (2.0, 3.2))
             .disturbance()
             .expect("flagged");
-        assert!(memory.contains("25.0 % longer"), "{memory}");
+        assert!(memory.contains("1.60× slower at the end"), "{memory}");
+        let memory = references((1.0, 1.0), None, (3.4, 2.0))
+            .disturbance()
+            .expect("flagged");
+        assert!(memory.contains("1.70× slower at the start"), "{memory}");
+    }
+
+    #[test]
+    fn a_thread_that_lost_its_core_is_flagged_whatever_its_references_say() {
+        let shared = References {
+            core_share: 0.52,
+            ..references((1.0, 1.0), Some(1.0), (2.0, 2.0))
+        };
+        let why = shared.disturbance().expect("flagged");
+        assert!(why.contains("1.92× the CPU time"), "{why}");
+        // No thread CPU clock: nothing is claimed either way.
+        let unknown = References {
+            core_share: f64::NAN,
+            ..references((1.0, 1.0), Some(1.0), (2.0, 2.0))
+        };
+        assert_eq!(unknown.disturbance(), None);
+    }
+
+    #[test]
+    fn a_read_slower_than_recent_reads_of_the_same_size_is_flagged() {
+        let mut calibration = Calibration::default();
+        calibration.remember_stream(10 << 20, 0.5);
+        calibration.remember_stream(100 << 20, 1.8);
+        // 12 MiB is in the class of 10 MiB (8 to 16 MiB), not of 100 MiB.
+        assert_eq!(calibration.stream_baseline_ns(12 << 20), Some(0.5));
+        assert_eq!(calibration.stream_baseline_ns(40 << 20), None);
+        let hogged = References {
+            stream_ns_baseline: calibration.stream_baseline_ns(12 << 20),
+            ..references((1.0, 1.0), None, (0.9, 0.92))
+        };
+        let why = hogged.disturbance().expect("flagged");
+        assert!(
+            why.contains("1.80× slower than the fastest recent read"),
+            "{why}"
+        );
     }
 
     #[test]
