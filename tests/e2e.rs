@@ -1154,6 +1154,17 @@ fn the_status_page_shows_the_campaign_as_the_store_has_it() {
         .map(|f| f["name"].as_str().unwrap())
         .collect();
     assert_eq!(names, ["table1", "fig2"]);
+    // The no-op jobs have no figure, and the page says so.
+    let snapshot = http_json(&page, "/api/snapshot");
+    let absent = snapshot["figures_absent"].as_array().unwrap();
+    assert_eq!(absent.len(), 1, "{absent:?}");
+    assert!(
+        absent[0]
+            .as_str()
+            .unwrap()
+            .starts_with("no figure for no-op jobs ("),
+        "{absent:?}"
+    );
     let (status, head, svg) = http(&page, "GET", "/api/figures/fig2.svg", &[], "");
     assert_eq!(status, 200, "{svg}");
     assert!(

@@ -37,13 +37,18 @@ async fn open_read_only(db: &Path) -> anyhow::Result<Store> {
             db.display(),
             db.display()
         ),
+        // It names the file already.
+        Err(error @ store::Error::Open { .. }) => Err(error.into()),
         opened => opened.with_context(|| format!("cannot open {}", db.display())),
     }
 }
 
 /// Opens (creating and migrating) `db` for a command that writes it: local mode, a coordinator.
 pub async fn open(db: &Path) -> anyhow::Result<Store> {
-    Store::open(db)
-        .await
-        .with_context(|| format!("cannot open {}", db.display()))
+    match Store::open(db).await {
+        Err(error @ (store::Error::Open { .. } | store::Error::Migrate { .. })) => {
+            Err(error.into())
+        }
+        opened => opened.with_context(|| format!("cannot open {}", db.display())),
+    }
 }

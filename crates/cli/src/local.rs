@@ -167,6 +167,11 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let status = runtime.block_on(coordinator.status(Some(&id)))?;
     let quality = runtime.block_on(results::overlap_quality(coordinator.store(), Some(&id)))?;
+    let shifts: Vec<_> = runtime
+        .block_on(results::machine_history(coordinator.store()))?
+        .into_iter()
+        .filter(|s| s.campaign == id)
+        .collect();
     runtime.block_on(coordinator.store().close());
     match format {
         Format::Json => print_json(&serde_json::json!({
@@ -176,13 +181,14 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
             "already_known": submitted.already_known,
             "status": status,
             "timing": quality,
+            "machine_history": shifts,
         }))?,
         _ => {
             println!(
                 "{} new points, {} already known",
                 submitted.new_jobs, submitted.already_known
             );
-            print_status(&id, &status, Some(&quality), None, format)?;
+            print_status(&id, &status, Some((&quality, &shifts)), None, format)?;
         }
     }
     if let Some(reason) = halted {

@@ -101,9 +101,47 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {
-            // One line: the causes joined, outermost first.
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", one_line(&error));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// The causes of `error` on one line, outermost first, each said once: a library error that
+/// already quotes its source (sqlx's do, and so do errors that wrap them) is not followed by that
+/// source again.
+fn one_line(error: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in error.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("database error: {0}")]
+    struct Quoting(#[source] std::io::Error);
+
+    #[test]
+    fn a_cause_already_quoted_is_said_once() {
+        let io = std::io::Error::other("(code: 11) database disk image is malformed");
+        let error = anyhow::Error::new(Quoting(io)).context("cannot open x.db");
+        assert_eq!(
+            one_line(&error),
+            "cannot open x.db: database error: (code: 11) database disk image is malformed"
+        );
+        let plain = anyhow::anyhow!("no such table").context("report table1");
+        assert_eq!(one_line(&plain), "report table1: no such table");
     }
 }

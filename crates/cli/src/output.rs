@@ -77,15 +77,16 @@ pub fn write_csv(
 pub fn print_status(
     campaign: &str,
     status: &store::Status,
-    quality: Option<&results::OverlapQuality>,
+    quality: Option<(&results::OverlapQuality, &[results::MachineShift])>,
     allocations: Option<&Report>,
     format: Format,
 ) -> anyhow::Result<()> {
     match format {
         Format::Json => {
             let mut out = serde_json::json!({ "campaign": campaign, "status": status });
-            if let Some(quality) = quality {
+            if let Some((quality, shifts)) = quality {
                 out["timing"] = serde_json::to_value(quality)?;
+                out["machine_history"] = serde_json::to_value(shifts)?;
             }
             if let Some(allocations) = allocations {
                 out["allocations"] = serde_json::to_value(allocations)?;
@@ -102,11 +103,16 @@ pub fn print_status(
                 status.running,
                 status.cancelled
             );
-            if let Some(q) = quality.filter(|q| q.checked > 0) {
-                println!(
-                    "timing: {} overlap points checked for noise: {} re-run ({} re-runs), {} still disturbed (flagged); {:.0} s measuring, {:.0} s of it timed",
-                    q.checked, q.rerun, q.reruns, q.disturbed, q.wall_s, q.timed_s
-                );
+            if let Some((q, shifts)) = quality {
+                if q.checked > 0 {
+                    println!(
+                        "timing: {} overlap points checked for noise: {} re-run ({} re-runs), {} still disturbed (flagged); {:.0} s measuring, {:.0} s of it timed",
+                        q.checked, q.rerun, q.reruns, q.disturbed, q.wall_s, q.timed_s
+                    );
+                }
+                for shift in shifts {
+                    println!("warning: {}", shift.message);
+                }
             }
             if let Some(report) = allocations {
                 print_allocation_summary(report);

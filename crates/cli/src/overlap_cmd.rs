@@ -1,13 +1,17 @@
-//! `sweep overlap --input CASES.csv`: every algorithm's verdict and Eq. 2's distance per row.
+//! `sweep overlap --input CASES.csv`: for every row, each algorithm's verdict where the precision
+//! can judge it (`undecided`, with the reason, where it cannot), the exact verdict of Eq. 2 and
+//! the distance. A malformed row (not a number, a size not positive, the zero quaternion) refuses
+//! the file, naming the row and column.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use std::collections::BTreeMap;
+
 use overlap::config::axes_from_quaternion;
-use overlap::{
-    Algorithm, Configuration, Cuboid, Kernels, OverlapError, Precision, min_distance, overlaps,
-};
+use overlap::judge::{Case, Judgement, judge};
+use overlap::{Algorithm, OverlapError, Precision};
 use serde::Serialize;
 
 use crate::output::{Format, print_json, print_table, write_csv};
@@ -29,98 +33,123 @@ const COLUMNS: [&str; 11] = [
     "rx", "ry", "rz", "radius", "half_t", "half_l", "half_w", "qw", "qx", "qy", "qz",
 ];
 
-/// One validated row, in f64 as read.
-struct Case {
-    r_sc: [f64; 3],
-    radius: f64,
-    half: [f64; 3],
-    axes: [[f64; 3]; 3],
-}
-
+/// A row's answer: each algorithm's verdict (`0`, `1`, or `undecided` where the precision
+/// cannot judge the row), the exact verdict of Eq. 2 and the distance, and why a verdict is
+/// missing.
 #[derive(Serialize)]
-struct Verdicts {
+struct Row {
     row: usize,
     #[serde(flatten)]
-    overlaps: std::collections::BTreeMap<&'static str, u8>,
+    verdicts: BTreeMap<&'static str, Verdict>,
     distance: f64,
+    exact: Verdict,
+    /// Why the precision (or the exact evaluation) could not judge the row; absent when every
+    /// verdict is given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    undecided: Option<String>,
+}
+
+/// `0`, `1`, or the string `undecided`.
+#[derive(Clone, Copy)]
+enum Verdict {
+    Decided(bool),
+    Undecided,
+}
+
+impl Serialize for Verdict {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Verdict::Decided(v) => serializer.serialize_u8(u8::from(*v)),
+            Verdict::Undecided => serializer.serialize_str("undecided"),
+        }
+    }
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Verdict::Decided(v) => write!(f, "{}", u8::from(*v)),
+            Verdict::Undecided => f.write_str("undecided"),
+        }
+    }
 }
 
 pub fn run(args: &OverlapArgs, format: Format) -> anyhow::Result<()> {
     let name = args.input.display().to_string();
     let cases = read_cases(&args.input).with_context(|| name.clone())?;
-    let verdicts: Vec<Verdicts> = match args.precision {
-        Precision::F32 => cases
-            .iter()
-            .enumerate()
-            .map(|(row, c)| evaluate::<f32>(row, c))
-            .collect::<anyhow::Result<_>>(),
-        Precision::F64 => cases
-            .iter()
-            .enumerate()
-            .map(|(row, c)| evaluate::<f64>(row, c))
-            .collect::<anyhow::Result<_>>(),
-    }
-    .with_context(|| name.clone())?;
+    let rows: Vec<Row> = cases
+        .iter()
+        .enumerate()
+        .map(|(row, case)| {
+            let judgement = match args.precision {
+                Precision::F32 => judge::<f32>(case),
+                Precision::F64 => judge::<f64>(case),
+            };
+            answer(row, judgement, args.precision)
+        })
+        .collect();
     let mut header = vec!["row"];
     header.extend(Algorithm::ALL.map(Algorithm::name));
-    header.push("distance");
-    let rows = verdicts.iter().map(|v| {
-        let mut cells = vec![v.row.to_string()];
-        cells.extend(Algorithm::ALL.map(|a| v.overlaps[a.name()].to_string()));
-        cells.push(format!("{:.9e}", v.distance));
+    header.extend(["distance", "exact", "undecided"]);
+    let cells = rows.iter().map(|r| {
+        let mut cells = vec![r.row.to_string()];
+        cells.extend(Algorithm::ALL.map(|a| r.verdicts[a.name()].to_string()));
+        cells.push(format!("{:.9e}", r.distance));
+        cells.push(r.exact.to_string());
+        cells.push(r.undecided.clone().unwrap_or_default());
         cells
     });
     match format {
-        Format::Json => print_json(&verdicts),
+        Format::Json => print_json(&rows),
         Format::Csv => write_csv(
             &header.iter().map(|h| h.to_string()).collect::<Vec<_>>(),
-            rows,
+            cells,
         ),
         Format::Table => {
-            print_table(&header, &rows.collect::<Vec<_>>());
+            print_table(&header, &cells.collect::<Vec<_>>());
             Ok(())
         }
     }
 }
 
-/// The verdicts of one row in precision `T`, or an error naming the row and column when `T`
-/// cannot judge it ([`overlap::range::check_case`]): never a confident wrong verdict.
-fn evaluate<T: Kernels>(row: usize, case: &Case) -> anyhow::Result<Verdicts> {
-    let exact = min_distance(
-        &Configuration {
-            r_sc: case.r_sc,
-            axes: case.axes,
-        },
-        &Cuboid { half: case.half },
-    );
-    let columns = ["rx", "ry", "rz", "radius", "half_t", "half_l", "half_w"];
-    overlap::range::check_case::<T>(&case.r_sc, case.radius, &case.half, exact, &columns).map_err(
-        |e| match e {
-            OverlapError::Invalid { key, reason } => {
-                anyhow::anyhow!("row {row}, column `{key}`: {reason}")
-            }
-        },
-    )?;
-    let cfg = Configuration {
-        r_sc: case.r_sc.map(T::from_f64),
-        axes: case.axes.map(|e| e.map(T::from_f64)),
+/// A row's answer from its judgement: every kernel undecided where the precision cannot judge
+/// the row, the exact verdict undecided where its range stops.
+fn answer(row: usize, judgement: Judgement, precision: Precision) -> Row {
+    let (verdicts, precision_why) = match judgement.kernels {
+        Ok(verdicts) => (
+            verdicts
+                .into_iter()
+                .map(|(a, v)| (a.name(), Verdict::Decided(v)))
+                .collect(),
+            None,
+        ),
+        Err(why) => (
+            Algorithm::ALL
+                .map(|a| (a.name(), Verdict::Undecided))
+                .into_iter()
+                .collect(),
+            Some(format!("{precision}: {why}")),
+        ),
     };
-    let cuboid = Cuboid {
-        half: case.half.map(T::from_f64),
+    let (exact, exact_why) = match judgement.exact {
+        Ok(v) => (Verdict::Decided(v), None),
+        Err(why) => (Verdict::Undecided, Some(format!("exact: {why}"))),
     };
-    let radius = T::from_f64(case.radius);
-    Ok(Verdicts {
+    let undecided = match (precision_why, exact_why) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or(b),
+    };
+    Row {
         row,
-        overlaps: Algorithm::ALL
-            .into_iter()
-            .map(|a| (a.name(), overlaps(a, &cfg, &cuboid, radius) as u8))
-            .collect(),
-        distance: min_distance(&cfg, &cuboid).to_f64(),
-    })
+        verdicts,
+        distance: judgement.distance,
+        exact,
+        undecided,
+    }
 }
 
-/// Reads and validates every row before anything is computed; the first bad cell is reported
-/// with its row (0-based, as in the output) and column.
+/// Reads and validates every row before anything is computed; the first malformed cell is
+/// reported with its row (0-based, as in the output) and column.
 fn read_cases(path: &std::path::Path) -> anyhow::Result<Vec<Case>> {
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)

@@ -74,12 +74,26 @@ pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     )
 }
 
+/// Every overlap point, estimated by `--statistic` or else `default`; the campaigns that ran
+/// slower than their machine's earlier ones are named on stderr, since a table mixes campaigns.
+fn overlap_points(
+    args: &ReportArgs,
+    default: Statistic,
+) -> anyhow::Result<Vec<report::OverlapPoint>> {
+    let statistic = args.statistic.unwrap_or(default);
+    let (points, shifts) = database::read(&args.db, async |store| {
+        let points = results::overlap_points(store, statistic).await?;
+        Ok((points, results::machine_history(store).await?))
+    })?;
+    for shift in shifts {
+        eprintln!("warning: {}", shift.message);
+    }
+    Ok(points)
+}
+
 /// Table 1 (or 2), estimated by the tables' statistic unless `--statistic` says otherwise.
 fn table_report(args: &ReportArgs, precision: &str, format: Format) -> anyhow::Result<()> {
-    let statistic = args.statistic.unwrap_or(Statistic::FOR_TABLES);
-    let points = database::read(&args.db, async |store| {
-        Ok(results::overlap_points(store, statistic).await?)
-    })?;
+    let points = overlap_points(args, Statistic::FOR_TABLES)?;
     let table = report::table1(&points, precision);
     if table.is_empty() {
         bail!(
@@ -109,10 +123,7 @@ fn table_report(args: &ReportArgs, precision: &str, format: Format) -> anyhow::R
 /// Figure 2 (or 3), estimated by the figures' statistic unless `--statistic` says otherwise:
 /// drawn, or its points as JSON.
 fn figure_report(args: &ReportArgs, precision: &str, format: Format) -> anyhow::Result<()> {
-    let statistic = args.statistic.unwrap_or(Statistic::FOR_SURFACES);
-    let points = database::read(&args.db, async |store| {
-        Ok(results::overlap_points(store, statistic).await?)
-    })?;
+    let points = overlap_points(args, Statistic::FOR_SURFACES)?;
     let json_out = args.out.as_deref().filter(|o| {
         o.extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("json"))

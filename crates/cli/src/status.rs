@@ -32,17 +32,25 @@ pub fn run(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
     let shown = campaign.unwrap_or("(all)");
     match (&args.db, &args.coordinator) {
         (Some(db), _) => {
-            let (status, quality, allocations) = database::read(db, async |store| {
+            let (status, quality, shifts, allocations) = database::read(db, async |store| {
                 let status = store.status(campaign).await?;
+                let quality = results::overlap_quality(store, campaign).await?;
+                let shifts = results::machine_history(store).await?;
                 let allocations = Report::read(store, None, None).await?;
-                Ok((
-                    status,
-                    results::overlap_quality(store, campaign).await?,
-                    allocations,
-                ))
+                Ok((status, quality, shifts, allocations))
             })?;
+            let shifts: Vec<_> = shifts
+                .into_iter()
+                .filter(|s| campaign.is_none_or(|c| c == s.campaign))
+                .collect();
             let allocations = shown_allocations(allocations);
-            print_status(shown, &status, Some(&quality), allocations.as_ref(), format)
+            print_status(
+                shown,
+                &status,
+                Some((&quality, &shifts)),
+                allocations.as_ref(),
+                format,
+            )
         }
         (None, Some(url)) => {
             let client = ClientArgs {

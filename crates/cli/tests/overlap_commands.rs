@@ -100,9 +100,9 @@ fn overlap_csv(body: &str, extra: &[&str]) -> Output {
 }
 
 /// Hand-made cases with known answers, in both precisions: the identity frame, a cuboid turned
-/// 90° about z (ê_T = ŷ), and a corner at distance √3.
+/// 90° about z (ê_T = ŷ), and a corner at distance √3; every row with the exact verdict.
 #[test]
-fn overlap_gives_every_verdict_and_the_distance() {
+fn overlap_gives_every_verdict_the_exact_one_and_the_distance() {
     let body = format!(
         "{HEADER}\n\
          2.5,0,0,1,0.5,1,1,1,0,0,0\n\
@@ -121,16 +121,82 @@ fn overlap_gives_every_verdict_and_the_distance() {
             for algorithm in ["arvo", "qri", "qrf", "sse", "ocsi", "ocsi_batch"] {
                 assert_eq!(row[algorithm], hit, "{precision} {algorithm} {row}");
             }
+            assert_eq!(row["exact"], hit, "{precision} {row}");
+            assert!(row.get("undecided").is_none(), "{row}");
             assert!(
-                (row["distance"].as_f64().unwrap() - distance).abs() < 1e-6,
+                (row["distance"].as_f64().unwrap() - distance).abs() < 1e-12,
                 "{precision} {row}"
             );
         }
     }
 }
 
+/// A file of 2,000 rows with one that a precision cannot judge still gets every answer: that
+/// row says `undecided` with the reason, in its kernels' columns only, and keeps its exact
+/// verdict; rows beyond a precision's range are answered the same way.
 #[test]
-fn overlap_rejects_bad_rows_naming_row_and_column() {
+fn overlap_answers_every_row_and_says_which_it_cannot_judge() {
+    let decided = "2.5,0,0,1,0.5,1,1,1,0,0,0\n".repeat(1999);
+    let body = format!(
+        "{HEADER}\n1.5,0,0,1,0.5,1,1,1,0,0,0\n{decided}1e39,0,0,1,0.5,1,1,1,0,0,0\n3,0,0,1e-40,0.5,1,1,1,0,0,0\n"
+    );
+    let out = overlap_csv(&body, &["--format", "json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows.len(), 2002);
+    let touching = &rows[0];
+    assert_eq!(touching["qri"], "undecided");
+    assert_eq!(touching["exact"], 1, "touching counts as overlapping");
+    let why = touching["undecided"].as_str().unwrap();
+    assert!(
+        why.starts_with("f32: radius: the sphere is within rounding of touching"),
+        "{why}"
+    );
+    assert!(
+        rows[1..2000]
+            .iter()
+            .all(|r| r["ocsi"] == 0 && r["exact"] == 0)
+    );
+    // Beyond f32's range, and so far from the cuboid that Eq. 2 is decided without exact
+    // arithmetic.
+    let far = &rows[2000];
+    assert_eq!(
+        (&far["arvo"], &far["exact"]),
+        (&serde_json::json!("undecided"), &serde_json::json!(0))
+    );
+    let why = far["undecided"].as_str().unwrap();
+    assert!(
+        why.starts_with("f32: rx:") && why.contains("beyond what f32 can square"),
+        "{why}"
+    );
+    let tiny = &rows[2001];
+    assert_eq!(tiny["sse"], "undecided");
+    assert!(
+        tiny["undecided"]
+            .as_str()
+            .unwrap()
+            .starts_with("f32: radius:"),
+        "{tiny}"
+    );
+    // f64 judges the row f32 cannot.
+    let out = overlap_csv(&body, &["--format", "json", "--precision", "f64"]);
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows[2001]["sse"], 0, "{}", rows[2001]);
+    assert_eq!(
+        rows[0]["qrf"], "undecided",
+        "touching stays undecided in f64"
+    );
+    // The CSV has the same columns as the contract, the reason last.
+    let out = overlap_csv(&body, &["--format", "csv"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(
+        text.lines().next().unwrap(),
+        "row,arvo,qri,qrf,sse,ocsi,ocsi_batch,distance,exact,undecided"
+    );
+}
+
+#[test]
+fn overlap_rejects_malformed_rows_naming_row_and_column() {
     let good = "1,0,0,1,0.5,1,1,1,0,0,0";
     for (body, needle) in [
         (
@@ -162,20 +228,6 @@ fn overlap_rejects_bad_rows_naming_row_and_column() {
             "row 0, column `ry`",
         ),
         (format!("{HEADER}\n1,0,0,1,0.5,1,1,1,0,0\n"), "row 0"),
-        // Beyond f32's range (the default precision): it used to give a verdict with distance 0.
-        (
-            format!("{HEADER}\n{good}\n1e39,0,0,1,0.5,1,1,1,0,0,0\n"),
-            "row 1, column `rx`",
-        ),
-        (
-            format!("{HEADER}\n3,0,0,1e-40,0.5,1,1,1,0,0,0\n"),
-            "row 0, column `radius`",
-        ),
-        // Exactly touching: no precision can be trusted with the verdict.
-        (
-            format!("{HEADER}\n1.5,0,0,1,0.5,1,1,1,0,0,0\n"),
-            "row 0, column `radius`: the sphere is within rounding",
-        ),
     ] {
         let out = overlap_csv(&body, &[]);
         let err = stderr(&out);

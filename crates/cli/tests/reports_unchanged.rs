@@ -4,7 +4,7 @@
 //! superquadrics, a point that failed for good) is read by every report, as JSON, Markdown and
 //! SVG, and by the status page; each output must equal the one saved in `fixtures/reports/`,
 //! byte for byte. So a change of how results are read, estimated or drawn cannot pass unseen, and
-//! a database written by an older `sweep` stays readable.
+//! a database written by an older `sweep` stays readable once migrated.
 //!
 //! A change that is meant to alter a report re-saves the outputs with `SWEEP_BLESS=1 cargo test
 //! -p cli --test reports_unchanged` and shows the difference in its commit. On a mismatch the
@@ -20,20 +20,20 @@ fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
 }
 
-/// A copy of the fixture database, migrated to this sweep's schema as a user migrates an older
-/// database (opened once read-write: `sweep run` or `sweep coordinator` does it), so that the
-/// fixture stays the database an older sweep wrote and a new migration needs no new fixture.
+/// A copy of the fixture database, migrated to this version's schema as `sweep run` or `sweep
+/// coordinator` migrates a database written by an older `sweep` (read-only commands refuse an
+/// outdated schema and say so).
 fn database(dir: &Path) -> PathBuf {
     let db = dir.join("campaign.db");
     std::fs::copy(fixtures().join("reports-campaign.db"), &db).expect("the fixture database");
-    tokio::runtime::Builder::new_current_thread()
+    let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .unwrap()
-        .block_on(async {
-            let store = store::Store::open(&db).await.expect("the fixture migrates");
-            store.close().await;
-        });
+        .unwrap();
+    runtime.block_on(async {
+        let store = store::Store::open(&db).await.expect("migrated");
+        store.close().await;
+    });
     db
 }
 
@@ -84,7 +84,11 @@ fn sweep(args: &[&str]) -> (Vec<u8>, Vec<u8>) {
     assert!(out.status.success(), "sweep {args:?}: {stderr}");
     let said: String = stderr
         .lines()
-        .filter(|l| l.starts_with("missing:") || l.starts_with("note:"))
+        .filter(|l| {
+            ["missing:", "note:", "warning:"]
+                .iter()
+                .any(|p| l.starts_with(p))
+        })
         .map(|l| format!("{l}\n"))
         .collect();
     (out.stdout, said.into_bytes())

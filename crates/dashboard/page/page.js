@@ -204,14 +204,14 @@ async function refreshFigure(figure, slot) {
 
 async function renderFigures(snapshot) {
   const box = $("figures");
-  const list = JSON.stringify(snapshot.figures);
+  const list = JSON.stringify([snapshot.figures, snapshot.figures_absent]);
   if (list !== figureList) {
     figureList = list;
     figuresDoneAt = null;
-    if (snapshot.figures.length === 0) return;
     box.replaceChildren(...snapshot.figures.map((f) => el("div", { class: "figure", "data-figure": f.name },
       el("h3", {}, f.title, " ", el("span", { class: "status muted small" }, "drawing…")),
-      el("div", { class: "content" }))));
+      el("div", { class: "content" }))),
+      ...snapshot.figures_absent.map((why) => el("p", { class: "muted" }, why)));
   }
   if (figuresDoneAt === snapshot.done_total || snapshot.figures.length === 0) return;
   figuresDoneAt = snapshot.done_total;

@@ -72,6 +72,14 @@ impl Figure {
     fn is_table(&self) -> bool {
         matches!(self.drawing, Drawing::Table { .. })
     }
+
+    /// The kind of job whose results it draws.
+    pub fn kind(&self) -> &'static str {
+        match self.drawing {
+            Drawing::Table { .. } | Drawing::Fig2 { .. } => "overlap",
+            Drawing::Fig7 | Drawing::Fig13 => "edmd",
+        }
+    }
 }
 
 const FIGURES: [Figure; 6] = [
@@ -112,6 +120,22 @@ pub const BY_KIND: [(&str, &[Figure]); 2] = [
     ("overlap", &[FIGURES[0], FIGURES[1]]),
     ("edmd", &[FIGURES[4], FIGURES[5]]),
 ];
+
+/// What the page says where it draws nothing, given the done jobs by kind: why there is no
+/// figure (yet) rather than an empty space.
+pub fn absent(done_by_kind: &[(String, u64)]) -> Vec<String> {
+    if done_by_kind.is_empty() {
+        return vec!["nothing to draw until a job is done".into()];
+    }
+    done_by_kind
+        .iter()
+        .filter(|(kind, _)| !BY_KIND.iter().any(|(k, _)| k == kind))
+        .map(|(kind, done)| {
+            let kind = if kind == "noop" { "no-op" } else { kind };
+            format!("no figure for {kind} jobs ({done} done)")
+        })
+        .collect()
+}
 
 /// Looks a figure up by name; `table` says whether a table (JSON) or a figure (SVG) is asked.
 pub fn find(name: &str, table: bool) -> Option<Figure> {
@@ -207,5 +231,30 @@ fn draw(
             }
             .map_err(|e| e.to_string())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_page_says_why_it_draws_nothing() {
+        assert_eq!(absent(&[]), ["nothing to draw until a job is done"]);
+        let done = |kinds: &[(&str, u64)]| -> Vec<(String, u64)> {
+            kinds.iter().map(|(k, n)| (k.to_string(), *n)).collect()
+        };
+        assert_eq!(
+            absent(&done(&[("noop", 19)])),
+            ["no figure for no-op jobs (19 done)"]
+        );
+        assert!(absent(&done(&[("edmd", 2), ("overlap", 5)])).is_empty());
+        assert_eq!(
+            absent(&done(&[("noop", 3), ("overlap", 5)])),
+            ["no figure for no-op jobs (3 done)"]
+        );
+        let fig2 = find("fig2", false).expect("fig2");
+        assert_eq!(fig2.kind(), "overlap");
+        assert_eq!(find("fig13", false).expect("fig13").kind(), "edmd");
     }
 }

@@ -318,7 +318,18 @@ async fn drawn(app: &App, figure: Option<figures::Figure>, content_type: &'stati
             "no such figure (figures: fig2, fig3, fig7, fig13 as .svg; tables: table1, table2 as .json)",
         );
     };
-    let done = app.sampler.latest().done_total;
+    let latest = app.sampler.latest();
+    if !latest.done_by_kind.iter().any(|(k, _)| k == figure.kind()) {
+        return error(
+            StatusCode::NOT_FOUND,
+            &format!(
+                "{} needs done {} jobs (none yet)",
+                figure.name,
+                figure.kind()
+            ),
+        );
+    }
+    let done = latest.done_total;
     let drawn = app.figures.get(figure, done).await;
     match drawn.body {
         Ok(body) => Response::builder()

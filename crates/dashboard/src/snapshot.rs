@@ -93,6 +93,11 @@ pub struct Snapshot {
     pub figures: Vec<FigureLink>,
     /// The allocations of `--slurm-alloc` (empty, `configured: false`, without an allocator).
     pub allocations: Report,
+    /// Why the page draws nothing, or nothing for some kind of done job.
+    pub figures_absent: Vec<String>,
+    /// Done jobs by kind (which figures can be drawn).
+    #[serde(skip)]
+    pub done_by_kind: Vec<(String, u64)>,
 }
 
 fn unix_now() -> f64 {
@@ -222,12 +227,12 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
             cancelled_at: c.cancelled_at,
         });
     }
-    let mut figures = Vec::new();
-    for (kind, links) in crate::figures::BY_KIND {
-        if store.has_done(kind).await? {
-            figures.extend(links.iter().map(|f| f.link()));
-        }
-    }
+    let done_by_kind = store.done_by_kind().await?;
+    let figures = crate::figures::BY_KIND
+        .iter()
+        .filter(|(kind, _)| done_by_kind.iter().any(|(k, _)| k == kind))
+        .flat_map(|(_, figures)| figures.iter().map(|f| f.link()))
+        .collect();
     Ok(Snapshot {
         taken_at: now,
         sample_s: 0.0,
@@ -238,6 +243,8 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
         failures: store.recent_failures(FAILURES).await?,
         figures,
         allocations,
+        figures_absent: crate::figures::absent(&done_by_kind),
+        done_by_kind,
     })
 }
 

@@ -438,7 +438,10 @@ async fn the_page_draws_fig13_from_superquadric_runs() {
             );
         } else {
             assert_eq!(status, StatusCode::NOT_FOUND);
-            assert!(body.contains("fig13: nothing to draw yet"), "{body}");
+            assert!(
+                body.contains("fig13 needs done edmd jobs (none yet)"),
+                "{body}"
+            );
         }
     }
 }

@@ -3,14 +3,7 @@
 
 /// CPU time consumed by the calling thread so far, in seconds (0 where the clock is missing).
 pub fn thread_cpu_seconds() -> f64 {
-    let mut now = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `now` is a valid, writable timespec; CLOCK_THREAD_CPUTIME_ID exists on Linux and
-    // macOS; on failure the call leaves `now` at zero.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut now) };
-    now.tv_sec as f64 + now.tv_nsec as f64 * 1e-9
+    cpu_time::ThreadTime::try_now().map_or(0.0, |now| now.as_duration().as_secs_f64())
 }
 
 #[cfg(test)]

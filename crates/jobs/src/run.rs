@@ -47,7 +47,8 @@ pub enum JobError {
 /// `{"stream_ns_per_config", "generation_ms", "arrays_bytes", "rho", "block_configurations",
 /// "repeats", "stop", "timed_s", "wall_s", "reference_compute_ns_before",
 /// "reference_compute_ns_after", "reference_compute_ns_baseline", "reference_stream_ns_before",
-/// "reference_stream_ns_after", "disturbed", "disturbance", "reruns", "rerun_reasons"}` (see
+/// "reference_stream_ns_after", "reference_stream_ns_baseline", "core_share", "disturbed",
+/// "disturbance", "reruns", "rerun_reasons"}` (see
 /// [`overlap::PointReport`]; `disturbed` is true when the machine was still disturbed after the
 /// re-runs, `disturbance` says how), and with `verdict_check` a `verdicts` object
 /// ([`overlap::verdicts::VerdictCheck`]: the checking set's verdicts against the exact ones).
@@ -173,6 +174,11 @@ fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, Jo
             "reference_stream_ns_after",
             json!(references.stream_ns_after),
         ),
+        (
+            "reference_stream_ns_baseline",
+            json!(references.stream_ns_baseline),
+        ),
+        ("core_share", json!(references.core_share)),
         ("disturbed", json!(report.disturbance.is_some())),
         ("disturbance", json!(report.disturbance)),
         ("reruns", json!(report.reruns)),

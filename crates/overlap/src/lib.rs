@@ -9,7 +9,9 @@
 //!   estimates, confidence intervals and when to stop measuring; [`noise`]: the references that
 //!   tell a disturbed machine.
 //! - [`exact`]: Eq. 2 decided exactly; [`verdicts`]: how often each kernel's verdict differs
-//!   from it, on a checking set apart from the timed ones (bulk and near-boundary shell).
+//!   from it, on a checking set apart from the timed ones (bulk and near-boundary shell);
+//!   [`judge`]: one configuration a user gives, judged by every kernel where the precision can
+//!   and exactly; [`range`]: what a precision can judge.
 //!
 //! Every kernel is generic over [`Real`] = `f32` | `f64`.
 
@@ -19,6 +21,7 @@ pub mod config;
 pub mod error;
 pub mod estimate;
 pub mod exact;
+pub mod judge;
 pub mod kernels;
 pub mod noise;
 pub mod protocol;
@@ -36,7 +39,7 @@ pub use estimate::{Estimate, Stop};
 pub use kernels::Kernels;
 pub use kernels::ocsi::min_distance;
 pub use noise::{Calibration, References};
-pub use protocol::{AlgorithmSummary, PointReport, PointSpec, Timing, run_point};
+pub use protocol::{AlgorithmSummary, PointReport, PointSpec, Timing, measure_once, run_point};
 pub use real::Real;
 
 /// Verdict of `algorithm` for one configuration (the batched kernel runs on a batch of one).

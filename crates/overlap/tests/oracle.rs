@@ -5,34 +5,16 @@
 //! own exact evaluation (`overlap::exact`, floating-point expansions) is checked against this
 //! oracle on the same cases.
 
-use num_rational::BigRational;
-use num_traits::{Signed, ToPrimitive, Zero};
+mod common;
+
+use common::exact_margin;
+use num_traits::{Signed, ToPrimitive};
 use overlap::batch::{Batch, verdict, verdict_words};
 use overlap::config::axes_from_quaternion;
 use overlap::exact::{ExactError, overlaps_exactly, rounding_band};
 use overlap::kernels::batch::Isa;
 use overlap::{Algorithm, Configuration, Cuboid, Kernels, Real, min_distance, overlaps};
 use proptest::prelude::*;
-
-fn exact(x: impl Real) -> BigRational {
-    BigRational::from_float(x.to_f64()).expect("finite input")
-}
-
-/// d_min² − R², exactly.
-fn exact_margin<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> BigRational {
-    let mut d2 = BigRational::zero();
-    for i in 0..3 {
-        let a: BigRational = (0..3)
-            .map(|j| exact(cfg.r_sc[j]) * exact(cfg.axes[i][j]))
-            .sum();
-        let l = a.abs() - exact(cuboid.half[i]);
-        if l.is_positive() {
-            d2 += &l * &l;
-        }
-    }
-    let r = exact(radius);
-    d2 - &r * &r
-}
 
 /// The verdicts of every algorithm for `cfgs`, the batched kernel on all of them at once.
 fn check_all<T: Kernels>(

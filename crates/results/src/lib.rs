@@ -13,13 +13,15 @@
 //! - `points`: [`overlap_points`], the rows of Tables 1–2 and Figs. 2–3: each visit
 //!   re-estimated from its blocks by a statistic, a point's visits pooled.
 //! - `edmd`: [`edmd_runs`] (Figs. 7–11, 13, the accuracy report) and [`failed_edmd_runs`].
-//! - `quality`: [`overlap_quality`], how a campaign's overlap points were measured.
+//! - `quality`: [`overlap_quality`], how a campaign's overlap points were measured;
+//!   `history`: [`machine_history`], campaigns slower than the same machine's earlier ones.
 //!
 //! Every function reads through the store's read-only connections; none writes. Stored data
 //! that lacks what its kind writes is an [`Error::Corrupt`] naming the job, never skipped.
 
 mod edmd;
 mod error;
+mod history;
 mod overlap;
 mod points;
 mod quality;
@@ -28,6 +30,7 @@ mod quality;
 pub use ::overlap::estimate::Statistic;
 pub use edmd::{edmd_runs, failed_edmd_runs};
 pub use error::{Error, Result};
+pub use history::{MachineShift, machine_history};
 pub use overlap::{OverlapVisit, overlap_verdicts, overlap_visits};
 pub use points::overlap_points;
 pub use quality::{OverlapQuality, overlap_quality};

@@ -101,14 +101,19 @@ impl Store {
         Ok(activity)
     }
 
-    /// Whether any job of `kind` is done: which figures have something to draw. Stops at the
-    /// first such job.
-    pub async fn has_done(&self, kind: &str) -> Result<bool> {
-        let row =
-            sqlx::query("SELECT EXISTS (SELECT 1 FROM jobs WHERE state = 'done' AND kind = ?1)")
-                .bind(kind)
-                .fetch_one(&self.reader)
-                .await?;
-        Ok(row.try_get::<bool, _>(0)?)
+    /// How many jobs of each kind are done, by kind: which figures have something to draw, and
+    /// what the page can say of the kinds that have none. O(done jobs) through the state index.
+    pub async fn done_by_kind(&self) -> Result<Vec<(String, u64)>> {
+        let rows = sqlx::query(
+            "SELECT kind, count(*) FROM jobs WHERE state = 'done' GROUP BY kind ORDER BY kind",
+        )
+        .fetch_all(&self.reader)
+        .await?;
+        rows.iter()
+            .map(|row| {
+                let count: i64 = row.try_get(1)?;
+                Ok((row.try_get(0)?, count.max(0) as u64))
+            })
+            .collect()
     }
 }

@@ -60,7 +60,7 @@ pub enum Error {
     NotAQuery(String),
     #[error("stored data is inconsistent: {0}")]
     Corrupt(String),
-    #[error("database error: {0}")]
+    #[error(transparent)]
     Database(#[from] sqlx::Error),
     /// The transaction this write was grouped into did not commit: nothing of it was written, and
     /// the same write may succeed if tried again.

@@ -19,7 +19,7 @@
 //!   [`Store::failed_jobs`], [`Store::results_of`] (a kind's jobs with their records),
 //!   [`Store::export`], [`Store::query_read_only`].
 //! - `activity`: [`Store::recent_failures`] (the `job_failures` log), [`Store::worker_activity`],
-//!   [`Store::has_done`]: what the live status page samples.
+//!   [`Store::done_by_kind`]: what the live status page samples.
 //! - `writer`: group commit — the task that applies concurrent writes in one transaction.
 //! - [`types`] and [`error`]: the plain data and error types of the API.
 //!

@@ -1,6 +1,6 @@
 //! `ocsi_batch`: our step beyond the papers. OCSI (Algorithm 5) vectorised across
 //! configurations instead of across the three axes: one SIMD lane per configuration, read from
-//! the blocks of a [`Batch`], verdicts packed into a bitset. With FMA and a branch-free body the
+//! the blocks of a [`Batch`](crate::Batch), verdicts packed into a bitset. With FMA and a branch-free body the
 //! loop is limited by memory bandwidth, not arithmetic.
 //!
 //! The instruction set is chosen at run time ([`Isa::best`]): AVX-512F, else AVX2+FMA, else

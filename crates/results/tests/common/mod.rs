@@ -51,6 +51,17 @@ pub async fn complete_all(
     store: &Store,
     campaign: &str,
     specs: &[JobSpec],
+    records: impl FnMut(&JobSpec) -> Result<Vec<String>, String>,
+) {
+    complete_all_at(store, campaign, T0, specs, records).await;
+}
+
+/// [`complete_all`] with the campaign made at `at` (Unix seconds).
+pub async fn complete_all_at(
+    store: &Store,
+    campaign: &str,
+    at: f64,
+    specs: &[JobSpec],
     mut records: impl FnMut(&JobSpec) -> Result<Vec<String>, String>,
 ) {
     let jobs: Vec<NewJob> = specs.iter().map(new_job).collect();
@@ -59,10 +70,10 @@ pub async fn complete_all(
         name: campaign.into(),
         plan_text: String::new(),
     };
-    store.submit(&new, &jobs, T0).await.expect("submitted");
+    store.submit(&new, &jobs, at).await.expect("submitted");
     loop {
         let leases = store
-            .lease("w1", 512, Duration::from_secs(60), T0, true)
+            .lease("w1", 512, Duration::from_secs(60), at, true)
             .await
             .expect("leases");
         if leases.is_empty() {
@@ -76,14 +87,14 @@ pub async fn complete_all(
             match records(spec) {
                 Ok(records) => {
                     store
-                        .complete("w1", &lease.job_id, lease.token, Some(0), &records, T0)
+                        .complete("w1", &lease.job_id, lease.token, Some(0), &records, at)
                         .await
                         .expect("completed");
                 }
                 Err(reason) => {
                     // One attempt allowed: failed for good.
                     store
-                        .fail("w1", &lease.job_id, lease.token, &reason, 1, T0)
+                        .fail("w1", &lease.job_id, lease.token, &reason, 1, at)
                         .await
                         .expect("failed");
                 }
