@@ -20,11 +20,15 @@
 //! This crate knows physics but no network and no database.
 
 mod canonical;
+mod child;
+mod command;
+mod command_plan;
 mod plan;
 mod run;
 mod spec;
 mod sweep;
 
+pub use command::CommandSpec;
 pub use plan::{
     MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS,
     MAX_TIME_CAP_S, Plan, PlanError,

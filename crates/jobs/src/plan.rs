@@ -39,12 +39,13 @@
 
 use std::collections::HashSet;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use overlap::{Algorithm, OverlapError, PointSpec, Precision};
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+use crate::command_plan::expand_command;
 use crate::spec::{JobSpec, NoopSpec};
 use crate::sweep::{Issue, Sweep, Written, cartesian};
 
@@ -86,9 +87,20 @@ pub struct PlanError {
 }
 
 impl Plan {
-    /// Parses and validates `text`; `file_name` is used in error messages and as the default name.
+    /// Parses and validates `text`; `file_name` is used in error messages and as the default
+    /// name, and its folder is where `[[command]]` programs are looked for.
     pub fn parse(text: &str, file_name: &str) -> Result<Plan, PlanError> {
-        parse_document(text, file_name).map_err(|issue| locate(issue, text, file_name))
+        let dir = Path::new(file_name)
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        Self::parse_in(text, file_name, dir)
+    }
+
+    /// [`Plan::parse`] with the plan's folder given: a plan submitted from another machine or
+    /// folder names its programs relative to the folder it was read from.
+    pub fn parse_in(text: &str, file_name: &str, dir: &Path) -> Result<Plan, PlanError> {
+        parse_document(text, file_name, dir).map_err(|issue| locate(issue, text, file_name))
     }
 
     /// Sum of the jobs' [`JobSpec::estimate_seconds`] on one core.
@@ -117,8 +129,10 @@ fn locate(issue: Issue, text: &str, file_name: &str) -> PlanError {
 }
 
 /// Plan-wide defaults a sweep may inherit.
-struct Defaults {
-    seed: u64,
+pub(crate) struct Defaults {
+    pub seed: u64,
+    /// The plan file's folder: relative program paths start there.
+    pub dir: PathBuf,
 }
 
 /// How one `[[kind]]` table (at `header`) becomes jobs. Adding a job kind is: a [`JobSpec`]
@@ -131,11 +145,20 @@ const KINDS: &[(&str, Expand)] = &[
     ("overlap", expand_overlap),
     ("noop", expand_noop),
     ("edmd", expand_edmd),
+    ("command", expand_command),
 ];
 
-const TOP_LEVEL: &[&str] = &["name", "exclusive", "seed", "overlap", "noop", "edmd"];
+const TOP_LEVEL: &[&str] = &[
+    "name",
+    "exclusive",
+    "seed",
+    "overlap",
+    "noop",
+    "edmd",
+    "command",
+];
 
-fn parse_document(text: &str, file_name: &str) -> Result<Plan, Issue> {
+fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue> {
     let document = DeTable::parse(text)
         .map_err(|e| Issue::new(e.span().unwrap_or(0..0), None, e.message().to_owned()))?;
     let document = document.get_ref();
@@ -180,6 +203,7 @@ fn parse_document(text: &str, file_name: &str) -> Result<Plan, Issue> {
     };
     let defaults = Defaults {
         seed: top.integer("seed", Some(0), &|_| Ok(()))?,
+        dir: dir.to_path_buf(),
     };
 
     // Every sweep table, in file order, with its kind.
@@ -243,7 +267,7 @@ fn parse_document(text: &str, file_name: &str) -> Result<Plan, Issue> {
 }
 
 /// Fails when a sweep's product of value counts exceeds [`MAX_JOBS`], before building it.
-fn check_product(sweep: &Sweep<'_, '_>, lens: &[usize]) -> Result<(), Issue> {
+pub(crate) fn check_product(sweep: &Sweep<'_, '_>, lens: &[usize]) -> Result<(), Issue> {
     let total = lens.iter().try_fold(1usize, |acc, &n| {
         acc.checked_mul(n).filter(|&t| t <= MAX_JOBS)
     });

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use overlap::{Calibration, OverlapError, PointSpec, run_point};
 use serde_json::{Map, Value, json};
 
+use crate::command::run_command;
 use crate::spec::{JobSpec, NoopSpec};
 
 /// One result record: field name → JSON value (scalars, and the array of an overlap pass's block
@@ -26,6 +27,10 @@ pub enum JobError {
     NotARecord { kind: &'static str },
     #[error("noop: fail_rate must lie in [0, 1], got {0}")]
     NoopFailRate(f64),
+    /// A program job that could not run, or ran and gave no result: the reason (exit status,
+    /// signal, timeout, missing values, another hash) and the last lines of its stderr.
+    #[error("command `{label}`: {reason}")]
+    Command { label: String, reason: String },
     /// The failure a no-op job was asked to produce.
     #[error("noop job {index}: injected failure on attempt {attempt} (fail_rate {fail_rate})")]
     Injected {
@@ -56,11 +61,15 @@ pub enum JobError {
 /// An EDMD job: one record, the fields of `edmd::RunReport` plus `wall_s`, `cpu_s` and
 /// `sequence_fingerprint` (the collision sequence's blocks as hex, [`edmd::sequence`]) with
 /// `sequence_block`, the collisions per block.
+/// A program job: one record `{"label", "wall_s", "cpu_s", "exit_status", "program_hash",
+/// "values"}` (`values`: name → number), its program spawned from the calling thread so that it
+/// runs on the same cores.
 pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
     match spec {
         JobSpec::Overlap(point) => run_overlap(point, spec.generator_seed()),
         JobSpec::Noop(noop) => run_noop(noop, &spec.id(), attempt),
         JobSpec::Edmd(scene) => run_edmd(scene),
+        JobSpec::Command(command) => run_command(command),
     }
 }
 

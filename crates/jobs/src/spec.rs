@@ -4,6 +4,7 @@ use overlap::{Algorithm, PointSpec, Precision};
 use serde::{Deserialize, Serialize};
 
 use crate::canonical::to_canonical_string;
+use crate::command::CommandSpec;
 
 /// One schedulable unit of a campaign. Serialised with a `kind` tag (`"overlap"`, `"noop"`) next
 /// to the kind's own fields; that JSON is what the store and the wire carry.
@@ -17,6 +18,8 @@ pub enum JobSpec {
     Noop(NoopSpec),
     /// One event-driven MD simulation (its scene carries its own seed).
     Edmd(edmd::Scene),
+    /// One run of a foreign program (`[[command]]`).
+    Command(CommandSpec),
 }
 
 /// A no-op job: sleeps `duration_ms`, then fails with probability `fail_rate`, decided by a hash
@@ -37,7 +40,14 @@ impl JobSpec {
             Self::Overlap(_) => "overlap",
             Self::Noop(_) => "noop",
             Self::Edmd(_) => "edmd",
+            Self::Command(_) => "command",
         }
+    }
+
+    /// Whether running the job executes code that is not part of `sweep` (a program job): such
+    /// jobs are leased only to workers started with `--allow-commands`.
+    pub fn runs_foreign_code(&self) -> bool {
+        matches!(self, Self::Command(_))
     }
 
     /// The scheduling pass the store leases the job in (every queued job of an earlier pass of
@@ -46,7 +56,7 @@ impl JobSpec {
     pub fn pass(&self) -> u32 {
         match self {
             Self::Overlap(p) => p.visit.unwrap_or(0),
-            Self::Noop(_) | Self::Edmd(_) => 0,
+            Self::Noop(_) | Self::Edmd(_) | Self::Command(_) => 0,
         }
     }
 
@@ -111,6 +121,9 @@ impl JobSpec {
                 (scene.collisions + scene.equilibrate) as f64 * per_collision
                     + scene.n as f64 * init_per_particle
             }
+            // Nothing is known of a foreign program: a minute, or its timeout if shorter (the
+            // coordinator learns what the kind really takes, `coordinator::durations`).
+            Self::Command(c) => c.timeout_s.map_or(60.0, |t| t.min(60.0)),
         }
     }
 }
