@@ -134,6 +134,7 @@ fn client(url: String, id: usize, slots: usize, job_ms: u64) {
             git_commit: "simulated".into(),
             profile: "release".into(),
             allocation: None,
+            allow_commands: false,
         };
         let lease_for = remote.register(&info).await.unwrap();
         let done = Arc::new(AtomicU64::new(0));

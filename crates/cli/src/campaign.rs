@@ -32,6 +32,7 @@ pub fn from_plan(text: &str, file_name: &str) -> Result<Campaign, jobs::PlanErro
             estimate_s: spec.estimate_seconds(),
             exclusive: plan.exclusive_timing,
             pass: spec.pass(),
+            foreign_code: spec.runs_foreign_code(),
         })
         .collect();
     // The campaign is its name and its set of points: the same plan is the same campaign.

@@ -304,6 +304,7 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
     let worker_id = format!("{}:{}", worker::provenance::hostname(), std::process::id());
     let info = worker::WorkerInfo {
         allocation: args.allocation.clone().filter(|a| !a.is_empty()),
+        allow_commands: args.allow_commands,
         ..worker::provenance::worker_info(worker_id.clone(), &cores)
     };
     let idle_timeout = args.idle_timeout.map(Duration::from_secs);

@@ -901,6 +901,7 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
                 estimate_s: 1.0,
                 exclusive: false,
                 pass: spec.pass(),
+                foreign_code: spec.runs_foreign_code(),
             }
         })
         .collect();
@@ -925,6 +926,7 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
             git_commit: "fixture".into(),
             profile: "release".into(),
             allocation: None,
+            allow_commands: false,
         };
         store.register_worker(&worker, 1.0).await.unwrap();
         let campaign = store::NewCampaign { id: "fig13".into(), name: "fig13".into(), plan_text: String::new() };

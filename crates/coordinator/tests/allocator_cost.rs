@@ -30,6 +30,7 @@ fn worker(id: &str, allocation: &str) -> WorkerInfo {
         git_commit: "abc".to_owned(),
         profile: "release".to_owned(),
         allocation: Some(allocation.to_owned()),
+        allow_commands: false,
     }
 }
 
@@ -63,6 +64,7 @@ async fn allocator_reads_on_a_million_jobs() {
             estimate_s: 10.0,
             exclusive: false,
             pass: 0,
+            foreign_code: false,
         })
         .collect();
     let campaign = NewCampaign {

@@ -141,6 +141,7 @@ impl Setup {
                 estimate_s,
                 exclusive: false,
                 pass: 0,
+                foreign_code: false,
             })
             .collect();
         let campaign = NewCampaign {
@@ -163,6 +164,7 @@ impl Setup {
             git_commit: "abc".into(),
             profile: "release".into(),
             allocation: Some(allocation.into()),
+            allow_commands: false,
         };
         self.coordinator.register(&info).await.unwrap();
     }

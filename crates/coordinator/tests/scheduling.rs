@@ -23,6 +23,7 @@ fn worker(id: &str) -> WorkerInfo {
         git_commit: "abc".to_owned(),
         profile: "release".to_owned(),
         allocation: None,
+        allow_commands: false,
     }
 }
 
@@ -42,6 +43,7 @@ fn job(i: usize, exclusive: bool) -> NewJob {
         estimate_s: 0.0,
         exclusive,
         pass: 0,
+        foreign_code: false,
     }
 }
 

@@ -22,6 +22,7 @@ fn noop_jobs() -> Vec<NewJob> {
             estimate_s: 0.0,
             exclusive: false,
             pass: 0,
+            foreign_code: false,
         })
         .collect()
 }
@@ -37,6 +38,7 @@ fn worker(id: &str) -> WorkerInfo {
         git_commit: "bench".to_owned(),
         profile: "release".to_owned(),
         allocation: None,
+        allow_commands: false,
     }
 }
 

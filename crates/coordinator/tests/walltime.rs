@@ -18,6 +18,7 @@ fn worker(id: &str) -> WorkerInfo {
         git_commit: "abc".to_owned(),
         profile: "release".to_owned(),
         allocation: None,
+        allow_commands: false,
     }
 }
 
@@ -30,6 +31,7 @@ fn job(id: &str, kind: &str, estimate_s: f64, exclusive: bool) -> NewJob {
         estimate_s,
         exclusive,
         pass: 0,
+        foreign_code: false,
     }
 }
 

@@ -38,6 +38,7 @@ async fn coordinator(dir: &tempfile::TempDir, jobs: usize) -> Coordinator {
             estimate_s: 1.0,
             exclusive: false,
             pass: 0,
+            foreign_code: false,
         })
         .collect();
     coordinator.submit(&campaign, &jobs).await.unwrap();
@@ -55,6 +56,7 @@ fn worker(id: &str) -> WorkerInfo {
         git_commit: "0123456789ab".into(),
         profile: "release".into(),
         allocation: None,
+        allow_commands: false,
     }
 }
 
@@ -379,6 +381,7 @@ async fn run_superquadrics(coordinator: &Coordinator) {
             estimate_s: 1.0,
             exclusive: false,
             pass: 0,
+            foreign_code: false,
         })
         .collect();
     let campaign = NewCampaign {

@@ -28,6 +28,10 @@ pub struct WorkerInfo {
     /// brought it.
     #[serde(default)]
     pub allocation: Option<String>,
+    /// Started with `--allow-commands`: the worker may be given jobs that run foreign code
+    /// (program jobs). Not provenance either; a worker without it never sees such jobs.
+    #[serde(default)]
+    pub allow_commands: bool,
 }
 
 /// A job handed to a worker. The worker must quote `job_id` and `token` when it reports.

@@ -172,6 +172,7 @@ async fn a_failed_job_reads_with_the_parameters_a_done_one_has() {
         estimate_s: 1.0,
         exclusive: false,
         pass: 0,
+        foreign_code: false,
     };
     let campaign = store::NewCampaign {
         id: "c".into(),

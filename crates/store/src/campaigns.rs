@@ -125,9 +125,10 @@ async fn submit_chunk(
     now: f64,
 ) -> Result<(u64, u64)> {
     let new_jobs = sqlx::query(
-        "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at, pass)
+        "INSERT INTO jobs (id, kind, params, estimate_s, exclusive, created_at, pass, foreign_code)
          SELECT value ->> 'id', value ->> 'kind', value ->> 'params_json',
-                value ->> 'estimate_s', value ->> 'exclusive', ?2, value ->> 'pass'
+                value ->> 'estimate_s', value ->> 'exclusive', ?2, value ->> 'pass',
+                coalesce(value ->> 'foreign_code', 0)
          FROM json_each(?1) WHERE true
          ON CONFLICT (id) DO NOTHING",
     )

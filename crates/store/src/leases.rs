@@ -84,14 +84,33 @@ impl Store {
                 if max_jobs == 0 || exclusive_running {
                     return Ok(Granted::default());
                 }
-                let query = match &within {
-                    None => sqlx::query(
+                // A worker without `--allow-commands` never sees a job that runs foreign code:
+                // its candidates come from the partial index that holds none (migration 0015).
+                let allow_commands: bool =
+                    sqlx::query("SELECT allow_commands FROM workers WHERE id = ?1")
+                        .bind(&worker_id)
+                        .fetch_one(&mut *conn)
+                        .await?
+                        .try_get(0)?;
+                let query = match (&within, allow_commands) {
+                    (None, true) => sqlx::query(
                         "SELECT id, exclusive FROM jobs WHERE state = 'queued'
              ORDER BY created_at, pass, id LIMIT ?1",
                     )
-                    .bind(max_jobs),
-                    Some(_) => sqlx::query(
+                    .bind(i64::from(max_jobs)),
+                    (None, false) => sqlx::query(
+                        "SELECT id, exclusive FROM jobs WHERE state = 'queued' AND foreign_code = 0
+             ORDER BY created_at, pass, id LIMIT ?1",
+                    )
+                    .bind(i64::from(max_jobs)),
+                    (Some(_), true) => sqlx::query(
                         "SELECT id, exclusive, kind, estimate_s FROM jobs WHERE state = 'queued'
+             ORDER BY created_at, pass, id LIMIT ?1",
+                    )
+                    .bind(i64::from(max_jobs) + SCAN_AHEAD),
+                    (Some(_), false) => sqlx::query(
+                        "SELECT id, exclusive, kind, estimate_s FROM jobs
+             WHERE state = 'queued' AND foreign_code = 0
              ORDER BY created_at, pass, id LIMIT ?1",
                     )
                     .bind(i64::from(max_jobs) + SCAN_AHEAD),

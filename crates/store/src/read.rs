@@ -113,7 +113,7 @@ impl Store {
             "SELECT id, hostname, cores, cpu_model, cpu_flags, rustc, git_commit, profile,
                     registered_at, last_seen_at,
                     (SELECT count(*) FROM jobs WHERE lease_owner = workers.id AND state = 'running'),
-                    allocation
+                    allocation, allow_commands
              FROM workers ORDER BY registered_at, id",
         )
         .fetch_all(&self.reader)
@@ -135,6 +135,7 @@ impl Store {
                         git_commit: row.try_get(6)?,
                         profile: row.try_get(7)?,
                         allocation: row.try_get(11)?,
+                        allow_commands: row.try_get(12)?,
                         id,
                     },
                     registered_at: row.try_get(8)?,

@@ -30,6 +30,10 @@ pub struct NewJob {
     /// leased before any of a later one (the visits of an overlap point; 0 for most jobs).
     #[serde(default)]
     pub pass: u32,
+    /// Running the job executes foreign code (a program job): it is leased only to workers that
+    /// allow it ([`WorkerInfo::allow_commands`]). The submitter decides; the store knows no kinds.
+    #[serde(default)]
+    pub foreign_code: bool,
 }
 
 /// What [`crate::Store::submit`] did.

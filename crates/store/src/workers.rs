@@ -43,6 +43,12 @@ impl Store {
                     }
                 }
                 touch(conn, &worker.id, now).await?;
+                // A worker restarted with or without `--allow-commands` says so again.
+                sqlx::query("UPDATE workers SET allow_commands = ?2 WHERE id = ?1")
+                    .bind(&worker.id)
+                    .bind(worker.allow_commands)
+                    .execute(&mut *conn)
+                    .await?;
                 if let Some(allocation) = &worker.allocation {
                     sqlx::query("UPDATE workers SET allocation = ?2 WHERE id = ?1")
                         .bind(&worker.id)
@@ -54,8 +60,9 @@ impl Store {
             None => {
                 sqlx::query(
                     "INSERT INTO workers (id, hostname, cores, cpu_model, cpu_flags, rustc, git_commit,
-                                          profile, registered_at, last_seen_at, allocation)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?9, ?10)",
+                                          profile, registered_at, last_seen_at, allocation,
+                                          allow_commands)
+                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?9, ?10, ?11)",
                 )
                 .bind(&worker.id)
                 .bind(&worker.hostname)
@@ -67,6 +74,7 @@ impl Store {
                 .bind(&worker.profile)
                 .bind(now)
                 .bind(&worker.allocation)
+                .bind(worker.allow_commands)
                 .execute(&mut *conn)
                 .await?;
             }

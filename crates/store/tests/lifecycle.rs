@@ -264,6 +264,7 @@ async fn a_campaign_is_leased_in_id_order_and_older_campaigns_first() {
         estimate_s: 0.1,
         exclusive: false,
         pass: 0,
+        foreign_code: false,
     };
     let older: Vec<NewJob> = ["c9", "a3", "f0", "07"].into_iter().map(job).collect();
     let newer: Vec<NewJob> = ["55", "00"].into_iter().map(job).collect();
@@ -294,6 +295,7 @@ async fn a_submission_is_leased_pass_by_pass() {
         estimate_s: 0.1,
         exclusive: false,
         pass,
+        foreign_code: false,
     };
     let visits: Vec<NewJob> = [("c9", 0), ("a3", 1), ("f0", 0), ("07", 2), ("55", 1)]
         .into_iter()

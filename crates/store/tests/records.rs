@@ -16,6 +16,7 @@ fn job(id: &str, kind: &str) -> NewJob {
         estimate_s: 1.0,
         exclusive: false,
         pass: 0,
+        foreign_code: false,
     }
 }
 

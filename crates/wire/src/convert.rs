@@ -17,6 +17,7 @@ impl From<WorkerInfo> for pb::WorkerInfo {
             git_commit: info.git_commit,
             profile: info.profile,
             allocation: info.allocation.unwrap_or_default(),
+            allow_commands: info.allow_commands,
         }
     }
 }
@@ -33,6 +34,7 @@ impl From<pb::WorkerInfo> for WorkerInfo {
             git_commit: w.git_commit,
             profile: w.profile,
             allocation: (!w.allocation.is_empty()).then_some(w.allocation),
+            allow_commands: w.allow_commands,
         }
     }
 }

@@ -45,5 +45,6 @@ pub fn worker_info(id: String, cores: &[usize]) -> WorkerInfo {
         }
         .into(),
         allocation: None,
+        allow_commands: false,
     }
 }

@@ -26,6 +26,7 @@ pub async fn temp_store() -> (TempDir, std::path::PathBuf, Store) {
                 git_commit: "abc123".into(),
                 profile: "release".into(),
                 allocation: None,
+                allow_commands: false,
             },
             T0,
         )
@@ -42,6 +43,7 @@ pub fn new_job(spec: &JobSpec) -> NewJob {
         estimate_s: 1.0,
         exclusive: false,
         pass: spec.pass(),
+        foreign_code: spec.runs_foreign_code(),
     }
 }
 

@@ -38,6 +38,7 @@ pub fn worker(id: &str) -> WorkerInfo {
         git_commit: "abc123".to_owned(),
         profile: "release".to_owned(),
         allocation: None,
+        allow_commands: false,
     }
 }
 
@@ -59,6 +60,7 @@ pub fn noop_jobs(from: usize, to: usize) -> Vec<NewJob> {
             estimate_s: 0.5,
             exclusive: false,
             pass: 0,
+            foreign_code: false,
         })
         .collect()
 }
@@ -71,6 +73,7 @@ pub fn exclusive_job(id: &str) -> NewJob {
         estimate_s: 1.0,
         exclusive: true,
         pass: 0,
+        foreign_code: false,
     }
 }
 
