@@ -1492,3 +1492,59 @@ fn the_status_page_in_a_browser() {
         begun.elapsed().as_secs_f64()
     );
 }
+
+/// Program jobs run foreign code: a worker started without `--allow-commands` is never leased
+/// one (it runs the campaign's other jobs while the program jobs stay queued), and one started
+/// with it runs them all, each on its first attempt.
+#[test]
+fn only_a_worker_started_with_allow_commands_receives_program_jobs() {
+    use std::os::unix::fs::PermissionsExt;
+    let cluster = Cluster::new();
+    let program = cluster.path("prog");
+    std::fs::write(
+        &program,
+        "#!/bin/sh\nsleep 0.05\necho \"{\\\"n\\\": $1, \\\"core\\\": $SWEEP_CORE}\"\n",
+    )
+    .unwrap();
+    std::fs::set_permissions(&program, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let plan = "name = \"commands\"\n[[noop]]\ncount = 20\nduration_ms = 20\n\n\
+                [[command]]\nlabel = \"echo\"\nprogram = \"prog\"\nargs = [\"{n}\"]\nn = { from = 1, to = 10 }\n";
+    let (_coordinator, url) = cluster.coordinator_with("127.0.0.1:0", &["--lease-secs", "30"]);
+    let _plain = cluster.worker(&url, "0", Some(cluster.token()));
+    let submitted = cluster.submit(&url, &cluster.plan("commands.toml", plan));
+    assert_eq!(submitted["new_jobs"], 30);
+    cluster.wait_done(&url, 20, Duration::from_secs(60));
+    std::thread::sleep(Duration::from_millis(500));
+    let status = cluster.status(&url);
+    assert_eq!(
+        (status["done"].as_u64(), status["queued"].as_u64()),
+        (Some(20), Some(10)),
+        "the plain worker must leave the program jobs queued: {status}"
+    );
+    let _allowed = cluster.worker_with(&url, "1", Some(cluster.token()), &["--allow-commands"]);
+    cluster.wait_done(&url, 30, Duration::from_secs(60));
+    assert_exactly_once(&cluster, 30);
+    let on = |allow: u8, kind: &str| {
+        cluster.count(&format!(
+            "SELECT count(*) FROM results r JOIN jobs j ON j.id = r.job_id \
+             JOIN workers w ON w.id = r.worker_id WHERE j.kind = '{kind}' AND w.allow_commands = {allow}"
+        ))
+    };
+    assert_eq!(on(0, "command"), 0, "a program job ran on the plain worker");
+    assert_eq!(on(1, "command"), 10);
+    assert_eq!(on(0, "noop"), 20);
+    assert_eq!(
+        cluster.count("SELECT count(*) FROM jobs WHERE kind = 'command' AND attempts <> 1"),
+        0,
+        "a program job was leased and refused"
+    );
+    // The view of program results: two values per job, the core being the allowed worker's.
+    assert_eq!(cluster.count("SELECT count(*) FROM command_results"), 20);
+    assert_eq!(
+        cluster.count(
+            "SELECT count(*) FROM command_results WHERE name = 'core' AND value = 1 \
+             AND label = 'echo' AND json_extract(parameters, '$.n') BETWEEN 1 AND 10"
+        ),
+        10
+    );
+}

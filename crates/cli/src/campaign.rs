@@ -19,9 +19,17 @@ pub fn read_plan_file(path: &Path) -> anyhow::Result<(String, String)> {
     Ok((text, path.display().to_string()))
 }
 
-/// Parses and validates `text`; nothing is written anywhere before this succeeds.
-pub fn from_plan(text: &str, file_name: &str) -> Result<Campaign, jobs::PlanError> {
-    let plan = Plan::parse(text, file_name)?;
+/// Parses and validates `text`; nothing is written anywhere before this succeeds. `dir` is the
+/// plan's folder when it is not that of `file_name` (a plan submitted from elsewhere).
+pub fn from_plan(
+    text: &str,
+    file_name: &str,
+    dir: Option<&Path>,
+) -> Result<Campaign, jobs::PlanError> {
+    let plan = match dir {
+        Some(dir) => Plan::parse_in(text, file_name, dir)?,
+        None => Plan::parse(text, file_name)?,
+    };
     let jobs: Vec<NewJob> = plan
         .jobs
         .iter()

@@ -43,7 +43,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         anyhow::bail!("--tls-cert: the certificate is the status page's; give --http ADDR too");
     }
     let (text, name) = read_plan_file(&args.plan)?;
-    let campaign = from_plan(&text, &name)?;
+    let campaign = from_plan(&text, &name, None)?;
     let cores = system::cores_or_all(&args.cores)?;
     system::start_thread_pool()?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -89,9 +89,12 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         }
         anyhow::Ok(())
     })?;
-    runtime.block_on(
-        coordinator.register(&worker::provenance::worker_info(worker_id.clone(), &cores)),
-    )?;
+    // Local mode runs what the user's own plan asks for, program jobs included.
+    let info = worker::WorkerInfo {
+        allow_commands: true,
+        ..worker::provenance::worker_info(worker_id.clone(), &cores)
+    };
+    runtime.block_on(coordinator.register(&info))?;
     let reaper = {
         let _guard = runtime.enter();
         coordinator.spawn_reaper(Duration::from_secs(1))

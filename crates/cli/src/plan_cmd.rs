@@ -26,7 +26,7 @@ struct PlanSummary {
 
 pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
     let (text, name) = read_plan_file(&args.plan)?;
-    let campaign = from_plan(&text, &name)?;
+    let campaign = from_plan(&text, &name, None)?;
     let mut by_kind = BTreeMap::new();
     for job in &campaign.jobs {
         *by_kind.entry(job.kind.clone()).or_insert(0) += 1;

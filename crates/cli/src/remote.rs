@@ -135,10 +135,14 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let expand: ExpandPlan = Arc::new(|text: &str, file: &str| {
-        from_plan(text, file)
-            .map(|c| (c.campaign, c.jobs))
-            .map_err(|e| e.to_string())
+    let expand: ExpandPlan = Arc::new(|text: &str, file: &str, dir: &str| {
+        from_plan(
+            text,
+            file,
+            (!dir.is_empty()).then_some(std::path::Path::new(dir)),
+        )
+        .map(|c| (c.campaign, c.jobs))
+        .map_err(|e| e.to_string())
     });
     runtime()?.block_on(async {
         let store = database::open(&args.db).await?;
@@ -287,6 +291,10 @@ pub struct WorkerArgs {
     /// The batch system's id of the allocation this worker runs in, shown with the allocation.
     #[arg(long, value_name = "ID", env = "SLURM_JOB_ID")]
     allocation: Option<String>,
+    /// Run program jobs (`[[command]]`: foreign code). Without it the coordinator never leases
+    /// this worker one, so a leaked token does not become code execution on every worker.
+    #[arg(long)]
+    allow_commands: bool,
 }
 
 pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
@@ -383,6 +391,7 @@ pub fn submit(args: &SubmitArgs, format: Format) -> anyhow::Result<()> {
         let request = pb::SubmitRequest {
             plan_toml: text,
             file_name: name,
+            plan_dir: plan_dir(&args.plan)?,
         };
         anyhow::Ok(admin.submit(request).await.map_err(rpc_error)?.into_inner())
     })?;
@@ -537,4 +546,16 @@ pub fn workers(args: &WorkersArgs, format: Format) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The plan file's folder, absolute: the coordinator resolves the plan's program paths in it.
+fn plan_dir(plan: &std::path::Path) -> anyhow::Result<String> {
+    let dir = plan
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let dir = dir
+        .canonicalize()
+        .with_context(|| format!("cannot resolve the folder of {}", plan.display()))?;
+    Ok(dir.display().to_string())
 }

@@ -19,9 +19,10 @@ use wire::convert::{complete_outcome_to_wire, fail_outcome_to_wire};
 use crate::autoalloc::Report;
 use crate::{Completion, Coordinator, Error, LeaseRef, NewCampaign, NewJob};
 
-/// Plan text and file name → the campaign and its jobs, or the one-line error a user sees.
+/// Plan text, file name and the plan's folder on the submitter's machine (empty: the file
+/// name's) → the campaign and its jobs, or the one-line error a user sees.
 pub type ExpandPlan =
-    Arc<dyn Fn(&str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
+    Arc<dyn Fn(&str, &str, &str) -> Result<(NewCampaign, Vec<NewJob>), String> + Send + Sync>;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ServeError {
@@ -280,8 +281,8 @@ impl Admin for Services {
     ) -> Result<Response<pb::SubmitResponse>, Status> {
         let r = request.into_inner();
         // A bad plan is refused before anything is written, with the message `sweep run` gives.
-        let (campaign, jobs) =
-            (self.expand)(&r.plan_toml, &r.file_name).map_err(Status::invalid_argument)?;
+        let (campaign, jobs) = (self.expand)(&r.plan_toml, &r.file_name, &r.plan_dir)
+            .map_err(Status::invalid_argument)?;
         let outcome = self
             .coordinator
             .submit(&campaign, &jobs)

@@ -38,7 +38,13 @@ async fn foreign_code_is_leased_only_to_workers_that_allow_it() {
     let kinds: Vec<&str> = plain.iter().map(|l| l.kind.as_str()).collect();
     assert_eq!(kinds, ["noop", "noop", "noop"]);
     // Nothing left it may run, though five jobs are queued; with a time limit too.
-    assert!(store.lease("plain", 100, LEASE, T0, true).await.unwrap().is_empty());
+    assert!(
+        store
+            .lease("plain", 100, LEASE, T0, true)
+            .await
+            .unwrap()
+            .is_empty()
+    );
     let within = Within {
         seconds_left: 1e9,
         scale: Default::default(),
@@ -76,5 +82,11 @@ async fn re_registering_without_the_flag_withdraws_it() {
         .submit(&campaign("c"), &[foreign(0)], T0)
         .await
         .unwrap();
-    assert!(store.lease("w", 10, LEASE, T0 + 2.0, true).await.unwrap().is_empty());
+    assert!(
+        store
+            .lease("w", 10, LEASE, T0 + 2.0, true)
+            .await
+            .unwrap()
+            .is_empty()
+    );
 }
