@@ -16,7 +16,7 @@ use crate::output::{Format, print_json, print_text, write_json};
 pub struct ReportArgs {
     /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64); EDMD: fig7 (τ_c against φ), fig8 (against X0, LL/NNL),
     /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), fig13 (superquadrics against p),
-    /// accuracy (cost of each accuracy knob).
+    /// accuracy (cost of each accuracy knob); peers (our EDMD spheres against a `[[command]]` program, per N).
     name: String,
     #[arg(long)]
     db: PathBuf,
@@ -40,6 +40,9 @@ pub struct ReportArgs {
     /// percentile, the kernel's cost without the machine's noise; the figures' default).
     #[arg(long, value_parser = clap::builder::ValueParser::new(str::parse::<Statistic>))]
     statistic: Option<Statistic>,
+    /// peers: the `[[command]]` label of the program compared (its runs print `tau_c_us`).
+    #[arg(long, default_value = "smallenburg-edmd")]
+    label: String,
 }
 
 /// The reports of the overlap kernels: (name, table or figure, precision).
@@ -69,8 +72,11 @@ pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         }
         return edmd_report(args, format);
     }
+    if name == "peers" {
+        return peers_report(args, format);
+    }
     bail!(
-        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy)"
+        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy, peers)"
     )
 }
 
@@ -244,4 +250,32 @@ fn accuracy(study: report::AccuracyReport, json: bool, out: Option<&Path>) -> an
     }
     eprintln!("wrote {}", out.display());
     Ok(())
+}
+
+/// Our EDMD spheres against the program `--label`, per N and φ: τ_c of each (ours by
+/// `--clock`), the ratio theirs / ours and its 95 % interval (`report::peers`).
+fn peers_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    let clock = match args.clock.as_str() {
+        "cpu" => Clock::Cpu,
+        "wall" => Clock::Wall,
+        other => bail!("--clock {other}: expected cpu or wall"),
+    };
+    let (ours, theirs) = database::read(&args.db, async |store| {
+        Ok((
+            results::edmd_runs(store, clock).await?,
+            results::command_runs(store).await?,
+        ))
+    })?;
+    let points = report::peers(&ours, &theirs, &args.label);
+    if points.is_empty() {
+        bail!(
+            "report peers: no (N, φ) has both EDMD sphere runs and `{}` runs printing tau_c_us in {}",
+            args.label,
+            args.db.display()
+        );
+    }
+    match format {
+        Format::Json => print_json(&points),
+        _ => print_text(&report::peers_markdown(&points, &args.label)),
+    }
 }

@@ -44,6 +44,7 @@ mod lines;
 mod minimum;
 mod overlap_accuracy;
 mod overlap_accuracy_render;
+mod peers;
 mod render;
 mod selection;
 mod table;
@@ -62,6 +63,7 @@ pub use fig11::{Fig11, fig11};
 pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
+pub use peers::{CommandRow, PeerPoint, peers, peers_markdown};
 pub use table::{Table1Row, TableFormat, render_table, table1};
 pub use units::LengthUnit;
 

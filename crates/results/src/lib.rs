@@ -13,12 +13,14 @@
 //! - `points`: [`overlap_points`], the rows of Tables 1–2 and Figs. 2–3: each visit
 //!   re-estimated from its blocks by a statistic, a point's visits pooled.
 //! - `edmd`: [`edmd_runs`] (Figs. 7–11, 13, the accuracy report) and [`failed_edmd_runs`].
+//! - `command`: [`command_runs`], the done program jobs (`[[command]]`) with their values.
 //! - `quality`: [`overlap_quality`], how a campaign's overlap points were measured;
 //!   `history`: [`machine_history`], campaigns slower than the same machine's earlier ones.
 //!
 //! Every function reads through the store's read-only connections; none writes. Stored data
 //! that lacks what its kind writes is an [`Error::Corrupt`] naming the job, never skipped.
 
+mod command;
 mod edmd;
 mod error;
 mod history;
@@ -28,6 +30,7 @@ mod quality;
 
 /// The statistic a point's estimate is made by (`overlap::estimate`).
 pub use ::overlap::estimate::Statistic;
+pub use command::command_runs;
 pub use edmd::{edmd_runs, failed_edmd_runs};
 pub use error::{Error, Result};
 pub use history::{MachineShift, machine_history};
