@@ -40,7 +40,8 @@ pub struct ReportArgs {
     /// percentile, the kernel's cost without the machine's noise; the figures' default).
     #[arg(long, value_parser = clap::builder::ValueParser::new(str::parse::<Statistic>))]
     statistic: Option<Statistic>,
-    /// peers: the `[[command]]` label of the program compared (its runs print `tau_c_us`).
+    /// peers: the `[[command]]` label of the program compared (its runs print `tau_c_us`, and
+    /// `tau_c_wall_us` for --clock wall).
     #[arg(long, default_value = "smallenburg-edmd")]
     label: String,
 }
@@ -252,8 +253,9 @@ fn accuracy(study: report::AccuracyReport, json: bool, out: Option<&Path>) -> an
     Ok(())
 }
 
-/// Our EDMD spheres against the program `--label`, per N and φ: τ_c of each (ours by
-/// `--clock`), the ratio theirs / ours and its 95 % interval (`report::peers`).
+/// Our EDMD spheres against the program `--label`, per N and φ: τ_c of each by `--clock` (the
+/// program's `tau_c_us` for CPU time, `tau_c_wall_us` for the wall clock), the ratio theirs /
+/// ours and its 95 % interval (`report::peers`).
 fn peers_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     let clock = match args.clock.as_str() {
         "cpu" => Clock::Cpu,
@@ -266,10 +268,15 @@ fn peers_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
             results::command_runs(store).await?,
         ))
     })?;
-    let points = report::peers(&ours, &theirs, &args.label);
+    // The program's τ_c by the same clock as ours.
+    let value = match clock {
+        Clock::Cpu => "tau_c_us",
+        Clock::Wall => "tau_c_wall_us",
+    };
+    let points = report::peers(&ours, &theirs, &args.label, value);
     if points.is_empty() {
         bail!(
-            "report peers: no (N, φ) has both EDMD sphere runs and `{}` runs printing tau_c_us in {}",
+            "report peers: no (N, φ) has both EDMD sphere runs and `{}` runs printing {value} in {}",
             args.label,
             args.db.display()
         );

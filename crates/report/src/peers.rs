@@ -50,9 +50,10 @@ pub struct PeerPoint {
 }
 
 /// The comparison: every (N, φ) that both sides measured, by N then φ. `label` picks the
-/// program; its runs must print `tau_c_us` and have parameters `n` and `phi`. Only sphere runs
-/// of ours count.
-pub fn peers(ours: &[EdmdRow], theirs: &[CommandRow], label: &str) -> Vec<PeerPoint> {
+/// program; its runs must print the value `value` (τ_c in µs by the same clock as `ours`:
+/// `tau_c_us` for CPU time, `tau_c_wall_us` for the wall clock) and have parameters `n` and
+/// `phi`. Only sphere runs of ours count.
+pub fn peers(ours: &[EdmdRow], theirs: &[CommandRow], label: &str, value: &str) -> Vec<PeerPoint> {
     let key = |n: u32, phi: f64| (n, (phi * 1e9).round() as i64);
     let mut sides: BTreeMap<(u32, i64), (f64, Vec<f64>, Vec<f64>)> = BTreeMap::new();
     for row in ours.iter().filter(|r| r.shape == "sphere") {
@@ -65,7 +66,7 @@ pub fn peers(ours: &[EdmdRow], theirs: &[CommandRow], label: &str) -> Vec<PeerPo
     }
     for row in theirs.iter().filter(|r| r.label == label) {
         let (Some(n), Some(phi), Some(&tau)) =
-            (row.param("n"), row.param("phi"), row.values.get("tau_c_us"))
+            (row.param("n"), row.param("phi"), row.values.get(value))
         else {
             continue;
         };
@@ -190,6 +191,7 @@ mod tests {
                 theirs(1024, 1.0),
             ],
             "peer",
+            "tau_c_us",
         );
         assert_eq!(points.len(), 2, "1024 has no run of ours");
         let p = &points[0];

@@ -1,0 +1,27 @@
+#!/bin/sh
+# Builds Smallenburg's published hard-sphere EDMD ("Single" variant) as a `sweep` program job:
+# target/peers/smallenburg/md-single (see smallenburg-main.c for its arguments and output).
+#
+# The peer's code is not part of this repository: it is copied from PEER (default
+# ../shared/peers/smallenburg-edmd beside the repository) into the build folder, where its main()
+# is renamed and init()'s fixed seed replaced by ours; nothing else of it changes.
+#
+# usage: deploy/peers/build-smallenburg.sh [PEER_DIR]
+set -eu
+repo=$(cd "$(dirname "$0")/../.." && pwd)
+peer=${1:-$repo/../shared/peers/smallenburg-edmd}
+out=$repo/target/peers/smallenburg
+[ -f "$peer/mdSingle.c" ] || { echo "no mdSingle.c in $peer" >&2; exit 1; }
+mkdir -p "$out"
+cp "$peer/mdSingle.c" "$peer/mdSingle.h" "$peer/mt19937ar.c" "$out/"
+chmod u+w "$out"/*
+sed -i \
+    -e 's/^int main()$/int peer_main()/' \
+    -e 's/unsigned long seed = 1;/unsigned long seed = sweep_seed;/' \
+    "$out/mdSingle.c"
+grep -q '^int peer_main()$' "$out/mdSingle.c" || { echo "main() not found: another version?" >&2; exit 1; }
+grep -q 'seed = sweep_seed;' "$out/mdSingle.c" || { echo "the seed not found: another version?" >&2; exit 1; }
+cp "$repo/deploy/peers/smallenburg-main.c" "$out/"
+gcc -O3 -ffast-math -funroll-loops -march=native -w -I"$out" \
+    "$out/smallenburg-main.c" -o "$out/md-single" -lm
+echo "$out/md-single"
