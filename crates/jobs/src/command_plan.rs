@@ -96,7 +96,7 @@ pub(crate) fn expand_command(
         substitute(arg, &|name| {
             names_known
                 .contains(&name)
-                .then(|| String::new())
+                .then(String::new)
                 .ok_or_else(|| {
                     format!(
                         "`{{{name}}}` names no parameter of this sweep (have: {})",

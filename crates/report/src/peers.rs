@@ -55,7 +55,7 @@ pub struct PeerPoint {
 /// `phi`. Only sphere runs of ours count.
 pub fn peers(ours: &[EdmdRow], theirs: &[CommandRow], label: &str, value: &str) -> Vec<PeerPoint> {
     let key = |n: u32, phi: f64| (n, (phi * 1e9).round() as i64);
-    let mut sides: BTreeMap<(u32, i64), (f64, Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    let mut sides: BTreeMap<(u32, i64), Sides> = BTreeMap::new();
     for row in ours.iter().filter(|r| r.shape == "sphere") {
         if row.tau_c_us > 0.0 {
             let entry = sides
@@ -109,6 +109,9 @@ pub fn peers(ours: &[EdmdRow], theirs: &[CommandRow], label: &str, value: &str) 
         })
         .collect()
 }
+
+/// A point's φ, and the logarithms of τ_c of our runs and of theirs.
+type Sides = (f64, Vec<f64>, Vec<f64>);
 
 /// Mean and sample variance (0 for one value).
 fn mean_var(xs: &[f64]) -> (f64, f64) {
