@@ -1521,9 +1521,19 @@ fn only_a_worker_started_with_allow_commands_receives_program_jobs() {
         (Some(20), Some(10)),
         "the plain worker must leave the program jobs queued: {status}"
     );
+    let db = cluster.db.to_str().unwrap();
+    let waiting = cluster.sweep(&["status", "--db", db]);
+    assert!(
+        String::from_utf8_lossy(&waiting.stderr)
+            .contains("10 program job(s) queued and no worker started with --allow-commands"),
+        "{}",
+        String::from_utf8_lossy(&waiting.stderr)
+    );
     let _allowed = cluster.worker_with(&url, "1", Some(cluster.token()), &["--allow-commands"]);
     cluster.wait_done(&url, 30, Duration::from_secs(60));
     assert_exactly_once(&cluster, 30);
+    let quiet = cluster.sweep(&["status", "--db", db]);
+    assert!(!String::from_utf8_lossy(&quiet.stderr).contains("program job"));
     let on = |allow: u8, kind: &str| {
         cluster.count(&format!(
             "SELECT count(*) FROM results r JOIN jobs j ON j.id = r.job_id \

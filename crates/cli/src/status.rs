@@ -27,18 +27,34 @@ pub struct StatusArgs {
     campaign: Option<String>,
 }
 
+/// A worker seen within this many seconds counts as connected.
+const ALLOWING_WORKER_RECENT_S: f64 = 60.0;
+
 pub fn run(args: &StatusArgs, format: Format) -> anyhow::Result<()> {
     let campaign = args.campaign.as_deref();
     let shown = campaign.unwrap_or("(all)");
     match (&args.db, &args.coordinator) {
         (Some(db), _) => {
-            let (status, quality, shifts, allocations) = database::read(db, async |store| {
-                let status = store.status(campaign).await?;
-                let quality = results::overlap_quality(store, campaign).await?;
-                let shifts = results::machine_history(store).await?;
-                let allocations = Report::read(store, None, None).await?;
-                Ok((status, quality, shifts, allocations))
-            })?;
+            let (status, quality, shifts, allocations, waiting) =
+                database::read(db, async |store| {
+                    let status = store.status(campaign).await?;
+                    let now = std::time::SystemTime::now()
+                        .duration_since(std::time::UNIX_EPOCH)
+                        .map_or(0.0, |d| d.as_secs_f64());
+                    let waiting = store
+                        .foreign_code_waiting(campaign, now - ALLOWING_WORKER_RECENT_S)
+                        .await?;
+                    let quality = results::overlap_quality(store, campaign).await?;
+                    let shifts = results::machine_history(store).await?;
+                    let allocations = Report::read(store, None, None).await?;
+                    Ok((status, quality, shifts, allocations, waiting))
+                })?;
+            if waiting > 0 {
+                // On stderr: the counts on stdout keep their shape.
+                eprintln!(
+                    "warning: {waiting} program job(s) queued and no worker started with --allow-commands seen in the last {ALLOWING_WORKER_RECENT_S:.0} s: no other worker will ever be given them"
+                );
+            }
             let shifts: Vec<_> = shifts
                 .into_iter()
                 .filter(|s| campaign.is_none_or(|c| c == s.campaign))

@@ -23,6 +23,12 @@
 //! x0 = [0.5, 2.0]
 //! exponents = [[2, 2, 2], [2, 2, 4]]   # a list-valued key: one list is one value,
 //!                                      #   a list of lists sweeps it
+//!
+//! [[command]]              # a foreign program per point (`command_plan`)
+//! label = "peer"
+//! program = "bin/md"       # relative to the plan file's folder; hashed into every point's id
+//! args = ["{n}", "{seed}"]
+//! n = [256, 2048]          # every other key is a parameter
 //! ```
 //!
 //! A sweep is the cartesian product of its keys' values; `algorithms` is one set per point,

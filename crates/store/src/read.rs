@@ -31,6 +31,29 @@ impl Store {
         Ok((queued.max(0) as u64, slots.max(0) as u64))
     }
 
+    /// Queued jobs that run foreign code (of one campaign, or all) while no worker that allows
+    /// them has been seen since `since`: work nobody connected may take. 0 when such a worker
+    /// was seen. Reads the queued foreign-code jobs through the partial index's complement only
+    /// when no allowing worker is recent.
+    pub async fn foreign_code_waiting(&self, campaign: Option<&str>, since: f64) -> Result<u64> {
+        let row = sqlx::query(
+            "SELECT CASE WHEN EXISTS (SELECT 1 FROM workers
+                                      WHERE allow_commands = 1 AND last_seen_at >= ?2)
+                    THEN 0
+                    ELSE (SELECT count(*) FROM jobs AS j
+                          WHERE j.state = 'queued' AND j.foreign_code = 1
+                            AND (?1 IS NULL OR j.id IN (SELECT job_id FROM campaign_jobs
+                                                        WHERE campaign_id = ?1)))
+                    END",
+        )
+        .bind(campaign)
+        .bind(since)
+        .fetch_one(&self.reader)
+        .await?;
+        let n: i64 = row.try_get(0)?;
+        Ok(u64::try_from(n).unwrap_or(0))
+    }
+
     /// Job counts of one campaign, or of the whole store with `None`.
     pub async fn status(&self, campaign: Option<&str>) -> Result<Status> {
         let rows = match campaign {
