@@ -184,6 +184,12 @@ impl SavedState {
         Ok(())
     }
 
+    /// Whether `scene` can start from this state (the rules are the module's): an
+    /// error names the first key that differs.
+    pub fn check_scene(&self, scene: &Scene) -> Result<(), StateError> {
+        self.start_for(scene).map(|_| ())
+    }
+
     /// Whether `scene` can start from this state, and how: the system (shape, N, φ, X0,
     /// exponents) must be the saved one; the knobs of the predictions decide between continuing
     /// and rebuilding.
