@@ -23,6 +23,7 @@ mod canonical;
 mod plan;
 mod run;
 mod spec;
+mod states;
 mod sweep;
 
 pub use plan::{
