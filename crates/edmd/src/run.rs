@@ -363,7 +363,6 @@ fn measure<M: Saves>(
         origin != Origin::Continued,
         &mut observe,
     )?;
-    drop(observe);
     if save_final {
         save(&mut eng);
         if let Some(e) = eng.take_failure() {

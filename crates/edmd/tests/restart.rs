@@ -150,8 +150,7 @@ fn another_system_is_refused_naming_the_key() {
             ..Hooks::default()
         };
         let err = run_with_hooks(&other, &mut |_| {}, hooks)
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string();
         assert!(err.contains(key), "{err}");
     }
@@ -195,6 +194,6 @@ fn a_failing_hook_stops_the_run_with_its_message() {
         on_frame: Some(&mut on_frame),
         ..Hooks::default()
     };
-    let err = run_with_hooks(&s, &mut |_| {}, hooks).err().expect("stops");
+    let err = run_with_hooks(&s, &mut |_| {}, hooks).expect_err("stops");
     assert!(err.to_string().contains("disk full"), "{err}");
 }

@@ -105,15 +105,13 @@ fn long_axis(b: &SnapshotBody) -> usize {
 /// The outline of the ellipsoid xᵀ M x = 1 (M = Σ_k u_k u_kᵀ / s_k², u_k the body axes) seen
 /// along z: the ellipse pᵀ (M_pp − M_pz M_zz⁻¹ M_zp) p = 1 on (x, y), as (M'_xx, M'_xy, M'_yy).
 fn projected_ellipse(b: &SnapshotBody) -> (f64, f64, f64) {
-    let mut m = [[0.0; 3]; 3];
-    for k in 0..3 {
-        let w = 1.0 / (b.semi_axes[k] * b.semi_axes[k]);
-        for i in 0..3 {
-            for j in 0..3 {
-                m[i][j] += w * b.axes[k][i] * b.axes[k][j];
-            }
-        }
-    }
+    let m: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            (0..3)
+                .map(|k| b.axes[k][i] * b.axes[k][j] / (b.semi_axes[k] * b.semi_axes[k]))
+                .sum()
+        })
+    });
     let zz = m[2][2];
     (
         m[0][0] - m[0][2] * m[2][0] / zz,
