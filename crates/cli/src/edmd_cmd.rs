@@ -1,6 +1,6 @@
 //! `sweep edmd SCENE.toml`: one event-driven simulation, no database, on one pinned core.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
@@ -8,7 +8,9 @@ use edmd::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::output::{Format, print_json, print_table};
+use crate::state_file;
 use crate::system;
+use crate::trajectory::Trajectory;
 
 #[derive(Args)]
 pub struct EdmdArgs {
@@ -19,6 +21,21 @@ pub struct EdmdArgs {
     /// The core to pin the simulation to (default: the first core available).
     #[arg(long)]
     core: Option<usize>,
+    /// Save the run's state here at the end (a state file: a scene's `from_state` continues
+    /// it bit for bit, or starts from its configuration).
+    #[arg(long, value_name = "FILE")]
+    save_state: Option<PathBuf>,
+    /// Also save the state every K collisions (counted from the end of the initial state),
+    /// replacing the file each time.
+    #[arg(long, value_name = "K", requires = "save_state", value_parser = clap::value_parser!(u64).range(1..))]
+    checkpoint_every: Option<u64>,
+    /// Write a trajectory here, in GSD with HOOMD's schema (OVITO and the `gsd` Python package
+    /// read it): a frame at the start and every `--every` collisions.
+    #[arg(long, value_name = "FILE.gsd")]
+    trajectory: Option<PathBuf>,
+    /// Collisions between trajectory frames (default: 10 per particle, 10⁴·N/1000).
+    #[arg(long, value_name = "K", requires = "trajectory", value_parser = clap::value_parser!(u64).range(1..))]
+    every: Option<u64>,
 }
 
 pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
@@ -26,6 +43,12 @@ pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
     let text =
         std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {name}"))?;
     let scene = Scene::from_toml_str(&text).with_context(|| name.clone())?;
+    let folder = args.scene.parent().unwrap_or(Path::new("."));
+    let from = state_file::start_of(&scene, folder).with_context(|| name.clone())?;
+    let mut trajectory = match &args.trajectory {
+        Some(path) => Some((Trajectory::create(path, &scene)?, path)),
+        None => None,
+    };
     // τ_c is a CPU time per collision: the run must not migrate between cores.
     let core = match args.core {
         Some(core) => core,
@@ -44,9 +67,33 @@ pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
         "{msg} [{bar:30}] {pos}/{len} collisions, ETA {eta}",
     )?);
     bar.set_message(format!("{:?} N={} φ={}", scene.shape, scene.n, scene.phi));
-    let (report, state) = edmd::run_with_state(&scene, &mut |done| bar.set_position(done))
+    let mut on_state = |state: &edmd::SavedState| match &args.save_state {
+        Some(path) => state_file::save(path, state).map_err(|e| format!("{e:#}")),
+        None => Ok(()),
+    };
+    let mut on_frame = |frame: &edmd::Frame| match trajectory.as_mut() {
+        Some((t, path)) => t
+            .write(frame)
+            .map_err(|e| format!("cannot write {}: {e}", path.display())),
+        None => Ok(()),
+    };
+    let hooks = edmd::Hooks {
+        from,
+        checkpoint_every: args.checkpoint_every.unwrap_or(0),
+        save_final: args.save_state.is_some(),
+        on_state: Some(&mut on_state),
+        frame_every: match args.trajectory {
+            Some(_) => args.every.unwrap_or(10 * scene.n as u64),
+            None => 0,
+        },
+        on_frame: Some(&mut on_frame),
+    };
+    let (report, state) = edmd::run_with_hooks(&scene, &mut |done| bar.set_position(done), hooks)
         .with_context(|| name.clone())?;
     bar.finish_and_clear();
+    if let Some((t, path)) = &trajectory {
+        tracing::info!("{} frames in {}", t.frames(), path.display());
+    }
     if let Some(dump) = &args.dump {
         let json = serde_json::to_string_pretty(&state)?;
         std::fs::write(dump, json).with_context(|| format!("cannot write {}", dump.display()))?;

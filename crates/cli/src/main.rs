@@ -12,9 +12,11 @@ mod plan_cmd;
 mod query;
 mod remote;
 mod report_cmd;
+mod state_file;
 mod status;
 mod status_page;
 mod system;
+mod trajectory;
 
 use clap::{Parser, Subcommand};
 

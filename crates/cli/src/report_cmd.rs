@@ -16,10 +16,18 @@ use crate::output::{Format, print_json, print_text, write_json};
 pub struct ReportArgs {
     /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64); EDMD: fig7 (τ_c against φ), fig8 (against X0, LL/NNL),
     /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), fig13 (superquadrics against p),
-    /// accuracy (cost of each accuracy knob); peers (our EDMD spheres against a `[[command]]` program, per N).
+    /// accuracy (cost of each accuracy knob); peers (our EDMD spheres against a `[[command]]` program, per N);
+    /// snapshot (a picture of a state file, --state).
     name: String,
+    /// The result database (every report but snapshot).
     #[arg(long)]
-    db: PathBuf,
+    db: Option<PathBuf>,
+    /// snapshot: the state file (`sweep edmd --save-state`) to draw.
+    #[arg(long, value_name = "FILE")]
+    state: Option<PathBuf>,
+    /// snapshot: half the thickness of the slab drawn, in σ (default: the longest semi-axis).
+    #[arg(long, value_name = "SIGMA")]
+    slab: Option<f64>,
     /// Write here instead of stdout; the extension picks the format (.md .csv .tex .json .png .svg).
     /// Figures 2–3 print their points (estimate and 95 % interval) with `--format json` and no --out.
     #[arg(long)]
@@ -61,6 +69,12 @@ const EDMD: [&str; 7] = [
 
 pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     let name = args.name.as_str();
+    if name == "snapshot" {
+        return snapshot_report(args);
+    }
+    if args.state.is_some() || args.slab.is_some() {
+        bail!("--state and --slab apply to the snapshot report, not to {name}");
+    }
     if let Some(&(_, table, precision)) = OVERLAP.iter().find(|(n, _, _)| *n == name) {
         return match table {
             true => table_report(args, precision, format),
@@ -77,8 +91,66 @@ pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         return peers_report(args, format);
     }
     bail!(
-        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy, peers)"
+        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy, peers, snapshot)"
     )
+}
+
+/// The database every report but the snapshot reads.
+fn db(args: &ReportArgs) -> anyhow::Result<&Path> {
+    args.db
+        .as_deref()
+        .with_context(|| format!("report {}: --db is required", args.name))
+}
+
+/// `sweep report snapshot --state F --out F.png|svg`: a slab of the state's bodies.
+fn snapshot_report(args: &ReportArgs) -> anyhow::Result<()> {
+    let state_path = args
+        .state
+        .as_deref()
+        .context("report snapshot: --state FILE is required")?;
+    let out = args
+        .out
+        .as_deref()
+        .context("report snapshot: --out FILE.png|svg is required")?;
+    let (state, _) = crate::state_file::load(state_path)?;
+    let scene = state.scene();
+    let semi_axes = scene.semi_axes();
+    let longest = semi_axes.iter().copied().fold(0.0, f64::max);
+    let slab = args.slab.unwrap_or(longest);
+    if !(slab.is_finite() && slab > 0.0) {
+        bail!("--slab must be positive, got {slab}");
+    }
+    let bodies: Vec<report::SnapshotBody> = state
+        .bodies_now()
+        .iter()
+        .map(|b| report::SnapshotBody {
+            centre: [b.r.x, b.r.y, b.r.z],
+            axes: [0, 1, 2].map(|k| [b.rot[(k, 0)], b.rot[(k, 1)], b.rot[(k, 2)]]),
+            semi_axes,
+        })
+        .collect();
+    let picture = report::Snapshot {
+        box_length: state.box_length(),
+        bodies,
+        slab,
+        title: format!(
+            "{:?} N = {}, φ = {}, X0 = {}, t = {:.3}: |z − L/2| < {slab:.2} σ, hue = long axis in the plane",
+            scene.shape,
+            scene.n,
+            scene.phi,
+            scene.x0,
+            state.time()
+        ),
+        oriented: scene.shape != edmd::ShapeKind::Sphere,
+    };
+    report::snapshot(&picture, out)?;
+    eprintln!(
+        "{}: {} of {} bodies (the slab)",
+        out.display(),
+        picture.shown(),
+        scene.n
+    );
+    Ok(())
 }
 
 /// Every overlap point, estimated by `--statistic` or else `default`; the campaigns that ran
@@ -88,7 +160,7 @@ fn overlap_points(
     default: Statistic,
 ) -> anyhow::Result<Vec<report::OverlapPoint>> {
     let statistic = args.statistic.unwrap_or(default);
-    let (points, shifts) = database::read(&args.db, async |store| {
+    let (points, shifts) = database::read(db(args)?, async |store| {
         let points = results::overlap_points(store, statistic).await?;
         Ok((points, results::machine_history(store).await?))
     })?;
@@ -106,7 +178,7 @@ fn table_report(args: &ReportArgs, precision: &str, format: Format) -> anyhow::R
         bail!(
             "report {}: no {precision} overlap results in {}",
             args.name,
-            args.db.display()
+            db(args)?.display()
         );
     }
     match &args.out {
@@ -173,7 +245,7 @@ fn edmd_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     if out.is_none() && !json && name != "accuracy" {
         bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
     }
-    let (rows, failed, verdicts) = database::read(&args.db, async |store| {
+    let (rows, failed, verdicts) = database::read(db(args)?, async |store| {
         let rows = results::edmd_runs(store, clock).await?;
         if name != "accuracy" {
             return Ok((rows, Vec::new(), Vec::new()));
@@ -187,7 +259,7 @@ fn edmd_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         );
     }
     if rows.is_empty() && verdicts.is_empty() {
-        bail!("report {name}: no EDMD results in {}", args.db.display());
+        bail!("report {name}: no EDMD results in {}", db(args)?.display());
     }
     match name {
         "fig7" => {
@@ -262,7 +334,8 @@ fn peers_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "wall" => Clock::Wall,
         other => bail!("--clock {other}: expected cpu or wall"),
     };
-    let (ours, theirs) = database::read(&args.db, async |store| {
+    let db = db(args)?;
+    let (ours, theirs) = database::read(db, async |store| {
         Ok((
             results::edmd_runs(store, clock).await?,
             results::command_runs(store).await?,
@@ -278,7 +351,7 @@ fn peers_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         bail!(
             "report peers: no (N, φ) has both EDMD sphere runs and `{}` runs printing {value} in {}",
             args.label,
-            args.db.display()
+            db.display()
         );
     }
     match format {

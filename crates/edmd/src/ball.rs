@@ -8,7 +8,7 @@ use crate::geometry::{Surface, V3};
 use crate::lists::Region;
 use crate::rigid::Body;
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ball {
     /// The body's centre when the list was built.
     pub c: V3,

@@ -8,7 +8,9 @@
 //! one line each. Spheres at N = 16384, φ = 0.45 (cachegrind, per collision): the calendar's
 //! misses in a 32 KiB D1 fall from 43 to 21 and in a 512 KiB last level from 14.1 to 9.2.
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Kind {
     /// Collision of `a` with `b`; `shift` is the periodic image of b, in box lengths.
     Collision { shift: [i32; 3] },
@@ -32,7 +34,7 @@ pub struct Event<X> {
 }
 
 /// A heap entry: the time of a particle's event, and the particle.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 struct Entry {
     t: f64,
     a: u32,
@@ -48,10 +50,11 @@ const VACANT: Entry = Entry {
 };
 
 /// The four children of one node, in one cache line.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 #[repr(C, align(64))]
 struct Siblings([Entry; 4]);
 
+#[derive(Clone, Serialize, Deserialize)]
 pub struct Calendar<X> {
     /// Min-heap on `t`: node k has children 4k + 1 … 4k + 4, which are `groups[k + 1]`; the root
     /// is the last lane of `groups[0]`. Lanes past `len` are [`VACANT`].
@@ -66,7 +69,7 @@ pub struct Calendar<X> {
 /// An event as the calendar keeps it: without its particle, which is its index. A sphere's is 32
 /// bytes, aligned to 32 so that none straddles two cache lines (40 bytes, unaligned, made half of
 /// them do).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 #[repr(C, align(32))]
 struct Stored<X> {
     t: f64,

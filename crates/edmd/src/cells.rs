@@ -15,7 +15,7 @@ impl Member for u32 {
     }
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Cells<T = u32> {
     /// Cells per side.
     pub m: usize,

@@ -32,7 +32,7 @@ impl Default for Tolerances {
 }
 
 /// Counters that make the cost of accuracy visible.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolverStats {
     /// Pair contact-time searches (Sec. 2.4).
     pub searches: u64,
@@ -51,6 +51,7 @@ pub struct SolverStats {
     pub distance_fallbacks: u64,
     /// What the latest failure could not resolve ("distance", "contact time"), for the error
     /// that stops the run.
+    #[serde(skip)]
     pub failed: Option<&'static str>,
 }
 

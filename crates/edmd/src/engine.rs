@@ -15,7 +15,8 @@ use crate::sequence::Fingerprint;
 use crate::sphere::{self, Probe, Trajectory};
 use crate::{EdmdError, prefetch};
 
-enum Neighbourhood<R: Region> {
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
+pub(crate) enum Neighbourhood<R: Region> {
     Ll {
         cells: Cells,
         cell_of: Vec<usize>,
@@ -52,8 +53,31 @@ pub(crate) struct Engine<M: Model> {
     pub(crate) sequence: Fingerprint,
 }
 
+/// What [`Engine::snapshot`] saves; its layout is part of the state file (see [`crate::state`]).
+#[derive(serde::Serialize, serde::Deserialize)]
+pub(crate) struct EngineState<X, R: Region> {
+    pub(crate) bodies: Vec<Body>,
+    pub(crate) count: Vec<u32>,
+    pub(crate) cal: Calendar<X>,
+    pub(crate) t: f64,
+    pub(crate) nb: Neighbourhood<R>,
+    pub(crate) acc: Accounting,
+    pub(crate) sequence: Fingerprint,
+    pub(crate) stats: crate::distance::SolverStats,
+}
+
+impl<X, R: Region> EngineState<X, R> {
+    /// The neighbour method the saved engine uses.
+    pub(crate) fn neighbours(&self) -> Neighbours {
+        match self.nb {
+            Neighbourhood::Ll { .. } => Neighbours::Ll,
+            Neighbourhood::Nnl { .. } => Neighbours::Nnl,
+        }
+    }
+}
+
 /// The counts and sums the measurements are made of, kept as events happen.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Accounting {
     pub(crate) collisions: u64,
     pub(crate) virial: f64,
@@ -74,6 +98,7 @@ impl<M: FirstCollision> Engine<M> {
         bodies: Vec<Body>,
         inv_i: f64,
         scene: &Scene,
+        t: f64,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let lb = m.surface().bounding_radius();
@@ -113,7 +138,7 @@ impl<M: FirstCollision> Engine<M> {
             bodies,
             count: vec![0; n],
             cal: Calendar::new(n),
-            t: 0.0,
+            t,
             inv_i,
             nb,
             scratch: Vec::new(),
@@ -136,6 +161,58 @@ impl<M: FirstCollision> Engine<M> {
             e.predict_for(i);
         }
         Ok(e)
+    }
+
+    /// Everything the engine's future depends on, for a restart that continues bit for bit: the
+    /// bodies as they are (each at its own time, not advanced), the calendar in its heap order (its
+    /// ties resolve by position), the collision counters, the neighbour lists or cells with their
+    /// build state, the sums and the solver counters. Scratch buffers are left out.
+    pub(crate) fn snapshot(&self) -> EngineState<M::Extra, M::Region> {
+        EngineState {
+            bodies: self.bodies.clone(),
+            count: self.count.clone(),
+            cal: self.cal.clone(),
+            t: self.t,
+            nb: self.nb.clone(),
+            acc: self.acc,
+            sequence: self.sequence.clone(),
+            stats: self.m.stats(),
+        }
+    }
+
+    /// The engine of a [`snapshot`](Self::snapshot), with the model `m` of the same scene.
+    pub(crate) fn restore(
+        mut m: M,
+        l: f64,
+        inv_i: f64,
+        s: EngineState<M::Extra, M::Region>,
+    ) -> Self {
+        m.set_stats(s.stats);
+        Engine {
+            m,
+            l,
+            bodies: s.bodies,
+            count: s.count,
+            cal: s.cal,
+            t: s.t,
+            inv_i,
+            nb: s.nb,
+            scratch: Vec::new(),
+            order: Vec::new(),
+            acc: s.acc,
+            failure: None,
+            sequence: s.sequence,
+        }
+    }
+
+    /// Stops the event loop after the present event with `e` (an observer's failure).
+    pub(crate) fn fail(&mut self, e: EdmdError) {
+        self.failure.get_or_insert(e);
+    }
+
+    /// The failure recorded outside the event loop, if any.
+    pub(crate) fn take_failure(&mut self) -> Option<EdmdError> {
+        self.failure.take()
     }
 
     /// Schedules the earliest event of `i`: its cell crossing or box escape, or its first collision,

@@ -32,6 +32,7 @@
 //! - [`audit`]: the overlap audit of the final state, every pair found through cells and decided
 //!   independently of the engine's solvers; superquadrics by [`audit::overlap_certified`] (a
 //!   separating axis with a positive support gap, from Gilbert's algorithm or Newton's normal).
+//! - [`state`]: the state file (a run saved, to be continued bit for bit or started from).
 //! - [`run`](mod@run): a scene's set-up, initial state and measured phases ([`run()`],
 //!   [`run_with_state`]), timed by [`clock`]; [`report`]: what a run hands back ([`RunReport`],
 //!   [`FinalState`]).
@@ -90,15 +91,17 @@ pub mod scale;
 pub mod scene;
 pub mod sequence;
 pub mod sphere;
+pub mod state;
 pub mod superquadric;
 pub mod support_distance;
 
 pub use report::{FinalState, ParticleDump, RunReport};
-pub use run::{run, run_with_state};
+pub use run::{Frame, HookResult, Hooks, run, run_with_hooks, run_with_state};
 pub use scene::{
     Neighbours, Scene, SceneError, ShapeKind, default_delta_nnl, default_neighbours,
     fill_shape_defaults,
 };
+pub use state::{SavedState, StateError};
 
 use thiserror::Error;
 
@@ -134,6 +137,12 @@ pub enum EdmdError {
     Unresolved(Box<UnresolvedContact>),
     #[error(transparent)]
     ListLimit(#[from] lists::ListLimit),
+    /// A state file that the scene cannot start from.
+    #[error(transparent)]
+    State(#[from] state::StateError),
+    /// A checkpoint or a frame that could not be written: the run stops.
+    #[error("{0}")]
+    Hook(String),
 }
 
 /// The pair and state of a contact search no solver could resolve.

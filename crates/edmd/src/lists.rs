@@ -32,7 +32,7 @@ pub type Neighbour = (u32, [i32; 3]);
 /// sphere path touches. Positions are unwrapped, so a shift grows with the boxes two bodies
 /// have travelled apart; 32767 boxes is beyond any run (and refused with [`ListLimit`], not
 /// wrapped), as is a list of more than 65535 entries.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Link {
     pub j: u32,
     back: u16,
@@ -79,10 +79,12 @@ pub trait Region: Copy {
     fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64;
 }
 
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct Lists<R: Region> {
     regions: Vec<R>,
     lists: Rows,
     /// Scratch for [`Lists::rebuild`].
+    #[serde(skip)]
     found: Vec<Neighbour>,
     delta: f64,
     l: f64,
@@ -313,6 +315,7 @@ impl<R: Region> Lists<R> {
 /// index, without reading a header first, and the lists of neighbouring bodies lie side by side
 /// (bodies are numbered along a Z curve). A list that outgrows its room gives every list half as
 /// much room again, which is rare: list lengths are bounded by the density.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 struct Rows {
     room: usize,
     len: Vec<u16>,
@@ -398,15 +401,17 @@ impl Rows {
 /// Region centres binned in cells. Each centre is kept wrapped into the box, in its cell and
 /// beside it, together with the image it was wrapped from, so that the shift of a neighbouring
 /// cell gives every candidate's image directly.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 struct Grid {
     cells: Cells<Centre>,
     cell_of: Vec<usize>,
     img: Vec<[i32; 3]>,
-    /// Scratch for [`Lists::find`]: a body is in at most one of the 27 cells, so N entries do.
+    /// Scratch for [`Lists::find`]: a body is in at most one of the 27 cells, so N entries do
+    /// (saved with the rest, for its length).
     hits: Vec<(u32, u8)>,
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 struct Centre {
     particle: u32,
     wrapped: V3,

@@ -28,6 +28,8 @@ pub(crate) trait Model {
     /// impulse given to `b`, or `None` if the bodies separate.
     fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, x: &Self::Extra) -> Option<V3>;
     fn stats(&self) -> SolverStats;
+    /// Puts back the counters of a restored run.
+    fn set_stats(&mut self, stats: SolverStats);
 }
 
 /// Hard spheres: quadratic contact time, no rotation, normal along the line of centres.
@@ -71,6 +73,7 @@ impl Model for SphereModel {
     fn stats(&self) -> SolverStats {
         SolverStats::default()
     }
+    fn set_stats(&mut self, _: SolverStats) {}
 }
 
 /// Hard rigid bodies of any [`Surface`] through the general algorithm of Sec. 2: ellipsoids (any
@@ -100,6 +103,9 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
     }
     fn stats(&self) -> SolverStats {
         self.stats
+    }
+    fn set_stats(&mut self, stats: SolverStats) {
+        self.stats = stats;
     }
 }
 

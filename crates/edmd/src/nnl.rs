@@ -6,7 +6,7 @@ use crate::lists::Region;
 use crate::rigid::{Body, positive_for, support_acceleration_bound};
 
 /// Oriented bounding parallelepiped, immobile between two rebuilds.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Obp {
     pub c: V3,
     /// Rows = the body axes at build time.

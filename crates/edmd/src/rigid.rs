@@ -3,7 +3,7 @@
 use crate::geometry::{M3, Pose, SupportModulus, Surface, V3};
 
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[repr(C, align(64))]
 pub struct Body {
     // Position, velocity and time first, aligned: the sphere path reads only them, one cache line.

@@ -5,18 +5,23 @@ use std::time::Instant;
 
 use crate::EdmdError;
 use crate::audit::audit;
+use crate::ball::Ball;
 use crate::contact::ContactParams;
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
+use crate::engine::EngineState;
 use crate::engine::{Accounting, Engine, FirstCollision};
 use crate::geometry::{Surface, V3};
 use crate::init::{Geom, initial_configuration, sort_along_z_curve};
 use crate::model::{RigidModel, SphereModel};
+use crate::nnl::Obp;
 use crate::report::{FinalState, RunReport, final_state};
 use crate::rigid::{Body, Inertia};
 use crate::rng::Rng;
 use crate::scene::{Scene, ShapeKind};
 use crate::sequence::Fingerprint;
+use crate::state::{SavedEngine, SavedState, Start, StateError};
+use crate::superquadric::Superquadric;
 
 /// Runs a scene: initial configuration, `equilibrate` collisions, then `collisions` measured ones.
 /// `progress` receives the number of collisions done so far (equilibration included), sparsely.
@@ -28,6 +33,53 @@ pub fn run(scene: &Scene, progress: &mut dyn FnMut(u64)) -> Result<RunReport, Ed
 pub fn run_with_state(
     scene: &Scene,
     progress: &mut dyn FnMut(u64),
+) -> Result<(RunReport, FinalState), EdmdError> {
+    run_with_hooks(scene, progress, Hooks::default())
+}
+
+/// A failure of a [`Hooks`] callback (a file that cannot be written): it stops the run.
+pub type HookResult = Result<(), String>;
+
+/// What a run does besides measuring: where it starts, what it saves and shows on the way.
+/// Neither saving nor showing changes the run: both read the engine (bodies are copied before
+/// they are advanced to the present), so a run's events are the same with and without them.
+#[derive(Default)]
+pub struct Hooks<'a> {
+    /// Start from this state instead of an initial configuration (no relaxation either): the
+    /// saved engine itself where the scene's prediction knobs are the saved ones, otherwise its
+    /// configuration at the saved clock (see [`crate::state`]). The scene's `equilibrate` and
+    /// `collisions` then run on from there; a continued run keeps its collision count, and its
+    /// measured run starts without advancing every body to the present (which the continuous
+    /// run would not have done there either).
+    pub from: Option<SavedState>,
+    /// Collisions between checkpoints handed to `on_state` (0: none), counted from the end of
+    /// the initial state (over restarts).
+    pub checkpoint_every: u64,
+    /// Hand the state at the end of the run to `on_state` too (before the bodies are advanced
+    /// to the present, so that a continuation is bit for bit the continuous run).
+    pub save_final: bool,
+    pub on_state: Option<&'a mut dyn FnMut(&SavedState) -> HookResult>,
+    /// Collisions between frames handed to `on_frame` (0: none); the first frame is the state
+    /// the equilibration starts from.
+    pub frame_every: u64,
+    pub on_frame: Option<&'a mut dyn FnMut(&Frame) -> HookResult>,
+}
+
+/// The configuration at one moment, for a trajectory: every body advanced to `time` (copies),
+/// positions unwrapped (periodic images are not folded back).
+pub struct Frame<'a> {
+    /// Collisions since the end of the initial state.
+    pub step: u64,
+    pub time: f64,
+    pub box_length: f64,
+    pub bodies: &'a [Body],
+}
+
+/// As [`run_with_state`], with a start, checkpoints and frames as `hooks` ask.
+pub fn run_with_hooks(
+    scene: &Scene,
+    progress: &mut dyn FnMut(u64),
+    hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
     scene.validate()?;
     let [a, b, c] = scene.semi_axes();
@@ -74,6 +126,7 @@ pub fn run_with_state(
             },
             scene,
             progress,
+            hooks,
         ),
         (ShapeKind::Superquadric, Some(q)) => simulate(
             RigidModel::new(q, params, inertia_rot),
@@ -81,6 +134,7 @@ pub fn run_with_state(
             inertia_rot,
             scene,
             progress,
+            hooks,
         ),
         (ShapeKind::Ellipsoid, _) => {
             let e = Ellipsoid::new(a, b, c);
@@ -90,6 +144,7 @@ pub fn run_with_state(
                 inertia_rot,
                 scene,
                 progress,
+                hooks,
             )
         }
         (ShapeKind::Superquadric, None) => Err(EdmdError::Scene(crate::SceneError::Invalid {
@@ -102,15 +157,20 @@ pub fn run_with_state(
 
 /// The initial state (whose compression the model's own dynamics helps where Monte Carlo
 /// jams), then the measured run.
-fn simulate<M: FirstCollision>(
+fn simulate<M: Saves>(
     model: M,
     geom: Geom,
     inertia: Inertia,
     scene: &Scene,
     progress: &mut dyn FnMut(u64),
+    mut hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
-    let mut rng = Rng::new(scene.seed);
     let init = Instant::now();
+    if let Some(saved) = hooks.from.take() {
+        let (eng, origin) = restored(model, saved, scene, inertia.inv_i)?;
+        return measure(eng, scene, geom, init, progress, origin, hooks);
+    }
+    let mut rng = Rng::new(scene.seed);
     let mut slot = Some(model);
     // The collision sequence starts at the first collision of the first relaxation: the Monte
     // Carlo state before it depends on the seed alone, not on the accuracy knobs.
@@ -120,7 +180,7 @@ fn simulate<M: FirstCollision>(
             unreachable!("the model is put back after every relaxation")
         };
         let n = bodies.len() as u64;
-        let mut eng = Engine::new(m, l, bodies, inertia.inv_i, scene)?;
+        let mut eng = Engine::new(m, l, bodies, inertia.inv_i, scene, 0.0)?;
         eng.sequence = std::mem::take(&mut sequence);
         eng.advance(per_particle * n, |_| {})?;
         eng.sync_all();
@@ -139,9 +199,94 @@ fn simulate<M: FirstCollision>(
     let Some(m) = slot else {
         unreachable!("the model is put back after every relaxation")
     };
-    let mut eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene)?;
+    let mut eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene, 0.0)?;
     eng.sequence = sequence;
-    measure(eng, scene, geom, init, progress)
+    measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+}
+
+/// Where the engine of a run came from.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Origin {
+    /// An initial configuration, to be relaxed.
+    Fresh,
+    /// A saved configuration, with lists and calendar built afresh.
+    Rebuilt,
+    /// A saved engine, going on exactly as it was.
+    Continued,
+}
+
+/// The engine of a run that starts from `saved` (see [`crate::state`]).
+fn restored<M: Saves>(
+    m: M,
+    saved: SavedState,
+    scene: &Scene,
+    inv_i: f64,
+) -> Result<(Engine<M>, Origin), EdmdError> {
+    let l = (scene.n as f64 * std::f64::consts::PI / 6.0 / scene.phi).cbrt();
+    match saved.start_for(scene)? {
+        Start::Rebuild => {
+            let bodies = saved.bodies_now();
+            let eng = Engine::new(m, saved.box_length, bodies, inv_i, scene, saved.time())?;
+            Ok((eng, Origin::Rebuilt))
+        }
+        Start::Continue => {
+            if saved.box_length.to_bits() != l.to_bits() {
+                return Err(StateError::Inconsistent(format!(
+                    "box length {} for the scene's {l}",
+                    saved.box_length
+                ))
+                .into());
+            }
+            let state = M::unwrap(saved.engine)
+                .filter(|s| s.neighbours() == scene.neighbours)
+                .ok_or_else(|| {
+                    StateError::Inconsistent("the saved engine is not of the scene's model".into())
+                })?;
+            Ok((Engine::restore(m, l, inv_i, state), Origin::Continued))
+        }
+    }
+}
+
+/// The models whose engine a state file holds.
+pub(crate) trait Saves: FirstCollision + Sized {
+    fn wrap(s: EngineState<Self::Extra, Self::Region>) -> SavedEngine;
+    fn unwrap(s: SavedEngine) -> Option<EngineState<Self::Extra, Self::Region>>;
+}
+
+impl Saves for SphereModel {
+    fn wrap(s: EngineState<(), Ball>) -> SavedEngine {
+        SavedEngine::Sphere(s)
+    }
+    fn unwrap(s: SavedEngine) -> Option<EngineState<(), Ball>> {
+        match s {
+            SavedEngine::Sphere(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+impl Saves for RigidModel<Ellipsoid> {
+    fn wrap(s: EngineState<(V3, V3), Obp>) -> SavedEngine {
+        SavedEngine::Ellipsoid(s)
+    }
+    fn unwrap(s: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
+        match s {
+            SavedEngine::Ellipsoid(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+impl Saves for RigidModel<Superquadric> {
+    fn wrap(s: EngineState<(V3, V3), Obp>) -> SavedEngine {
+        SavedEngine::Superquadric(s)
+    }
+    fn unwrap(s: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
+        match s {
+            SavedEngine::Superquadric(s) => Some(s),
+            _ => None,
+        }
+    }
 }
 
 /// Collisions per particle run at the end of the initial state (see [`relax`]).
@@ -149,24 +294,82 @@ pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 
 /// The relaxation that ends the initial state, then `equilibrate` collisions, then the measured
 /// ones; the figures of those, and the final configuration.
-fn measure<M: FirstCollision>(
+#[allow(clippy::too_many_arguments)]
+fn measure<M: Saves>(
     mut eng: Engine<M>,
     scene: &Scene,
     geom: Geom,
     init: Instant,
     progress: &mut dyn FnMut(u64),
+    origin: Origin,
+    hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
-    relax(&mut eng)?;
+    if origin == Origin::Fresh {
+        relax(&mut eng)?;
+    }
     let init_s = init.elapsed().as_secs_f64();
     let total = scene.equilibrate + scene.collisions;
     let every = (total / 100).clamp(1, 10_000);
-    let mut tick = |done: u64| {
+    let Hooks {
+        checkpoint_every,
+        save_final,
+        mut on_state,
+        frame_every,
+        mut on_frame,
+        ..
+    } = hooks;
+    let mut frame_bodies = Vec::new();
+    let mut show = |e: &mut Engine<M>| {
+        if let Some(f) = on_frame.as_mut() {
+            frame_bodies.clear();
+            frame_bodies.extend(e.bodies.iter().map(|b| b.at(e.t)));
+            let frame = Frame {
+                step: e.acc.collisions,
+                time: e.t,
+                box_length: e.l,
+                bodies: &frame_bodies,
+            };
+            if let Err(why) = f(&frame) {
+                e.fail(EdmdError::Hook(why));
+            }
+        }
+    };
+    let mut save = |e: &mut Engine<M>| {
+        if let Some(f) = on_state.as_mut()
+            && let Err(why) = f(&SavedState::new(scene, e.l, M::wrap(e.snapshot())))
+        {
+            e.fail(EdmdError::Hook(why));
+        }
+    };
+    if frame_every > 0 {
+        show(&mut eng);
+    }
+    let mut observe = |e: &mut Engine<M>| {
+        let done = e.acc.collisions;
         if done.is_multiple_of(every) {
             progress(done);
         }
+        if checkpoint_every > 0 && done.is_multiple_of(checkpoint_every) {
+            save(e);
+        }
+        if frame_every > 0 && done.is_multiple_of(frame_every) {
+            show(e);
+        }
     };
-    eng.advance(scene.equilibrate, |e| tick(e.acc.collisions))?;
-    let measured = measured_run(&mut eng, scene.collisions, &mut tick)?;
+    eng.advance(scene.equilibrate, &mut observe)?;
+    let measured = measured_run(
+        &mut eng,
+        scene.collisions,
+        origin != Origin::Continued,
+        &mut observe,
+    )?;
+    if save_final {
+        save(&mut eng);
+        if let Some(e) = eng.take_failure() {
+            return Err(e);
+        }
+    }
+    eng.sync_all();
     progress(eng.acc.collisions);
     let report = figures(&mut eng, scene, &geom, &measured, init_s);
     let state = final_state(&eng.bodies, eng.l, &geom);
@@ -214,14 +417,18 @@ struct Measured {
     cpu_elapsed: f64,
 }
 
-/// The measured run: `collisions` collisions in up to 10 blocks, from sums started afresh and
-/// every body at the present time; it ends with every body at the present time again.
+/// The measured run: `collisions` collisions in up to 10 blocks, from sums started afresh and,
+/// if `sync`, every body at the present time (a continued run leaves them where the saved run
+/// had them). `observe` sees every collision.
 fn measured_run<M: FirstCollision>(
     eng: &mut Engine<M>,
     collisions: u64,
-    tick: &mut impl FnMut(u64),
+    sync: bool,
+    observe: &mut impl FnMut(&mut Engine<M>),
 ) -> Result<Measured, EdmdError> {
-    eng.sync_all();
+    if sync {
+        eng.sync_all();
+    }
     let start_acc = Accounting {
         ke_trans: eng.acc.ke_trans,
         t_last: eng.t,
@@ -244,14 +451,13 @@ fn measured_run<M: FirstCollision>(
     let (wall, cpu) = (Instant::now(), crate::clock::thread_cpu_seconds());
     measured_collisions(eng, collisions, |e| {
         let k = e.acc.collisions - base_collisions;
-        tick(e.acc.collisions);
+        observe(e);
         if (k * blocks).is_multiple_of(collisions) {
             marks.push((e.acc.virial, e.acc.ke_int));
         }
     })?;
     let elapsed = wall.elapsed().as_secs_f64();
     let cpu_elapsed = crate::clock::thread_cpu_seconds() - cpu;
-    eng.sync_all();
     Ok(Measured {
         e0,
         p0,

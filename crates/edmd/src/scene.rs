@@ -99,6 +99,16 @@ pub struct Scene {
     /// Overlap audit: a pair overlaps when its contact scale factor is below 1 − audit_tol.
     #[serde(default = "d_audit_tol")]
     pub audit_tol: f64,
+    /// A state file (`sweep edmd --save-state`) to start from instead of an initial
+    /// configuration, relative to the folder of the scene or plan that names it (whoever reads
+    /// the TOML makes it absolute). See [`crate::state`] for what must agree with the saved run.
+    /// Unset, neither this nor `from_state_blake3` is serialised, so ids stay what they were.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from_state: Option<String>,
+    /// The BLAKE3 hash (hex) of the `from_state` file: set by whoever resolves the path, part of
+    /// a point's id (another state is another point), checked when the file is loaded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from_state_blake3: Option<String>,
 }
 
 fn d_x0() -> f64 {
@@ -231,6 +241,8 @@ impl Scene {
             sd_tol: d_sd_tol(),
             brent_tol: d_brent_tol(),
             audit_tol: d_audit_tol(),
+            from_state: None,
+            from_state_blake3: None,
         }
     }
 

@@ -18,7 +18,7 @@ pub const BLOCK: u32 = 64;
 pub const BLOCKS: usize = 1024;
 
 /// The fingerprint being built, one collision at a time.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Fingerprint {
     state: u64,
     in_block: u32,

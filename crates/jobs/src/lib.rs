@@ -26,6 +26,7 @@ mod command_plan;
 mod plan;
 mod run;
 mod spec;
+mod states;
 mod sweep;
 
 pub use command::CommandSpec;

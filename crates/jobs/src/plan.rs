@@ -53,6 +53,7 @@ use toml::de::{DeTable, DeValue};
 
 use crate::command_plan::expand_command;
 use crate::spec::{JobSpec, NoopSpec};
+use crate::states::States;
 use crate::sweep::{Issue, Sweep, Written, cartesian};
 
 /// A plan may not expand to more jobs than this: a campaign that large is a typo.
@@ -137,8 +138,10 @@ fn locate(issue: Issue, text: &str, file_name: &str) -> PlanError {
 /// Plan-wide defaults a sweep may inherit.
 pub(crate) struct Defaults {
     pub seed: u64,
-    /// The plan file's folder: relative program paths start there.
+    /// The plan file's folder: relative program and state-file paths start there.
     pub dir: PathBuf,
+    /// The state files EDMD points start from (`from_state`, relative to the plan's folder).
+    pub states: States,
 }
 
 /// How one `[[kind]]` table (at `header`) becomes jobs. Adding a job kind is: a [`JobSpec`]
@@ -210,6 +213,7 @@ fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue
     let defaults = Defaults {
         seed: top.integer("seed", Some(0), &|_| Ok(()))?,
         dir: dir.to_path_buf(),
+        states: States::in_folder(dir),
     };
 
     // Every sweep table, in file order, with its kind.
@@ -551,17 +555,6 @@ fn expand_edmd(
                 .zip(&i)
                 .map(|((key, values), &k)| (*key, &values[k]))
                 .collect();
-            let mut table: toml::Table = point
-                .iter()
-                .map(|(key, (_, value))| (key.to_string(), value.clone()))
-                .collect();
-            edmd::fill_shape_defaults(&mut table);
-            let scene: edmd::Scene =
-                toml::Value::Table(table)
-                    .try_into()
-                    .map_err(|e: toml::de::Error| {
-                        Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message()))
-                    })?;
             // A value that is wrong only with the others of its point is shown where it was
             // written (the list element, not the key).
             let written = |key: &str| {
@@ -570,12 +563,35 @@ fn expand_edmd(
                     .find(|(k, _)| *k == key)
                     .map_or_else(|| sweep.span_of(key), |(_, (span, _))| span.clone())
             };
+            let mut table: toml::Table = point
+                .iter()
+                .map(|(key, (_, value))| (key.to_string(), value.clone()))
+                .collect();
+            edmd::fill_shape_defaults(&mut table);
+            // A state file becomes its absolute path and its hash, which names the point.
+            if let Some(toml::Value::String(written_path)) = table.get("from_state") {
+                let (path, hash) = defaults.states.resolve(written_path).map_err(|reason| {
+                    Issue::new(written("from_state"), Some("from_state"), reason)
+                })?;
+                table.insert("from_state".into(), toml::Value::String(path));
+                table.insert("from_state_blake3".into(), toml::Value::String(hash));
+            }
+            let scene: edmd::Scene =
+                toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e: toml::de::Error| {
+                        Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message()))
+                    })?;
             scene.validate().map_err(|e| match e {
                 edmd::SceneError::Invalid { key, reason, .. } => {
                     Issue::new(written(key), Some(key), reason)
                 }
                 other => Issue::new(header.clone(), None, other.to_string()),
             })?;
+            defaults
+                .states
+                .check(&scene)
+                .map_err(|reason| Issue::new(written("from_state"), Some("from_state"), reason))?;
             Ok(JobSpec::Edmd(scene))
         })
         .collect()
@@ -603,10 +619,15 @@ fn check_scene_value(key: &str, value: &toml::Value) -> Result<(), String> {
 /// default one, so this list cannot drift from the `edmd` crate (a superquadric's, the only one
 /// that serialises every key, `exponents` included).
 fn edmd_keys() -> Vec<(String, bool)> {
-    let scene = edmd::Scene::new(edmd::ShapeKind::Superquadric, 2, 0.1);
+    let scene = edmd::Scene {
+        from_state: Some(String::new()),
+        ..edmd::Scene::new(edmd::ShapeKind::Superquadric, 2, 0.1)
+    };
     match toml::Table::try_from(&scene) {
+        // The state file's hash is computed from the file, not written in plans.
         Ok(table) => table
             .into_iter()
+            .filter(|(key, _)| key != "from_state_blake3")
             .map(|(key, value)| (key, value.is_array()))
             .collect(),
         Err(_) => Vec::new(),

@@ -22,6 +22,9 @@ pub enum JobError {
     /// The scene cannot be simulated, or a solver could not resolve a contact.
     #[error("edmd: {0}")]
     Edmd(#[from] edmd::EdmdError),
+    /// The state file an EDMD point starts from cannot be read, or changed since the plan.
+    #[error("edmd: from_state: {0}")]
+    State(String),
     /// A result that does not serialise as a record (a JSON object).
     #[error("{kind}: the result is not a JSON object")]
     NotARecord { kind: &'static str },
@@ -78,7 +81,11 @@ pub fn run(spec: &JobSpec, attempt: u32) -> Result<Vec<Record>, JobError> {
 /// core was shared).
 fn run_edmd(scene: &edmd::Scene) -> Result<Vec<Record>, JobError> {
     let (wall, cpu) = (Instant::now(), edmd::clock::thread_cpu_seconds());
-    let mut report = edmd::run(scene, &mut |_| {})?;
+    let hooks = edmd::Hooks {
+        from: crate::states::start_of(scene).map_err(JobError::State)?,
+        ..edmd::Hooks::default()
+    };
+    let mut report = edmd::run_with_hooks(scene, &mut |_| {}, hooks)?.0;
     let (wall_s, cpu_s) = (
         wall.elapsed().as_secs_f64(),
         edmd::clock::thread_cpu_seconds() - cpu,

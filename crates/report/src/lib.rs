@@ -22,6 +22,8 @@
 //! - The cost of accuracy, [`accuracy_report`]: the EDMD knobs in `accuracy.rs`, the overlap
 //!   kernels in `overlap_accuracy.rs`; drawn as [`accuracy_markdown`] and [`accuracy_plot`] by
 //!   `accuracy_render.rs` and `overlap_accuracy_render.rs`.
+//! - A configuration's picture, [`snapshot`] (`snapshot.rs`): a slab of bodies seen along z,
+//!   coloured by orientation.
 //!
 //! What they share: the curves of Figures 8–13 (`curves.rs`), which runs a figure compares
 //! (`selection.rs`), a curve's minimum (`minimum.rs`), the unit of lengths on an axis
@@ -47,6 +49,7 @@ mod overlap_accuracy_render;
 mod peers;
 mod render;
 mod selection;
+mod snapshot;
 mod table;
 mod units;
 
@@ -64,6 +67,7 @@ pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
 pub use peers::{CommandRow, PeerPoint, peers, peers_markdown};
+pub use snapshot::{Snapshot, SnapshotBody, snapshot};
 pub use table::{Table1Row, TableFormat, render_table, table1};
 pub use units::LengthUnit;
 

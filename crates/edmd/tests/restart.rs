@@ -1,0 +1,199 @@
+//! Restarts: a run continued from its state file is, bit for bit, the run that never stopped;
+//! checkpoints and trajectory frames do not change a run.
+
+use edmd::{FinalState, Hooks, Neighbours, SavedState, Scene, ShapeKind, run_with_hooks};
+
+fn scene(shape: ShapeKind, neighbours: Neighbours, collisions: u64) -> Scene {
+    let mut s = Scene::new(
+        shape,
+        256,
+        if shape == ShapeKind::Sphere {
+            0.45
+        } else {
+            0.3
+        },
+    );
+    if shape == ShapeKind::Ellipsoid {
+        s.x0 = 2.0;
+    }
+    s.neighbours = neighbours;
+    s.delta_nnl = edmd::default_delta_nnl(shape, neighbours);
+    s.equilibrate = 0;
+    s.collisions = collisions;
+    s.seed = 7;
+    s
+}
+
+/// Runs `scene` (from `from` if given) and returns its final state with every state handed
+/// to `on_state` (checkpoints every `checkpoint_every`, then the end), encoded.
+fn run(
+    scene: &Scene,
+    from: Option<&[u8]>,
+    checkpoint_every: u64,
+) -> (FinalState, Vec<(f64, Vec<u8>)>) {
+    let mut saved = Vec::new();
+    let mut on_state = |s: &SavedState| {
+        saved.push((s.time(), s.to_bytes().map_err(|e| e.to_string())?));
+        Ok(())
+    };
+    let hooks = Hooks {
+        from: from.map(|b| SavedState::from_bytes(b).expect("state decodes")),
+        checkpoint_every,
+        save_final: true,
+        on_state: Some(&mut on_state),
+        ..Hooks::default()
+    };
+    let (report, state) = run_with_hooks(scene, &mut |_| {}, hooks).expect("run");
+    assert_eq!(report.overlaps, 0);
+    (state, saved)
+}
+
+/// Every f64 of two final states, compared by its bits.
+fn assert_same_bits(a: &FinalState, b: &FinalState, what: &str) {
+    assert_eq!(a.particles.len(), b.particles.len());
+    for (i, (p, q)) in a.particles.iter().zip(&b.particles).enumerate() {
+        let bits = |x: &edmd::ParticleDump| -> Vec<u64> {
+            x.position
+                .iter()
+                .chain(x.orientation.iter().flatten())
+                .chain(&x.velocity)
+                .chain(&x.angular_velocity)
+                .map(|v| v.to_bits())
+                .collect()
+        };
+        assert_eq!(bits(p), bits(q), "{what}: body {i} differs");
+    }
+}
+
+/// K + K collisions through a state file against 2K in one go, and from a checkpoint in the
+/// middle of the first half against the same.
+fn continues_bit_for_bit(shape: ShapeKind, neighbours: Neighbours, k: u64) {
+    let what = format!("{shape:?} {neighbours:?}");
+    let (whole, whole_saved) = run(&scene(shape, neighbours, 2 * k), None, 0);
+    let (_, first_saved) = run(&scene(shape, neighbours, k), None, k / 4);
+    // Checkpoints at k/4, k/2, 3k/4, k, then the end (k again).
+    assert_eq!(first_saved.len(), 5, "{what}");
+    let (end_time, end_bytes) = first_saved.last().expect("the final state");
+    let (continued, continued_saved) = run(&scene(shape, neighbours, k), Some(end_bytes), 0);
+    assert_same_bits(&whole, &continued, &what);
+    let clock = |v: &[(f64, Vec<u8>)]| v.last().map(|(t, _)| t.to_bits());
+    assert_eq!(
+        clock(&whole_saved),
+        clock(&continued_saved),
+        "{what}: clock"
+    );
+    assert!(*end_time > 0.0);
+    // From the checkpoint at k/4: 7k/4 more.
+    let (_, quarter) = &first_saved[0];
+    let (from_quarter, _) = run(&scene(shape, neighbours, 7 * k / 4), Some(quarter), 0);
+    assert_same_bits(&whole, &from_quarter, &format!("{what} from k/4"));
+}
+
+#[test]
+fn spheres_continue_bit_for_bit_with_lists_and_cells() {
+    continues_bit_for_bit(ShapeKind::Sphere, Neighbours::Nnl, 100_000);
+    continues_bit_for_bit(ShapeKind::Sphere, Neighbours::Ll, 20_000);
+}
+
+#[test]
+fn ellipsoids_continue_bit_for_bit_with_cells_and_lists() {
+    continues_bit_for_bit(ShapeKind::Ellipsoid, Neighbours::Ll, 20_000);
+    continues_bit_for_bit(ShapeKind::Ellipsoid, Neighbours::Nnl, 8_000);
+}
+
+#[test]
+fn a_run_rebuilt_from_the_state_parts_from_the_continuous_one() {
+    // The check above could pass trivially if runs did not depend on where bodies were
+    // advanced; the same collisions as one run with the state taken from a run that was
+    // advanced to the present first (a rebuild, by changing Δ_NNL) part from it.
+    let s = scene(ShapeKind::Sphere, Neighbours::Nnl, 5_000);
+    let (whole, _) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, 10_000), None, 0);
+    let (_, saved) = run(&s, None, 0);
+    let other = Scene {
+        delta_nnl: 0.3,
+        ..s.clone()
+    };
+    let (rebuilt, _) = run(&other, Some(&saved[0].1), 0);
+    assert_ne!(
+        whole.particles[0].position.map(f64::to_bits),
+        rebuilt.particles[0].position.map(f64::to_bits)
+    );
+}
+
+#[test]
+fn another_system_is_refused_naming_the_key() {
+    let s = scene(ShapeKind::Sphere, Neighbours::Nnl, 1_000);
+    let (_, saved) = run(&s, None, 0);
+    let bytes = &saved[0].1;
+    for (other, key) in [
+        (
+            Scene {
+                n: 300,
+                ..s.clone()
+            },
+            "`n`",
+        ),
+        (
+            Scene {
+                phi: 0.4,
+                ..s.clone()
+            },
+            "`phi`",
+        ),
+        (
+            scene(ShapeKind::Ellipsoid, Neighbours::Nnl, 1_000),
+            "`shape`",
+        ),
+    ] {
+        let hooks = Hooks {
+            from: Some(SavedState::from_bytes(bytes).expect("decodes")),
+            ..Hooks::default()
+        };
+        let err = run_with_hooks(&other, &mut |_| {}, hooks)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains(key), "{err}");
+    }
+    assert!(SavedState::from_bytes(&bytes[..bytes.len() / 2]).is_err());
+    assert!(SavedState::from_bytes(b"not a state").is_err());
+}
+
+#[test]
+fn frames_do_not_perturb_the_run_and_see_every_step() {
+    let s = scene(ShapeKind::Ellipsoid, Neighbours::Ll, 4_000);
+    let (plain, _) = run(&s, None, 0);
+    let mut steps = Vec::new();
+    let mut on_frame = |f: &edmd::Frame| {
+        assert_eq!(f.bodies.len(), 256);
+        assert!(f.bodies.iter().all(|b| b.t == f.time));
+        steps.push(f.step);
+        Ok(())
+    };
+    let hooks = Hooks {
+        frame_every: 1_000,
+        on_frame: Some(&mut on_frame),
+        ..Hooks::default()
+    };
+    let (_, framed) = run_with_hooks(&s, &mut |_| {}, hooks).expect("run");
+    assert_same_bits(&plain, &framed, "with frames");
+    assert_eq!(steps, vec![0, 1_000, 2_000, 3_000, 4_000]);
+}
+
+#[test]
+fn a_failing_hook_stops_the_run_with_its_message() {
+    let s = scene(ShapeKind::Sphere, Neighbours::Nnl, 2_000);
+    let mut on_frame = |f: &edmd::Frame| {
+        if f.step >= 1_000 {
+            Err("disk full".to_string())
+        } else {
+            Ok(())
+        }
+    };
+    let hooks = Hooks {
+        frame_every: 500,
+        on_frame: Some(&mut on_frame),
+        ..Hooks::default()
+    };
+    let err = run_with_hooks(&s, &mut |_| {}, hooks).expect_err("stops");
+    assert!(err.to_string().contains("disk full"), "{err}");
+}
