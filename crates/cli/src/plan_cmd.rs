@@ -19,6 +19,8 @@ struct PlanSummary {
     name: String,
     campaign: String,
     points: usize,
+    /// `[[tune]]` searches (one per state point), whose points come as they go.
+    searches: usize,
     by_kind: BTreeMap<String, usize>,
     exclusive: bool,
     estimate_s: f64,
@@ -35,6 +37,7 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
         name: campaign.plan.name.clone(),
         campaign: campaign.campaign.id.clone(),
         points: campaign.jobs.len(),
+        searches: campaign.plan.tunes.len(),
         by_kind,
         exclusive: campaign.plan.exclusive_timing,
         estimate_s: campaign.plan.estimate_seconds(),
@@ -47,8 +50,12 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
                 .iter()
                 .map(|(k, n)| format!("{n} {k}"))
                 .collect();
+            let searches = match summary.searches {
+                0 => String::new(),
+                n => format!(" and {n} [[tune]] searches"),
+            };
             println!(
-                "{}: {} points ({}), campaign {}, estimated {:.0} s of job time{}",
+                "{}: {} points ({}){searches}, campaign {}, estimated {:.0} s of job time{}",
                 summary.name,
                 summary.points,
                 kinds.join(", "),

@@ -136,9 +136,14 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
         None => None,
     };
     let expand: ExpandPlan = Arc::new(|text: &str, file: &str| {
-        from_plan(text, file)
-            .map(|c| (c.campaign, c.jobs))
-            .map_err(|e| e.to_string())
+        let campaign = from_plan(text, file).map_err(|e| e.to_string())?;
+        if !campaign.plan.tunes.is_empty() {
+            return Err(format!(
+                "{file}: [[tune]] searches are driven by `sweep run` (local mode); a coordinator \
+                 does not drive them yet: run the plan locally, or list the values in [[edmd]]"
+            ));
+        }
+        Ok((campaign.campaign, campaign.jobs))
     });
     runtime()?.block_on(async {
         let store = database::open(&args.db).await?;

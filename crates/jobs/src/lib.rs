@@ -24,6 +24,7 @@ mod plan;
 mod run;
 mod spec;
 mod sweep;
+mod tune;
 
 pub use plan::{
     MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS,
@@ -31,3 +32,4 @@ pub use plan::{
 };
 pub use run::{JobError, Record, run};
 pub use spec::{JobSpec, NoopSpec};
+pub use tune::{KNOBS, MINIMISED, TuneGoal, TuneSearch};

@@ -51,7 +51,7 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use accuracy::{AccuracyReport, FailedRun, accuracy, accuracy_report};
+pub use accuracy::{AccuracyReport, FailedRun, accuracy, accuracy_report, safe_against};
 pub use accuracy_render::{accuracy_markdown, accuracy_plot};
 pub use fig2::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};

@@ -14,12 +14,15 @@
 //! job ids).
 //!
 //! Two goals ([`Goal`]): the minimum of a noisy result field ([`minimise`]), and the loosest
-//! value whose runs stay safe ([`loosest_safe`]).
+//! value whose runs stay safe ([`loosest_safe`]). [`drive`] reads a plan's searches' evaluations
+//! from the database.
 
+pub mod drive;
 pub mod lattice;
 pub mod loosest_safe;
 pub mod minimise;
 mod noise;
+pub mod report;
 
 pub use lattice::Range;
 
