@@ -11,9 +11,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use worker::{Slots, WorkerOptions};
 
 use crate::args::{AuthArgs, HttpArgs, TlsArgs};
-use crate::campaign::{Campaign, from_plan, new_job, read_plan_file};
+use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_json, print_status};
-use crate::{database, status_page, system};
+use crate::{database, searching, status_page, system};
 
 #[derive(Args)]
 pub struct RunArgs {
@@ -153,7 +153,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
                     bar.set_position(finished);
                     if searching && finished_before != Some(finished) {
                         finished_before = Some(finished);
-                        let issued = tune_step(&coordinator, &campaign, searches).await?;
+                        let issued = searching::step(&coordinator, &campaign.campaign, searches, campaign.plan.exclusive_timing).await?;
                         if issued.new_jobs > 0 {
                             bar.inc_length(issued.new_jobs);
                             continue;
@@ -240,35 +240,6 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-struct Issued {
-    new_jobs: u64,
-    all_done: bool,
-}
-
-/// Submits the evaluations the searches ask for next into the campaign.
-async fn tune_step(
-    coordinator: &Coordinator,
-    campaign: &Campaign,
-    searches: &[jobs::TuneSearch],
-) -> anyhow::Result<Issued> {
-    let steps = tune::drive::steps(coordinator.store(), searches).await?;
-    let jobs: Vec<_> = steps
-        .iter()
-        .flat_map(|s| s.jobs())
-        .map(|spec| new_job(&spec, campaign.plan.exclusive_timing))
-        .collect();
-    let submitted = if jobs.is_empty() {
-        0
-    } else {
-        let outcome = coordinator.submit(&campaign.campaign, &jobs).await?;
-        outcome.new_jobs + outcome.requeued
-    };
-    Ok(Issued {
-        new_jobs: submitted,
-        all_done: steps.iter().all(|s| matches!(s.step, tune::Step::Done(_))),
-    })
 }
 
 /// One line on the searches at the end of a run.

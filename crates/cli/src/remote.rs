@@ -25,6 +25,7 @@ use worker::{Slots, WorkerOptions};
 use crate::args::{AuthArgs, ClientArgs, HttpArgs, TlsArgs};
 use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_allocations, print_json, print_table};
+use crate::searching;
 use crate::{database, status_page, system};
 
 /// An admin client of the coordinator `client` names, whose calls give up after `timeout`.
@@ -136,14 +137,9 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
         None => None,
     };
     let expand: ExpandPlan = Arc::new(|text: &str, file: &str| {
-        let campaign = from_plan(text, file).map_err(|e| e.to_string())?;
-        if !campaign.plan.tunes.is_empty() {
-            return Err(format!(
-                "{file}: [[tune]] searches are driven by `sweep run` (local mode); a coordinator \
-                 does not drive them yet: run the plan locally, or list the values in [[edmd]]"
-            ));
-        }
-        Ok((campaign.campaign, campaign.jobs))
+        from_plan(text, file)
+            .map(|c| (c.campaign, c.jobs))
+            .map_err(|e| e.to_string())
     });
     runtime()?.block_on(async {
         let store = database::open(&args.db).await?;
@@ -175,6 +171,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             }
             None => None,
         };
+        let searches = tokio::spawn(searching::drive(coordinator.clone()));
         let page = status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
         if let Some((_, url)) = &page {
             println!("status page on {url}");
@@ -192,6 +189,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             shutdown_signal(),
         )
         .await;
+        searches.abort();
         if let Some((task, _)) = page {
             task.abort();
         }
