@@ -40,7 +40,8 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
         searches: campaign.plan.tunes.len(),
         by_kind,
         exclusive: campaign.plan.exclusive_timing,
-        estimate_s: campaign.plan.estimate_seconds(),
+        // An empty sum is −0.
+        estimate_s: campaign.plan.estimate_seconds() + 0.0,
     };
     match format {
         Format::Json => print_json(&summary),
@@ -54,11 +55,14 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
                 0 => String::new(),
                 n => format!(" and {n} [[tune]] searches"),
             };
+            let kinds = match kinds.is_empty() {
+                true => String::new(),
+                false => format!(" ({})", kinds.join(", ")),
+            };
             println!(
-                "{}: {} points ({}){searches}, campaign {}, estimated {:.0} s of job time{}",
+                "{}: {} points{kinds}{searches}, campaign {}, estimated {:.0} s of job time{}",
                 summary.name,
                 summary.points,
-                kinds.join(", "),
                 summary.campaign,
                 summary.estimate_s,
                 if summary.exclusive {
