@@ -271,6 +271,9 @@ fn tune_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         (_, Some(out)) if out.extension().is_some_and(|e| e == "json") => {
             write_json(&rows, Some(out))
         }
+        (_, Some(out)) if out.extension().is_some_and(|e| e == "png" || e == "svg") => {
+            Ok(report::search_paths(&tune::report::paths(&rows), out)?)
+        }
         (_, Some(out)) => std::fs::write(out, tune::report::table(&rows))
             .with_context(|| format!("--out {}", out.display())),
         (_, None) => print_text(&tune::report::table(&rows)),

@@ -45,6 +45,7 @@ mod minimum;
 mod overlap_accuracy;
 mod overlap_accuracy_render;
 mod render;
+mod search_paths;
 mod selection;
 mod table;
 mod units;
@@ -62,6 +63,7 @@ pub use fig11::{Fig11, fig11};
 pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
+pub use search_paths::{SearchPath, search_paths};
 pub use table::{Table1Row, TableFormat, render_table, table1};
 pub use units::LengthUnit;
 

@@ -169,3 +169,24 @@ pub fn table(rows: &[SearchRow]) -> String {
     }
     out
 }
+
+/// The rows as the figure of their paths draws them.
+pub fn paths(rows: &[SearchRow]) -> Vec<report::SearchPath> {
+    rows.iter()
+        .map(|r| report::SearchPath {
+            title: format!("{} N = {}, φ = {}, X0 = {}", r.shape, r.n, r.phi, r.x0),
+            knob: r.knob.clone(),
+            objective: match &r.goal {
+                TuneGoal::Min(field) => Some(field.clone()),
+                TuneGoal::LoosestSafe => None,
+            },
+            runs: r
+                .path
+                .iter()
+                .map(|p| (p.x, p.value.or(p.safe.map(|s| if s { 1.0 } else { 0.0 }))))
+                .collect(),
+            found: r.conclusion.as_ref().and_then(|c| c.best),
+            interval: r.conclusion.as_ref().and_then(|c| c.interval),
+        })
+        .collect()
+}
