@@ -1558,3 +1558,73 @@ fn only_a_worker_started_with_allow_commands_receives_program_jobs() {
         10
     );
 }
+
+/// A `[[tune]]` search driven by a coordinator that is killed (-9) mid-search and started
+/// again on its database: every evaluation finished before is reused, none is run twice, and
+/// the search ends within its budget.
+#[test]
+fn a_search_survives_a_coordinator_killed_mid_search() {
+    let cluster = Cluster::new();
+    let (mut coordinator, url) = cluster.coordinator("127.0.0.1:0");
+    let addr = url.trim_start_matches("http://").to_string();
+    let _worker = cluster.worker(&url, "0", Some(cluster.token()));
+    let plan = cluster.plan(
+        "tune.toml",
+        "name = \"tune\"\n[[tune]]\nfamily = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.05, 1.0]\n\
+         goal = \"min tau_c_cpu_us\"\nmax_evaluations = 8\nshape = \"sphere\"\nn = 256\nphi = 0.4\n\
+         neighbours = \"nnl\"\ncollisions = 300000\n",
+    );
+    let submitted = cluster.submit(&url, &plan);
+    assert_eq!(submitted["new_jobs"], 0, "a search's jobs come as it goes");
+    let done = |sql: &str| cluster.count(sql);
+    let started = Instant::now();
+    while done("SELECT count(*) FROM jobs WHERE state = 'done'") < 4 {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the search did not start"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    coordinator.kill9();
+    let before = done("SELECT count(*) FROM jobs WHERE state = 'done'");
+    let finished_before = cluster
+        .count("SELECT CAST(total(finished_at) * 1000 AS INTEGER) FROM jobs WHERE state = 'done'");
+    std::thread::sleep(Duration::from_millis(500));
+    let (_restarted, url2) = cluster.coordinator(&addr);
+    assert_eq!(url, url2);
+    let db = cluster.db.to_str().unwrap().to_owned();
+    let concluded = loop {
+        let out = cluster.sweep(&["report", "tune", "--db", &db, "--format", "json"]);
+        if out.status.success() {
+            let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            if !rows[0]["conclusion"].is_null() {
+                break rows[0].clone();
+            }
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the search did not end"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let after = done("SELECT count(*) FROM jobs WHERE state = 'done'");
+    assert!(after >= before && after <= 8, "{before} → {after}");
+    assert_eq!(
+        done("SELECT count(*) FROM jobs WHERE attempts > 1"),
+        0,
+        "a job ran twice"
+    );
+    // The runs done before the kill kept their finish times (the sum of the first `before`).
+    assert_eq!(
+        cluster.count(&format!(
+            "SELECT CAST(total(finished_at) * 1000 AS INTEGER) FROM
+             (SELECT finished_at FROM jobs WHERE state = 'done' ORDER BY finished_at LIMIT {before})"
+        )),
+        finished_before
+    );
+    assert_eq!(
+        concluded["evaluations"].as_u64(),
+        Some(after),
+        "{concluded}"
+    );
+}

@@ -5,12 +5,25 @@ use std::path::Path;
 
 use anyhow::Context;
 use coordinator::{NewCampaign, NewJob};
-use jobs::Plan;
+use jobs::{JobSpec, Plan};
 
 pub struct Campaign {
     pub plan: Plan,
     pub campaign: NewCampaign,
     pub jobs: Vec<NewJob>,
+}
+
+/// The job row of a point.
+pub fn new_job(spec: &JobSpec, exclusive: bool) -> NewJob {
+    NewJob {
+        id: spec.id(),
+        kind: spec.kind().to_string(),
+        params_json: spec.canonical_json(),
+        estimate_s: spec.estimate_seconds(),
+        exclusive,
+        pass: spec.pass(),
+        foreign_code: spec.runs_foreign_code(),
+    }
 }
 
 pub fn read_plan_file(path: &Path) -> anyhow::Result<(String, String)> {
@@ -33,18 +46,20 @@ pub fn from_plan(
     let jobs: Vec<NewJob> = plan
         .jobs
         .iter()
-        .map(|spec| NewJob {
-            id: spec.id(),
-            kind: spec.kind().to_string(),
-            params_json: spec.canonical_json(),
-            estimate_s: spec.estimate_seconds(),
-            exclusive: plan.exclusive_timing,
-            pass: spec.pass(),
-            foreign_code: spec.runs_foreign_code(),
-        })
+        .map(|spec| new_job(spec, plan.exclusive_timing))
         .collect();
-    // The campaign is its name and its set of points: the same plan is the same campaign.
-    let mut ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
+    // The campaign is its name and its set of points and searches: the same plan is the same
+    // campaign (a search's evaluations join it as it goes).
+    let searches: Vec<String> = plan
+        .tunes
+        .iter()
+        .map(|t| format!("tune {} {:?} {:?} {}", t.knob, t.range, t.goal, t.id()))
+        .collect();
+    let mut ids: Vec<&str> = jobs
+        .iter()
+        .map(|j| j.id.as_str())
+        .chain(searches.iter().map(String::as_str))
+        .collect();
     ids.sort_unstable();
     let digest = blake3::hash(format!("{}\n{}", plan.name, ids.join("\n")).as_bytes());
     let campaign = NewCampaign {

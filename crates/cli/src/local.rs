@@ -13,7 +13,7 @@ use worker::{Slots, WorkerOptions};
 use crate::args::{AuthArgs, HttpArgs, TlsArgs};
 use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_json, print_status};
-use crate::{database, status_page, system};
+use crate::{database, searching, status_page, system};
 
 #[derive(Args)]
 pub struct RunArgs {
@@ -137,6 +137,10 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
     bar.set_message(campaign.plan.name.clone());
     let id = submitted.campaign_id.clone();
     let mut halted = None;
+    let searches = &campaign.plan.tunes;
+    // The searches' step is taken afresh whenever a job has finished (and at the start).
+    let mut finished_before = None;
+    let mut searching = !searches.is_empty();
     let interrupted = runtime.block_on(async {
         let mut ticker = tokio::time::interval(Duration::from_millis(200));
         loop {
@@ -148,8 +152,23 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
                 }
                 _ = ticker.tick() => {
                     let status = coordinator.status(Some(&id)).await?;
-                    bar.set_position(status.done + status.failed + status.cancelled);
-                    if status.queued == 0 && status.running == 0 {
+                    let finished = status.done + status.failed + status.cancelled;
+                    bar.set_position(finished);
+                    if searching && finished_before != Some(finished) {
+                        finished_before = Some(finished);
+                        let issued = searching::step(&coordinator, &campaign.campaign, searches, campaign.plan.exclusive_timing).await?;
+                        if issued.new_jobs > 0 {
+                            bar.inc_length(issued.new_jobs);
+                            continue;
+                        }
+                        searching = !issued.all_done;
+                        if searching && status.queued == 0 && status.running == 0 {
+                            anyhow::bail!(
+                                "[[tune]]: a search waits for evaluations that are neither queued nor running"
+                            );
+                        }
+                    }
+                    if status.queued == 0 && status.running == 0 && !searching {
                         return Ok(false);
                     }
                 }
@@ -175,6 +194,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         .into_iter()
         .filter(|s| s.campaign == id)
         .collect();
+    let concluded = runtime.block_on(tune::drive::steps(coordinator.store(), searches))?;
     runtime.block_on(coordinator.store().close());
     match format {
         Format::Json => print_json(&serde_json::json!({
@@ -185,6 +205,10 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
             "status": status,
             "timing": quality,
             "machine_history": shifts,
+            "searches": concluded.iter().map(|s| s.step.clone()).filter_map(|step| match step {
+                tune::Step::Done(c) => Some(c),
+                _ => None,
+            }).collect::<Vec<_>>(),
         }))?,
         _ => {
             println!(
@@ -192,6 +216,9 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
                 submitted.new_jobs, submitted.already_known
             );
             print_status(&id, &status, Some((&quality, &shifts)), None, format)?;
+            if !concluded.is_empty() {
+                println!("{}", tune_summary(&concluded, &args.db));
+            }
         }
     }
     if let Some(reason) = halted {
@@ -216,4 +243,23 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// One line on the searches at the end of a run.
+fn tune_summary(steps: &[tune::drive::SearchStep], db: &std::path::Path) -> String {
+    let mut by_reason: std::collections::BTreeMap<String, usize> = Default::default();
+    for s in steps {
+        let reason = match &s.step {
+            tune::Step::Done(c) => format!("{:?}", c.stopped).to_lowercase(),
+            _ => "unfinished".to_owned(),
+        };
+        *by_reason.entry(reason).or_default() += 1;
+    }
+    let counts: Vec<String> = by_reason.iter().map(|(r, n)| format!("{n} {r}")).collect();
+    format!(
+        "tune: {} searches ({}); the values found: sweep report tune --db {}",
+        steps.len(),
+        counts.join(", "),
+        db.display()
+    )
 }

@@ -12,6 +12,7 @@ mod plan_cmd;
 mod query;
 mod remote;
 mod report_cmd;
+mod searching;
 mod state_file;
 mod status;
 mod status_page;

@@ -19,6 +19,8 @@ struct PlanSummary {
     name: String,
     campaign: String,
     points: usize,
+    /// `[[tune]]` searches (one per state point), whose points come as they go.
+    searches: usize,
     by_kind: BTreeMap<String, usize>,
     exclusive: bool,
     estimate_s: f64,
@@ -35,9 +37,11 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
         name: campaign.plan.name.clone(),
         campaign: campaign.campaign.id.clone(),
         points: campaign.jobs.len(),
+        searches: campaign.plan.tunes.len(),
         by_kind,
         exclusive: campaign.plan.exclusive_timing,
-        estimate_s: campaign.plan.estimate_seconds(),
+        // An empty sum is −0.
+        estimate_s: campaign.plan.estimate_seconds() + 0.0,
     };
     match format {
         Format::Json => print_json(&summary),
@@ -47,11 +51,18 @@ pub fn run(args: &PlanArgs, format: Format) -> anyhow::Result<()> {
                 .iter()
                 .map(|(k, n)| format!("{n} {k}"))
                 .collect();
+            let searches = match summary.searches {
+                0 => String::new(),
+                n => format!(" and {n} [[tune]] searches"),
+            };
+            let kinds = match kinds.is_empty() {
+                true => String::new(),
+                false => format!(" ({})", kinds.join(", ")),
+            };
             println!(
-                "{}: {} points ({}), campaign {}, estimated {:.0} s of job time{}",
+                "{}: {} points{kinds}{searches}, campaign {}, estimated {:.0} s of job time{}",
                 summary.name,
                 summary.points,
-                kinds.join(", "),
                 summary.campaign,
                 summary.estimate_s,
                 if summary.exclusive {

@@ -25,6 +25,7 @@ use worker::{Slots, WorkerOptions};
 use crate::args::{AuthArgs, ClientArgs, HttpArgs, TlsArgs};
 use crate::campaign::{from_plan, read_plan_file};
 use crate::output::{Format, print_allocations, print_json, print_table};
+use crate::searching;
 use crate::{database, status_page, system};
 
 /// An admin client of the coordinator `client` names, whose calls give up after `timeout`.
@@ -174,6 +175,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             }
             None => None,
         };
+        let searches = tokio::spawn(searching::drive(coordinator.clone()));
         let page = status_page::start(&args.http, &coordinator, token.clone(), tls.clone()).await?;
         if let Some((_, url)) = &page {
             println!("status page on {url}");
@@ -191,6 +193,7 @@ pub fn coordinator(args: &CoordinatorArgs) -> anyhow::Result<()> {
             shutdown_signal(),
         )
         .await;
+        searches.abort();
         if let Some((task, _)) = page {
             task.abort();
         }

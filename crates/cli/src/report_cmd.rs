@@ -17,7 +17,8 @@ pub struct ReportArgs {
     /// table1 (f32), table2 (f64), fig2 (f32), fig3 (f64); EDMD: fig7 (τ_c against φ), fig8 (against X0, LL/NNL),
     /// fig9 (against ε_d), fig10 (against Δ_NNL), fig11 (Δ*_NNL), fig13 (superquadrics against p),
     /// accuracy (cost of each accuracy knob); peers (our EDMD spheres against a `[[command]]` program, per N);
-    /// snapshot (a picture of a state file, --state).
+    /// snapshot (a picture of a state file, --state); tune (the [[tune]] searches: the value found, its
+    /// interval, the objective there, runs used, why it stopped).
     name: String,
     /// The result database (every report but snapshot).
     #[arg(long)]
@@ -81,6 +82,9 @@ pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
             false => figure_report(args, precision, format),
         };
     }
+    if name == "tune" {
+        return tune_report(args, format);
+    }
     if EDMD.contains(&name) {
         if args.statistic.is_some() {
             bail!("--statistic applies to table1, table2, fig2 and fig3, not to {name}");
@@ -91,7 +95,7 @@ pub fn run(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         return peers_report(args, format);
     }
     bail!(
-        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy, peers, snapshot)"
+        "report `{name}`: unknown or not available yet (available: table1, table2, fig2, fig3, fig7, fig8, fig9, fig10, fig11, fig13, accuracy, peers, snapshot, tune)"
     )
 }
 
@@ -357,5 +361,33 @@ fn peers_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     match format {
         Format::Json => print_json(&points),
         _ => print_text(&report::peers_markdown(&points, &args.label)),
+    }
+}
+
+/// `sweep report tune`: every `[[tune]]` search of the database's campaigns.
+fn tune_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
+    let db = db(args)?;
+    let (rows, unreadable) =
+        database::read(db, async |store| Ok(tune::report::rows(store).await?))?;
+    for u in &unreadable {
+        eprintln!(
+            "warning: campaign {}: its plan does not parse any more ({}); its searches are not shown",
+            u.campaign, u.reason
+        );
+    }
+    if rows.is_empty() {
+        bail!("{}: no [[tune]] searches in its campaigns", db.display());
+    }
+    match (format, args.out.as_deref()) {
+        (Format::Json, out) => write_json(&rows, out),
+        (_, Some(out)) if out.extension().is_some_and(|e| e == "json") => {
+            write_json(&rows, Some(out))
+        }
+        (_, Some(out)) if out.extension().is_some_and(|e| e == "png" || e == "svg") => {
+            Ok(report::search_paths(&tune::report::paths(&rows), out)?)
+        }
+        (_, Some(out)) => std::fs::write(out, tune::report::table(&rows))
+            .with_context(|| format!("--out {}", out.display())),
+        (_, None) => print_text(&tune::report::table(&rows)),
     }
 }

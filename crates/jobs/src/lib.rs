@@ -28,6 +28,7 @@ mod run;
 mod spec;
 mod states;
 mod sweep;
+mod tune;
 
 pub use command::CommandSpec;
 pub use plan::{
@@ -36,3 +37,4 @@ pub use plan::{
 };
 pub use run::{JobError, Record, run};
 pub use spec::{JobSpec, NoopSpec};
+pub use tune::{KNOBS, MINIMISED, TuneGoal, TuneSearch};

@@ -55,6 +55,7 @@ use crate::command_plan::expand_command;
 use crate::spec::{JobSpec, NoopSpec};
 use crate::states::States;
 use crate::sweep::{Issue, Sweep, Written, cartesian};
+use crate::tune::{TuneSearch, expand_tune};
 
 /// A plan may not expand to more jobs than this: a campaign that large is a typo.
 pub const MAX_JOBS: usize = 1_000_000;
@@ -77,6 +78,9 @@ pub struct Plan {
     pub exclusive_timing: bool,
     /// Unique by id, in file order.
     pub jobs: Vec<JobSpec>,
+    /// The searches of `[[tune]]` tables, one per state point, in file order; their jobs are
+    /// issued as they go, not listed in `jobs`.
+    pub tunes: Vec<TuneSearch>,
 }
 
 /// A plan that cannot be scheduled. Displays as one line: `FILE:LINE:COL: key `k`: reason`
@@ -165,6 +169,7 @@ const TOP_LEVEL: &[&str] = &[
     "noop",
     "edmd",
     "command",
+    "tune",
 ];
 
 fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue> {
@@ -219,36 +224,21 @@ fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue
     // Every sweep table, in file order, with its kind.
     let mut sweeps: Vec<(Range<usize>, &DeTable<'_>, Expand)> = Vec::new();
     for &(kind, expand) in KINDS {
-        let Some(value) = document.get(kind) else {
-            continue;
-        };
-        let tables: Vec<&Spanned<DeValue<'_>>> = match value.get_ref() {
-            DeValue::Array(array) => array.iter().collect(),
-            DeValue::Table(_) => vec![value],
-            other => {
-                return Err(Issue::new(
-                    value.span(),
-                    Some(kind),
-                    format!("expected [[{kind}]] tables, got {}", other.type_str()),
-                ));
-            }
-        };
-        for table in tables {
-            let DeValue::Table(t) = table.get_ref() else {
-                return Err(Issue::new(
-                    table.span(),
-                    Some(kind),
-                    format!("expected [[{kind}]] tables"),
-                ));
-            };
-            sweeps.push((table.span(), t, expand));
+        for (header, table) in tables_of(document, kind)? {
+            sweeps.push((header, table, expand));
         }
     }
-    if sweeps.is_empty() {
+    let mut tunes = Vec::new();
+    for (header, table) in tables_of(document, "tune")? {
+        let expand =
+            |scenes: &DeTable<'_>| expand_scenes("[[tune]]", header.clone(), scenes, &defaults);
+        tunes.extend(expand_tune(header.clone(), table, &expand)?);
+    }
+    if sweeps.is_empty() && tunes.is_empty() {
         return Err(Issue::new(
             0..0,
             None,
-            "the plan has no sweeps (add [[overlap]] or [[noop]] tables)",
+            "the plan has no sweeps (add [[overlap]], [[edmd]], [[tune]] or [[noop]] tables)",
         ));
     }
     sweeps.sort_by_key(|(span, _, _)| span.start);
@@ -273,7 +263,40 @@ fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue
         name,
         exclusive_timing,
         jobs,
+        tunes,
     })
+}
+
+/// The `[[kind]]` tables of the document, each with its span.
+fn tables_of<'d, 'i>(
+    document: &'d DeTable<'i>,
+    kind: &str,
+) -> Result<Vec<(Range<usize>, &'d DeTable<'i>)>, Issue> {
+    let Some(value) = document.get(kind) else {
+        return Ok(Vec::new());
+    };
+    let tables: Vec<&Spanned<DeValue<'_>>> = match value.get_ref() {
+        DeValue::Array(array) => array.iter().collect(),
+        DeValue::Table(_) => vec![value],
+        other => {
+            return Err(Issue::new(
+                value.span(),
+                Some(kind),
+                format!("expected [[{kind}]] tables, got {}", other.type_str()),
+            ));
+        }
+    };
+    tables
+        .into_iter()
+        .map(|table| match table.get_ref() {
+            DeValue::Table(t) => Ok((table.span(), t)),
+            _ => Err(Issue::new(
+                table.span(),
+                Some(kind),
+                format!("expected [[{kind}]] tables"),
+            )),
+        })
+        .collect()
 }
 
 /// Fails when a sweep's product of value counts exceeds [`MAX_JOBS`], before building it.
@@ -513,9 +536,19 @@ fn expand_edmd(
     table: &DeTable<'_>,
     defaults: &Defaults,
 ) -> Result<Vec<JobSpec>, Issue> {
+    expand_scenes("[[edmd]]", header, table, defaults)
+}
+
+/// The scenes of a table of scene keys (`what` names the table in errors).
+fn expand_scenes(
+    what: &str,
+    header: Range<usize>,
+    table: &DeTable<'_>,
+    defaults: &Defaults,
+) -> Result<Vec<JobSpec>, Issue> {
     let keys = edmd_keys();
     let known: Vec<&str> = keys.iter().map(|(key, _)| key.as_str()).collect();
-    let sweep = &Sweep::new("[[edmd]]", header.clone(), table, &known)?;
+    let sweep = &Sweep::new(what, header.clone(), table, &known)?;
     // Each key's values, each with where it was written.
     let mut columns: Vec<(&str, Vec<Written>)> = Vec::new();
     for (key, list_valued) in &keys {
@@ -580,7 +613,7 @@ fn expand_edmd(
                 toml::Value::Table(table)
                     .try_into()
                     .map_err(|e: toml::de::Error| {
-                        Issue::new(header.clone(), None, format!("[[edmd]]: {}", e.message()))
+                        Issue::new(header.clone(), None, format!("{what}: {}", e.message()))
                     })?;
             scene.validate().map_err(|e| match e {
                 edmd::SceneError::Invalid { key, reason, .. } => {

@@ -147,6 +147,23 @@ impl SettingRun {
     }
 }
 
+/// Whether `run` loses nothing measurable against `reference` (the same state point at the
+/// tightest setting), by the rule of this report: no overlap, no solver failure, the energy kept
+/// to [`MAX_ENERGY_DRIFT`], Z within [`MAX_Z_SIGMAS`] combined standard errors of the reference's
+/// (where both measured one). A run that failed for good is unsafe and has no row.
+pub fn safe_against(run: &EdmdRow, reference: &EdmdRow) -> bool {
+    let z_within = match (run.pressure_z_err, reference.pressure_z_err) {
+        (Some(a), Some(b)) if a.is_finite() && b.is_finite() => {
+            (run.pressure_z - reference.pressure_z).abs() <= MAX_Z_SIGMAS * a.hypot(b)
+        }
+        _ => true,
+    };
+    run.overlaps == 0
+        && run.solver_failures == 0
+        && run.energy_drift_rel <= MAX_ENERGY_DRIFT
+        && z_within
+}
+
 /// The EDMD family of the accuracy report alone (see [`accuracy_report`]).
 pub fn accuracy(rows: &[EdmdRow]) -> Result<AccuracyReport, ReportError> {
     accuracy_report(rows, &[], &[])

@@ -48,6 +48,7 @@ mod overlap_accuracy;
 mod overlap_accuracy_render;
 mod peers;
 mod render;
+mod search_paths;
 mod selection;
 mod snapshot;
 mod table;
@@ -55,7 +56,7 @@ mod units;
 
 use serde::{Deserialize, Serialize};
 
-pub use accuracy::{AccuracyReport, FailedRun, accuracy, accuracy_report};
+pub use accuracy::{AccuracyReport, FailedRun, accuracy, accuracy_report, safe_against};
 pub use accuracy_render::{accuracy_markdown, accuracy_plot};
 pub use fig2::{Fig2Options, fig2, fig2_points, fig2_svg};
 pub use fig7::{fig7, fig7_svg};
@@ -67,6 +68,7 @@ pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};
 pub use peers::{CommandRow, PeerPoint, peers, peers_markdown};
+pub use search_paths::{SearchPath, search_paths};
 pub use snapshot::{Snapshot, SnapshotBody, snapshot};
 pub use table::{Table1Row, TableFormat, render_table, table1};
 pub use units::LengthUnit;

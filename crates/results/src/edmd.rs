@@ -96,6 +96,34 @@ fn row_of(job_id: &str, scene: &Scene) -> Result<EdmdRow> {
 /// neighbour method, N, Δ_NNL, φ, ε_d, nr_tol, seed and the superquadric exponent p (then in
 /// submission order). A record lacking a field the engine always writes is an error.
 pub async fn edmd_runs(store: &Store, clock: Clock) -> Result<Vec<EdmdRow>> {
+    let mut rows: Vec<EdmdRow> = edmd_scenes(store, clock)
+        .await?
+        .into_iter()
+        .map(|(_, row)| row)
+        .collect();
+    let p = |r: &EdmdRow| r.exponents.map(|e| e[2]);
+    rows.sort_by(|a, b| {
+        a.shape
+            .cmp(&b.shape)
+            .then(a.x0.total_cmp(&b.x0))
+            .then_with(|| a.neighbours.cmp(&b.neighbours))
+            .then(a.n.cmp(&b.n))
+            .then(a.delta_nnl.total_cmp(&b.delta_nnl))
+            .then(a.phi.total_cmp(&b.phi))
+            .then(a.eps_d.total_cmp(&b.eps_d))
+            .then(a.nr_tol.total_cmp(&b.nr_tol))
+            .then(a.seed.cmp(&b.seed))
+            .then_with(|| match (p(a), p(b)) {
+                (Some(x), Some(y)) => x.total_cmp(&y),
+                (x, y) => x.is_some().cmp(&y.is_some()),
+            })
+    });
+    Ok(rows)
+}
+
+/// Every done EDMD point as the scene it was submitted as and its row (as [`edmd_runs`]), in
+/// submission order: for searches, which match scenes, not rows.
+pub async fn edmd_scenes(store: &Store, clock: Clock) -> Result<Vec<(Scene, EdmdRow)>> {
     let mut rows = Vec::new();
     for job in store.results_of("edmd").await? {
         let scene = scene(&job.job_id, &job.params_json)?;
@@ -112,7 +140,7 @@ pub async fn edmd_runs(store: &Store, clock: Clock) -> Result<Vec<EdmdRow>> {
             (Clock::Cpu, Some(cpu)) => (cpu, Clock::Cpu),
             _ => (r.tau_c_us, Clock::Wall),
         };
-        rows.push(EdmdRow {
+        let row = EdmdRow {
             tau_c_us,
             clock,
             collisions: r.collisions,
@@ -135,26 +163,42 @@ pub async fn edmd_runs(store: &Store, clock: Clock) -> Result<Vec<EdmdRow>> {
                 .and_then(edmd::sequence::blocks_from_hex),
             sequence_block: r.sequence_block,
             ..row_of(&job.job_id, &scene)?
-        });
+        };
+        rows.push((scene, row));
     }
-    let p = |r: &EdmdRow| r.exponents.map(|e| e[2]);
-    rows.sort_by(|a, b| {
-        a.shape
-            .cmp(&b.shape)
-            .then(a.x0.total_cmp(&b.x0))
-            .then_with(|| a.neighbours.cmp(&b.neighbours))
-            .then(a.n.cmp(&b.n))
-            .then(a.delta_nnl.total_cmp(&b.delta_nnl))
-            .then(a.phi.total_cmp(&b.phi))
-            .then(a.eps_d.total_cmp(&b.eps_d))
-            .then(a.nr_tol.total_cmp(&b.nr_tol))
-            .then(a.seed.cmp(&b.seed))
-            .then_with(|| match (p(a), p(b)) {
-                (Some(x), Some(y)) => x.total_cmp(&y),
-                (x, y) => x.is_some().cmp(&y.is_some()),
-            })
-    });
     Ok(rows)
+}
+
+/// The scenes of the EDMD points that failed for good (a search counts them against their
+/// value) and of those queued or running (a search's evaluations in flight).
+pub async fn edmd_unfinished_scenes(store: &Store) -> Result<(Vec<Scene>, Vec<Scene>)> {
+    let failed = store
+        .failed_jobs("edmd")
+        .await?
+        .into_iter()
+        .map(|job| scene(&job.id, &job.params_json))
+        .collect::<Result<Vec<_>>>()?;
+    let pending = store
+        .query_read_only_with(
+            "SELECT id, params FROM jobs WHERE kind = 'edmd' AND state IN ('queued', 'running')",
+            &[],
+        )
+        .await?
+        .rows
+        .iter()
+        .map(|row| match row.as_slice() {
+            [
+                serde_json::Value::String(id),
+                serde_json::Value::String(params),
+            ] => scene(id, params),
+            _ => Err(corrupt(
+                "edmd",
+                "?",
+                "a job row without id and parameters".to_owned(),
+            )),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((failed, pending))
 }
 
 /// The EDMD points that failed for good, with their parameters as a done run's row has them

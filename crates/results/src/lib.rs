@@ -31,7 +31,7 @@ mod quality;
 /// The statistic a point's estimate is made by (`overlap::estimate`).
 pub use ::overlap::estimate::Statistic;
 pub use command::command_runs;
-pub use edmd::{edmd_runs, failed_edmd_runs};
+pub use edmd::{edmd_runs, edmd_scenes, edmd_unfinished_scenes, failed_edmd_runs};
 pub use error::{Error, Result};
 pub use history::{MachineShift, machine_history};
 pub use overlap::{OverlapVisit, overlap_verdicts, overlap_visits};

@@ -1,0 +1,146 @@
+//! `[[tune]]` in local mode: a search issues its evaluations as jobs finish, survives a kill -9
+//! of the run with every finished evaluation reused, and `sweep report tune` says what it found.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn sweep(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(args)
+        .output()
+        .expect("the sweep binary runs")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON")
+}
+
+const PLAN: &str = r#"name = "tune"
+[[tune]]
+family = "edmd"
+knob = "delta_nnl"
+range = [0.05, 1.0]
+goal = "min tau_c_cpu_us"
+max_evaluations = 8
+shape = "sphere"
+n = 256
+phi = 0.4
+neighbours = "nnl"
+collisions = 300000
+"#;
+
+/// (id, finished_at, attempts) of every done job.
+fn done_jobs(db: &str) -> Vec<(String, f64, i64)> {
+    let out = sweep(&[
+        "query",
+        "SELECT id, finished_at, attempts FROM jobs WHERE state = 'done' ORDER BY id",
+        "--db",
+        db,
+        "--format",
+        "json",
+    ]);
+    if !out.status.success() {
+        return Vec::new();
+    }
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    rows.iter()
+        .map(|r| {
+            (
+                r["id"].as_str().unwrap().to_owned(),
+                r["finished_at"].as_f64().unwrap(),
+                r["attempts"].as_i64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_search_resumed_after_kill_9_reuses_every_finished_evaluation() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("tune.toml");
+    std::fs::write(&plan, PLAN).unwrap();
+    let plan = plan.to_str().unwrap();
+    let db = dir.path().join("t.db").to_str().unwrap().to_owned();
+
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(["run", plan, "--db", &db, "--cores", "0", "--format", "json"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let before = loop {
+        std::thread::sleep(Duration::from_millis(50));
+        let done = if Path::new(&db).exists() {
+            done_jobs(&db)
+        } else {
+            Vec::new()
+        };
+        // The initial three, and at least one the search issued after them.
+        if done.len() >= 4 {
+            break done;
+        }
+        assert!(started.elapsed() < Duration::from_secs(120), "no progress");
+    };
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    let resumed = json(&sweep(&["run", plan, "--db", &db, "--format", "json"]));
+    eprintln!(
+        "{} evaluations done before the kill, {} after the resumed run",
+        before.len(),
+        done_jobs(&db).len()
+    );
+    let after = done_jobs(&db);
+    for job in &before {
+        assert!(after.contains(job), "{job:?} was run again or lost");
+    }
+    assert!(after.len() <= 8, "over the budget: {after:?}");
+    let searches = resumed["searches"].as_array().unwrap();
+    assert_eq!(searches.len(), 1, "{resumed}");
+    let stopped = searches[0]["stopped"].as_str().unwrap();
+    assert!(["converged", "budget"].contains(&stopped), "{resumed}");
+
+    // A third run has nothing left to do.
+    let again = json(&sweep(&["run", plan, "--db", &db, "--format", "json"]));
+    assert_eq!(again["new_jobs"], 0, "{again}");
+    assert_eq!(done_jobs(&db), after);
+
+    let report = json(&sweep(&["report", "tune", "--db", &db, "--format", "json"]));
+    let rows = report.as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{report}");
+    let row = &rows[0];
+    assert_eq!(row["knob"], "delta_nnl");
+    assert_eq!(row["evaluations"].as_u64().unwrap() as usize, after.len());
+    let best = row["conclusion"]["best"].as_f64().unwrap();
+    assert!((0.05..=1.0).contains(&best), "{row}");
+    // The path lists every evaluation, each with its τ_c.
+    let path = row["path"].as_array().unwrap();
+    assert_eq!(path.len(), after.len());
+    assert!(
+        path.iter()
+            .all(|p| p["value"].as_f64().is_some_and(|v| v > 0.0)),
+        "{row}"
+    );
+}
+
+#[test]
+fn a_coordinator_refuses_a_plan_it_cannot_drive_and_plan_counts_the_searches() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("tune.toml");
+    std::fs::write(&plan, PLAN.replace("phi = 0.4", "phi = [0.3, 0.4]")).unwrap();
+    let summary = json(&sweep(&[
+        "plan",
+        plan.to_str().unwrap(),
+        "--format",
+        "json",
+    ]));
+    assert_eq!(summary["searches"], 2, "{summary}");
+    assert_eq!(summary["points"], 0, "{summary}");
+}

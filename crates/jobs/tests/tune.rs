@@ -1,0 +1,116 @@
+//! `[[tune]]` tables: one search per state point, their evaluations ordinary EDMD points.
+
+use jobs::{JobSpec, Plan, TuneGoal};
+
+const ISSUE_EXAMPLE: &str = r#"
+[[tune]]
+family = "edmd"
+knob = "delta_nnl"
+range = [0.02, 1.5]
+goal = "min tau_c_us"
+shape = "ellipsoid"
+n = 256
+phi = [0.3, 0.45, 0.57]
+x0 = [0.5, 2.0]
+neighbours = "nnl"
+collisions = 20000
+"#;
+
+#[test]
+fn a_tune_table_is_one_search_per_state_point() {
+    let plan = Plan::parse(ISSUE_EXAMPLE, "tune.toml").unwrap();
+    assert!(plan.jobs.is_empty());
+    assert_eq!(plan.tunes.len(), 6);
+    let ids: std::collections::BTreeSet<String> = plan.tunes.iter().map(|t| t.id()).collect();
+    assert_eq!(ids.len(), 6, "each state point its own search");
+    for t in &plan.tunes {
+        assert_eq!(t.knob, "delta_nnl");
+        assert_eq!(t.range, [0.02, 1.5]);
+        assert_eq!(t.goal, TuneGoal::Min("tau_c_us".into()));
+        assert_eq!(t.max_evaluations, 12);
+        assert_eq!(t.template.collisions, 20000);
+    }
+}
+
+/// An evaluation is the point an `[[edmd]]` table with that Δ_NNL would make (a grid's run is
+/// the search's own), and the search recognises its evaluations, and only them.
+#[test]
+fn an_evaluation_is_the_grid_point_of_the_same_scene() {
+    let plan = Plan::parse(ISSUE_EXAMPLE, "tune.toml").unwrap();
+    let grid = Plan::parse(
+        "[[edmd]]\nshape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 0.5\nneighbours = \"nnl\"\ncollisions = 20000\ndelta_nnl = 0.1\n",
+        "grid.toml",
+    )
+    .unwrap();
+    let search = plan
+        .tunes
+        .iter()
+        .find(|t| t.template.phi == 0.3 && t.template.x0 == 0.5)
+        .unwrap();
+    assert_eq!(search.evaluation(0.1, 0).id(), grid.jobs[0].id());
+    let JobSpec::Edmd(scene) = search.evaluation(0.1732, 2) else {
+        panic!()
+    };
+    assert_eq!(search.evaluates(&scene), Some((0.1732, 2)));
+    let other = plan.tunes.iter().find(|t| t.template.phi == 0.45).unwrap();
+    assert_eq!(other.evaluates(&scene), None, "another state point's run");
+    let mut far = scene.clone();
+    far.seed += 5000;
+    assert_eq!(search.evaluates(&far), None, "a seed no repeat has");
+}
+
+#[test]
+fn bad_tune_tables_are_refused_naming_the_key() {
+    let body = "shape = \"ellipsoid\"\nn = 256\nphi = 0.3\n";
+    for (table, key) in [
+        (
+            "knob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"min tau_c_us\"\n",
+            "family",
+        ),
+        (
+            "family = \"overlap\"\nknob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"min tau_c_us\"\n",
+            "family",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"phi\"\nrange = [0.02, 1.5]\ngoal = \"min tau_c_us\"\n",
+            "knob",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [1.5, 0.02]\ngoal = \"min tau_c_us\"\n",
+            "range",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0, 1]\ngoal = \"min tau_c_us\"\n",
+            "range",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"max tau_c_us\"\n",
+            "goal",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"min pressure_z\"\n",
+            "goal",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"loosest safe\"\n",
+            "knob",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"eps_d\"\nrange = [1e-9, 1e-3]\ngoal = \"loosest safe\"\nmax_evaluations = 2\n",
+            "max_evaluations",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"min tau_c_us\"\ndelta_nnl = 0.1\n",
+            "delta_nnl",
+        ),
+        (
+            "family = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.02, 1.5]\ngoal = \"min tau_c_us\"\nwhatever = 1\n",
+            "whatever",
+        ),
+    ] {
+        let text = format!("[[tune]]\n{table}{body}");
+        let e = Plan::parse(&text, "t.toml").unwrap_err();
+        assert_eq!(e.key.as_deref(), Some(key), "{text}\n{e}");
+        assert!(e.to_string().starts_with("t.toml:"), "{e}");
+    }
+}

@@ -1,0 +1,161 @@
+//! The searches of a plan driven from the database: each one's evaluations read back from the
+//! EDMD jobs (done, failed for good, queued or running), and its next step.
+//!
+//! Nothing is kept between calls: the jobs are the searches' state. A call reads every EDMD job
+//! once (O(jobs) plus O(searches × jobs) matching), which a driver does when a job finishes.
+
+use edmd::Scene;
+use jobs::{JobSpec, TuneGoal, TuneSearch};
+use report::{Clock, EdmdRow};
+use store::Store;
+
+use crate::{Evaluation, Goal, Outcome, Proposal, Range, Step, TuneError, loosest_safe, minimise};
+
+#[derive(Debug, thiserror::Error)]
+pub enum DriveError {
+    #[error(transparent)]
+    Results(#[from] results::Error),
+    #[error("search of {knob} in [{lo}, {hi}]: {source}")]
+    Settings {
+        knob: String,
+        lo: f64,
+        hi: f64,
+        source: TuneError,
+    },
+}
+
+/// One search and where it stands.
+#[derive(Clone, Debug)]
+pub struct SearchStep {
+    pub search: TuneSearch,
+    pub step: Step,
+    /// Its evaluations done (failed ones included), for reports.
+    pub done: Vec<Evaluation>,
+}
+
+impl SearchStep {
+    /// The jobs to submit for this step (none unless it proposes).
+    pub fn jobs(&self) -> Vec<JobSpec> {
+        match &self.step {
+            Step::Propose(proposals) => proposals
+                .iter()
+                .map(|p| self.search.evaluation(p.x, p.repeat))
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// The range and goal of a search as the pure search takes them.
+pub fn goal_of(search: &TuneSearch) -> Result<(Range, Goal), DriveError> {
+    let settings_error = |source| DriveError::Settings {
+        knob: search.knob.clone(),
+        lo: search.range[0],
+        hi: search.range[1],
+        source,
+    };
+    let range = Range::new(search.range[0], search.range[1]).map_err(settings_error)?;
+    let max_evaluations = search.max_evaluations as usize;
+    let goal = match search.goal {
+        TuneGoal::Min(_) => Goal::Minimise(minimise::Settings {
+            max_evaluations,
+            ..Default::default()
+        }),
+        // Every knob a search may loosen is looser when larger (ε_d, nr_tol, ε_nnl).
+        TuneGoal::LoosestSafe => Goal::LoosestSafe(loosest_safe::Settings {
+            max_evaluations,
+            ..Default::default()
+        }),
+    };
+    Ok((range, goal))
+}
+
+/// Where every search stands, from the jobs in the store.
+pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchStep>, DriveError> {
+    if searches.is_empty() {
+        return Ok(Vec::new());
+    }
+    let needs = |clock_field: &str| {
+        searches
+            .iter()
+            .any(|s| matches!(&s.goal, TuneGoal::Min(f) if f == clock_field))
+    };
+    // τ_c by the clock the goal names; every other field is the same by either clock.
+    let wall = results::edmd_scenes(store, Clock::Wall).await?;
+    let cpu = if needs("tau_c_cpu_us") {
+        results::edmd_scenes(store, Clock::Cpu).await?
+    } else {
+        Vec::new()
+    };
+    let (failed, pending) = results::edmd_unfinished_scenes(store).await?;
+    searches
+        .iter()
+        .map(|search| {
+            let (range, goal) = goal_of(search)?;
+            let runs = match &search.goal {
+                TuneGoal::Min(f) if f == "tau_c_cpu_us" => &cpu,
+                _ => &wall,
+            };
+            let (done, in_flight) = evaluations(search, runs, &failed, &pending);
+            Ok(SearchStep {
+                step: crate::next(&range, &goal, &done, &in_flight),
+                search: search.clone(),
+                done,
+            })
+        })
+        .collect()
+}
+
+/// A search's evaluations done and in flight. For "loosest safe", a run is judged against the
+/// run of the tightest value (repeat 0): until that one is done the others count as in flight.
+fn evaluations(
+    search: &TuneSearch,
+    runs: &[(Scene, EdmdRow)],
+    failed: &[Scene],
+    pending: &[Scene],
+) -> (Vec<Evaluation>, Vec<Proposal>) {
+    let mine = |scene: &Scene| search.evaluates(scene);
+    let mut in_flight: Vec<Proposal> = pending
+        .iter()
+        .filter_map(mine)
+        .map(|(x, repeat)| Proposal { x, repeat })
+        .collect();
+    let mut done: Vec<Evaluation> = failed
+        .iter()
+        .filter_map(mine)
+        .map(|(x, repeat)| Evaluation {
+            x,
+            repeat,
+            outcome: Outcome::Failed,
+        })
+        .collect();
+    let is_reference = |scene: &Scene| mine(scene) == Some((search.range[0], 0));
+    let reference = runs
+        .iter()
+        .find(|(scene, _)| is_reference(scene))
+        .map(|(_, row)| row);
+    // Without a reference that will ever be done, a run cannot be judged: left out.
+    let reference_failed = failed.iter().any(is_reference);
+    for (scene, row) in runs {
+        let Some((x, repeat)) = mine(scene) else {
+            continue;
+        };
+        let outcome = match (&search.goal, reference) {
+            (TuneGoal::Min(field), _) => Outcome::Value(match field.as_str() {
+                "nr_iterations_mean" => row.nr_iterations_mean,
+                _ => row.tau_c_us,
+            }),
+            (TuneGoal::LoosestSafe, Some(reference)) => {
+                Outcome::Safe(report::safe_against(row, reference))
+            }
+            (TuneGoal::LoosestSafe, None) => {
+                if !reference_failed {
+                    in_flight.push(Proposal { x, repeat });
+                }
+                continue;
+            }
+        };
+        done.push(Evaluation { x, repeat, outcome });
+    }
+    (done, in_flight)
+}

@@ -1,0 +1,192 @@
+//! `sweep report tune`: every search of every campaign's plan, where it stands.
+
+use jobs::{Plan, TuneGoal, TuneSearch};
+use serde::Serialize;
+use store::Store;
+
+use crate::drive::{DriveError, SearchStep, steps};
+use crate::{Conclusion, Evaluation, Outcome, Step};
+
+/// One search as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct SearchRow {
+    pub campaign: String,
+    pub shape: String,
+    pub n: usize,
+    pub phi: f64,
+    pub x0: f64,
+    pub knob: String,
+    pub goal: TuneGoal,
+    pub range: [f64; 2],
+    /// `None` while the search runs.
+    pub conclusion: Option<Conclusion>,
+    pub evaluations: usize,
+    pub max_evaluations: u64,
+    /// Every evaluation done, in the order of the knob's value (the search's path).
+    pub path: Vec<PathPoint>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct PathPoint {
+    pub x: f64,
+    pub repeat: u32,
+    /// The minimised field, or whether the run was safe; `None`: the run failed for good.
+    pub value: Option<f64>,
+    pub safe: Option<bool>,
+}
+
+/// A campaign whose plan could not be read again (a search cannot be shown without it).
+#[derive(Clone, Debug, Serialize)]
+pub struct Unreadable {
+    pub campaign: String,
+    pub reason: String,
+}
+
+/// The searches of every campaign of the database (a search in several campaigns once).
+pub async fn searches(
+    store: &Store,
+) -> Result<(Vec<(String, TuneSearch)>, Vec<Unreadable>), DriveError> {
+    let plans = store
+        .query_read_only_with(
+            "SELECT name, plan_text FROM campaigns ORDER BY created_at, id",
+            &[],
+        )
+        .await
+        .map_err(results::Error::from)?;
+    let (mut found, mut unreadable): (Vec<(String, TuneSearch)>, Vec<Unreadable>) =
+        Default::default();
+    for row in &plans.rows {
+        let [
+            serde_json::Value::String(name),
+            serde_json::Value::String(text),
+        ] = row.as_slice()
+        else {
+            continue;
+        };
+        if !text.contains("[[tune]]") && !text.contains("[tune]") {
+            continue;
+        }
+        match Plan::parse(text, name) {
+            Ok(plan) => {
+                for search in plan.tunes {
+                    if !found.iter().any(|(_, s)| *s == search) {
+                        found.push((name.clone(), search));
+                    }
+                }
+            }
+            Err(e) => unreadable.push(Unreadable {
+                campaign: name.clone(),
+                reason: e.to_string(),
+            }),
+        }
+    }
+    Ok((found, unreadable))
+}
+
+/// Every search's row.
+pub async fn rows(store: &Store) -> Result<(Vec<SearchRow>, Vec<Unreadable>), DriveError> {
+    let (found, unreadable) = searches(store).await?;
+    let list: Vec<TuneSearch> = found.iter().map(|(_, s)| s.clone()).collect();
+    let steps = steps(store, &list).await?;
+    let rows = found
+        .into_iter()
+        .zip(steps)
+        .map(|((campaign, search), step)| row(campaign, search, step))
+        .collect();
+    Ok((rows, unreadable))
+}
+
+fn row(campaign: String, search: TuneSearch, step: SearchStep) -> SearchRow {
+    let mut path: Vec<PathPoint> = step.done.iter().map(path_point).collect();
+    path.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.repeat.cmp(&b.repeat)));
+    let t = &search.template;
+    SearchRow {
+        campaign,
+        shape: format!("{:?}", t.shape).to_lowercase(),
+        n: t.n,
+        phi: t.phi,
+        x0: t.x0,
+        knob: search.knob.clone(),
+        goal: search.goal.clone(),
+        range: search.range,
+        conclusion: match step.step {
+            Step::Done(c) => Some(c),
+            _ => None,
+        },
+        evaluations: step.done.len(),
+        max_evaluations: search.max_evaluations,
+        path,
+    }
+}
+
+fn path_point(e: &Evaluation) -> PathPoint {
+    let (value, safe) = match e.outcome {
+        Outcome::Value(v) => (Some(v), None),
+        Outcome::Safe(s) => (None, Some(s)),
+        Outcome::Failed => (None, None),
+    };
+    PathPoint {
+        x: e.x,
+        repeat: e.repeat,
+        value,
+        safe,
+    }
+}
+
+/// The rows as a Markdown table.
+pub fn table(rows: &[SearchRow]) -> String {
+    let mut out = String::from(
+        "| shape | N | φ | X0 | knob | goal | value found | interval | objective there | runs | stopped |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let goal = match &r.goal {
+            TuneGoal::Min(field) => format!("min {field}"),
+            TuneGoal::LoosestSafe => "loosest safe".to_owned(),
+        };
+        let (best, interval, objective, stopped) = match &r.conclusion {
+            Some(c) => (
+                c.best.map_or("–".to_owned(), |b| format!("{b:.4}")),
+                c.interval
+                    .map_or("–".to_owned(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
+                c.objective.map_or("–".to_owned(), |o| {
+                    format!(
+                        "{:.4} ± {:.4} at {:.4} ({} runs)",
+                        o.mean, o.half_width, o.x, o.runs
+                    )
+                }),
+                serde_json::to_value(c.stopped)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_owned))
+                    .unwrap_or_default(),
+            ),
+            None => ("–".into(), "–".into(), "–".into(), "running".into()),
+        };
+        out.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {goal} | {best} | {interval} | {objective} | {}/{} | {stopped} |\n",
+            r.shape, r.n, r.phi, r.x0, r.knob, r.evaluations, r.max_evaluations
+        ));
+    }
+    out
+}
+
+/// The rows as the figure of their paths draws them.
+pub fn paths(rows: &[SearchRow]) -> Vec<report::SearchPath> {
+    rows.iter()
+        .map(|r| report::SearchPath {
+            title: format!("{} N = {}, φ = {}, X0 = {}", r.shape, r.n, r.phi, r.x0),
+            knob: r.knob.clone(),
+            objective: match &r.goal {
+                TuneGoal::Min(field) => Some(field.clone()),
+                TuneGoal::LoosestSafe => None,
+            },
+            runs: r
+                .path
+                .iter()
+                .map(|p| (p.x, p.value.or(p.safe.map(|s| if s { 1.0 } else { 0.0 }))))
+                .collect(),
+            found: r.conclusion.as_ref().and_then(|c| c.best),
+            interval: r.conclusion.as_ref().and_then(|c| c.interval),
+        })
+        .collect()
+}
