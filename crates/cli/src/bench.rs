@@ -123,6 +123,7 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
         time_cap_s: args.time_cap_s,
         verdict_check: None,
         visit: None,
+        plugins: Vec::new(),
     };
     spec.validate().map_err(flag_error)?;
     system::start_thread_pool()?;

@@ -21,6 +21,7 @@
 
 mod canonical;
 mod plan;
+pub mod plugin;
 mod run;
 mod spec;
 mod sweep;

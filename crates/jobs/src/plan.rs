@@ -12,6 +12,8 @@
 //! ci_target = 0.01         # optional: more sets until each 95 % CI half-width is <= 1 %,
 //! time_cap_s = 30          #   or until 30 s of measurement (default 60 s; only with ci_target)
 //! visits = 3               # optional: measure every point in 3 visits spread over the campaign
+//! plugins = ["plugins/libmine.so"]  # optional: C kernels (include/sweep_overlap.h) timed
+//!                          #   beside `algorithms`; paths relative to the plan's folder
 //!
 //! [[noop]]
 //! count = 1000
@@ -39,12 +41,13 @@
 
 use std::collections::HashSet;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use overlap::{Algorithm, OverlapError, PointSpec, Precision};
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+use crate::plugin;
 use crate::spec::{JobSpec, NoopSpec};
 use crate::sweep::{Issue, Sweep, Written, cartesian};
 
@@ -119,6 +122,8 @@ fn locate(issue: Issue, text: &str, file_name: &str) -> PlanError {
 /// Plan-wide defaults a sweep may inherit.
 struct Defaults {
     seed: u64,
+    /// The plan file's folder: where relative plugin paths start.
+    folder: PathBuf,
 }
 
 /// How one `[[kind]]` table (at `header`) becomes jobs. Adding a job kind is: a [`JobSpec`]
@@ -180,6 +185,9 @@ fn parse_document(text: &str, file_name: &str) -> Result<Plan, Issue> {
     };
     let defaults = Defaults {
         seed: top.integer("seed", Some(0), &|_| Ok(()))?,
+        folder: Path::new(file_name)
+            .parent()
+            .map_or_else(PathBuf::new, Path::to_path_buf),
     };
 
     // Every sweep table, in file order, with its kind.
@@ -271,6 +279,7 @@ const OVERLAP_KEYS: &[&str] = &[
     "time_cap_s",
     "verdict_check",
     "visits",
+    "plugins",
 ];
 
 fn positive_length(x: f64) -> Result<(), String> {
@@ -295,6 +304,7 @@ fn at_least_one_up_to(max: u64) -> impl Fn(u64) -> Result<(), String> {
 fn reason(e: OverlapError) -> String {
     match e {
         OverlapError::Invalid { reason, .. } => reason,
+        other => other.to_string(),
     }
 }
 
@@ -348,6 +358,10 @@ fn expand_overlap(
         sweep.optional_integers("verdict_check", &at_least_one_up_to(MAX_CONFIGURATIONS))?;
     // One number for the sweep, not swept: visits are repeats of a point, not a parameter of it.
     let visits = sweep.integer("visits", Some(1), &at_least_one_up_to(MAX_VISITS))?;
+    // One set per point, like `algorithms`: each file hashed and opened once, here.
+    let plugins = sweep.name_set("plugins", Vec::new(), &|written| {
+        plugin::resolve(&defaults.folder, written).map_err(|e| e.to_string())
+    })?;
 
     let lens = [
         seed.len(),
@@ -393,13 +407,27 @@ fn expand_overlap(
                 time_cap_s: time_cap_s[i[9]],
                 verdict_check: verdict_check[i[10]],
                 visit: None,
+                plugins: plugins.iter().map(|p| p.file.clone()).collect(),
             };
             // The kernel crate's own rules, so that a rule added there is enforced here too.
-            point
-                .validate()
-                .map_err(|OverlapError::Invalid { key, reason }| {
+            point.validate().map_err(|e| match e {
+                OverlapError::Invalid { key, reason } => {
                     Issue::new(sweep.span_of(key), Some(key), reason)
-                })?;
+                }
+                other => Issue::new(sweep.header(), None, other.to_string()),
+            })?;
+            if let Some(missing) = plugins.iter().find(|p| !p.exports(point.precision)) {
+                return Err(Issue::new(
+                    sweep.span_of("plugins"),
+                    Some("plugins"),
+                    format!(
+                        "plugin {} does not export `{}`, needed for the sweep's {} points",
+                        missing.file.path,
+                        plugin::symbol(point.precision),
+                        point.precision
+                    ),
+                ));
+            }
             Ok(point)
         })
         .collect::<Result<Vec<PointSpec>, Issue>>()?;

@@ -40,6 +40,16 @@ impl JobSpec {
         }
     }
 
+    /// Whether running the job runs code that is not part of this build (an overlap point's
+    /// C plugins): a worker runs it only where it was allowed to, and in a child process, so
+    /// that a crash of that code fails the job, not the worker.
+    pub fn runs_foreign_code(&self) -> bool {
+        match self {
+            Self::Overlap(p) => !p.plugins.is_empty(),
+            Self::Noop(_) | Self::Edmd(_) => false,
+        }
+    }
+
     /// The scheduling pass the store leases the job in (every queued job of an earlier pass of
     /// one submission before any of a later one): an overlap point's visit, 0 for its first
     /// and for every other kind of job.
@@ -166,6 +176,7 @@ mod tests {
             time_cap_s: None,
             verdict_check: None,
             visit: None,
+            plugins: Vec::new(),
         })
     }
 
