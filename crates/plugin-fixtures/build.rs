@@ -23,6 +23,8 @@ fn main() {
         let library = out.join(format!("lib{name}.so"));
         let mut command: Command = compiler.to_command();
         command
+            // The flags the examples' sources give (see plugins/example/ocsi.c).
+            .args(["-ffinite-math-only", "-fno-signed-zeros"])
             .args(["-shared", "-fPIC", "-std=c99", "-Wall", "-Werror", "-I"])
             .arg(include)
             .arg("-o")

@@ -4,7 +4,10 @@
  * (r_S,i = r_SC . e_i, the cuboid centred at the origin, so B_i = [-c_i, c_i]), then the
  * axis-aligned test runs as Algorithm 1 writes it, branches included.
  *
- *     cc -O2 -shared -fPIC -I include -o libc_arvo.so plugins/example/arvo.c
+ *     cc -O2 -ffinite-math-only -fno-signed-zeros -shared -fPIC -I include \\
+ *        -o libc_arvo.so plugins/example/arvo.c
+ *
+ * (the flags of the OCSI example, for a like-for-like comparison)
  */
 #include "sweep_overlap.h"
 

@@ -104,8 +104,12 @@ pub fn run(command: BenchCommand, format: Format) -> anyhow::Result<()> {
 
 /// `l_star` → `--l-star`: errors name the flag the user typed.
 fn flag_error(error: OverlapError) -> anyhow::Error {
-    let OverlapError::Invalid { key, reason } = error;
-    anyhow::anyhow!("--{}: {reason}", key.replace('_', "-"))
+    match error {
+        OverlapError::Invalid { key, reason } => {
+            anyhow::anyhow!("--{}: {reason}", key.replace('_', "-"))
+        }
+        other => anyhow::anyhow!(other),
+    }
 }
 
 fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {

@@ -98,7 +98,8 @@ pub fn resolve(folder: &Path, written: &str) -> Result<Resolved, PluginError> {
     let path = std::path::absolute(&path).unwrap_or(path);
     let blake3 = hash_file(&path)?;
     let library = Loaded::open(&path)?;
-    library.lookup::<unsafe extern "C" fn() -> *const c_char>(NAME_SYMBOL)
+    library
+        .lookup::<unsafe extern "C" fn() -> *const c_char>(NAME_SYMBOL)
         .ok_or_else(|| PluginError::MissingName {
             path: path.display().to_string(),
         })?;

@@ -53,8 +53,8 @@ fn the_plugins_hash_is_part_of_the_id_and_marks_foreign_code() {
     bytes.extend_from_slice(b"rebuilt");
     std::fs::write(&copy, bytes).expect("written");
     let text = std::fs::read_to_string(dir.path().join("plan.toml")).expect("read");
-    let again = Plan::parse(&text, &dir.path().join("plan.toml").to_string_lossy())
-        .expect("still valid");
+    let again =
+        Plan::parse(&text, &dir.path().join("plan.toml").to_string_lossy()).expect("still valid");
     assert_ne!(only_job(&again).id(), job.id());
 
     // Without plugins: no foreign code, and the id of a point that never had the key.
@@ -91,11 +91,15 @@ fn a_precision_the_plugin_lacks_is_refused_at_plan_time_naming_file_and_symbol()
     assert!(error.contains("sweep_overlap_f32"), "{error}");
     assert!(error.contains("key `plugins`"), "{error}");
     // A file that does not exist, named with the plan's line.
-    let text = "[[overlap]]\nl_star = 2\nw_star = 3\nr_star = 0.6\nplugins = [\"nowhere/libx.so\"]\n";
+    let text =
+        "[[overlap]]\nl_star = 2\nw_star = 3\nr_star = 0.6\nplugins = [\"nowhere/libx.so\"]\n";
     let error = Plan::parse(text, &file.to_string_lossy())
         .expect_err("no such file")
         .to_string();
-    assert!(error.contains(":5:") && error.contains("nowhere/libx.so"), "{error}");
+    assert!(
+        error.contains(":5:") && error.contains("nowhere/libx.so"),
+        "{error}"
+    );
 }
 
 #[test]
@@ -109,7 +113,10 @@ fn the_example_plugins_pass_the_check_and_are_timed_beside_the_built_ins() {
             .find(|r| r.get("algorithm").and_then(|a| a.as_str()) == Some(name))
             .unwrap_or_else(|| panic!("a timing of {name}: {records:?}"));
         assert!(record["ns_per_check"].as_f64().is_some_and(|ns| ns > 0.0));
-        assert_eq!(record["block_ns_per_check"].as_array().map(Vec::len), Some(20));
+        assert_eq!(
+            record["block_ns_per_check"].as_array().map(Vec::len),
+            Some(20)
+        );
         record["acceptance"].as_f64().expect("a number")
     };
     // Same sets: the C kernels find the pairs the built-in ones find.
@@ -128,8 +135,14 @@ fn a_wrong_plugin_is_refused_naming_the_configuration_and_is_never_timed() {
         .expect_err("always 1 is wrong")
         .to_string();
     assert!(error.contains("always_overlap: wrong verdict"), "{error}");
-    assert!(error.contains("says overlap where Eq. 2 says no overlap"), "{error}");
-    assert!(error.contains("r_sc = [") && error.contains("axes = [["), "{error}");
+    assert!(
+        error.contains("says overlap where Eq. 2 says no overlap"),
+        "{error}"
+    );
+    assert!(
+        error.contains("r_sc = [") && error.contains("axes = [["),
+        "{error}"
+    );
     assert!(error.contains("radius = 0.6"), "{error}");
 }
 

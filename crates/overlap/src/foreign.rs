@@ -125,7 +125,8 @@ pub fn count_foreign<T: Real>(
         .map(|c| {
             // SAFETY: `Foreign::new`'s contract; `c` holds r_SC (3 values) then the axes (9),
             // and `half` 3 values, all alive during the call.
-            let verdict = unsafe { call(c.as_ptr(), c[3..].as_ptr().cast::<[T; 3]>(), half, radius) };
+            let verdict =
+                unsafe { call(c.as_ptr(), c[3..].as_ptr().cast::<[T; 3]>(), half, radius) };
             u64::from(verdict != 0)
         })
         .sum()
@@ -239,8 +240,14 @@ mod tests {
             .expect_err("always 1 is wrong")
             .to_string();
         assert!(error.contains("always"), "{error}");
-        assert!(error.contains("says overlap where Eq. 2 says no overlap"), "{error}");
-        assert!(error.contains("r_sc = [") && error.contains("radius = 0.7"), "{error}");
+        assert!(
+            error.contains("says overlap where Eq. 2 says no overlap"),
+            "{error}"
+        );
+        assert!(
+            error.contains("r_sc = [") && error.contains("radius = 0.7"),
+            "{error}"
+        );
     }
 
     #[test]

@@ -39,10 +39,10 @@ pub use batch::{Batch, BatchView};
 pub use config::{Configuration, Cuboid};
 pub use error::OverlapError;
 pub use estimate::{Estimate, Stop};
+pub use foreign::{Foreign, ForeignFn, PluginFile};
 pub use kernels::Kernels;
 pub use kernels::ocsi::min_distance;
 pub use noise::{Calibration, References};
-pub use foreign::{Foreign, ForeignFn, PluginFile};
 pub use protocol::{
     AlgorithmSummary, Plugins, PointReport, PointSpec, Timing, measure_once, run_point,
     run_point_with,
