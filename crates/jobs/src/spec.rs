@@ -102,7 +102,8 @@ impl JobSpec {
                     + p.algorithms
                         .iter()
                         .map(|&a| check_ns(a, p.precision))
-                        .sum::<f64>();
+                        .sum::<f64>()
+                    + p.plugins.len() as f64 * plugin_check_ns(p.precision);
                 per_config_ns * p.configurations as f64 * f64::from(p.repeats) * 1e-9
             }
             Self::Noop(n) => n.duration_ms as f64 * 1e-3,
@@ -139,6 +140,12 @@ fn stream_ns(precision: Precision) -> f64 {
         Precision::F32 => 2.0,
         Precision::F64 => 4.0,
     }
+}
+
+/// One check of a plugin, unknown code: as the slowest built-in per-pair kernel (QRI), so
+/// that an estimate errs long. Its verdict check (untimed, about 0.1 s) is in the noise.
+fn plugin_check_ns(precision: Precision) -> f64 {
+    check_ns(Algorithm::Qri, precision)
 }
 
 /// One check of `algorithm`, averaged over the (L*, W*, R*) plane.

@@ -66,6 +66,8 @@ fn the_plugins_hash_is_part_of_the_id_and_marks_foreign_code() {
     let plain = Plan::parse(text, "plain.toml").expect("valid");
     assert!(!only_job(&plain).runs_foreign_code());
     assert!(!only_job(&plain).canonical_json().contains("plugins"));
+    // A plugin's checks are counted in the point's time estimate.
+    assert!(job.estimate_seconds() > only_job(&plain).estimate_seconds());
 }
 
 fn blake3_hex(path: &str) -> String {
