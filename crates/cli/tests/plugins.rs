@@ -117,4 +117,17 @@ fn a_crashing_and_a_wrong_plugin_fail_their_points_while_the_campaign_finishes()
         !text.contains("segfault"),
         "a crashed plugin has no column: {text}"
     );
+    // … and their rows of panels in Fig. 3 (f64).
+    let out = sweep(&["report", "fig3", "--db", db, "--format", "json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let points: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let text = points.to_string();
+    assert!(
+        text.contains("\"c_ocsi\"") && text.contains("\"c_arvo\""),
+        "{text}"
+    );
 }

@@ -747,6 +747,33 @@ mod tests {
     use super::*;
 
     #[test]
+    fn foreign_code_never_runs_in_the_workers_process() {
+        // A plugin point (its file need not exist: it must not be opened here).
+        let params_json = r#"{"kind":"overlap","l_star":2,"w_star":2,"r_star":0.5,"acceptance":0.4,"configurations":100,"repeats":1,"precision":"f32","algorithms":["ocsi"],"seed":0,"plugins":[{"path":"/nowhere/libx.so","blake3":"00"}]}"#;
+        let spec: JobSpec = serde_json::from_str(params_json).expect("a plugin point");
+        assert!(spec.runs_foreign_code());
+        let lease = Lease {
+            job_id: "j".into(),
+            kind: "overlap".into(),
+            params_json: params_json.into(),
+            attempt: 1,
+            token: 1,
+            expires_at: f64::NAN,
+            exclusive: false,
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a pool");
+        let error = run_job(&lease, &pool, None).expect_err("no executable to isolate it in");
+        assert!(error.contains("runs foreign code"), "{error}");
+        // With an executable, the child runs it (here one that is no sweep: it fails, naming
+        // the plugin files).
+        let error = run_job(&lease, &pool, Some(Path::new("/bin/false"))).expect_err("fails");
+        assert!(error.contains("/nowhere/libx.so"), "{error}");
+    }
+
+    #[test]
     fn the_worker_is_idle_only_while_every_slot_is() {
         let start = Instant::now();
         let at = |s: u64| start + Duration::from_secs(s);
