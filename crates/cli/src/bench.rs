@@ -104,8 +104,12 @@ pub fn run(command: BenchCommand, format: Format) -> anyhow::Result<()> {
 
 /// `l_star` → `--l-star`: errors name the flag the user typed.
 fn flag_error(error: OverlapError) -> anyhow::Error {
-    let OverlapError::Invalid { key, reason } = error;
-    anyhow::anyhow!("--{}: {reason}", key.replace('_', "-"))
+    match error {
+        OverlapError::Invalid { key, reason } => {
+            anyhow::anyhow!("--{}: {reason}", key.replace('_', "-"))
+        }
+        other => anyhow::anyhow!(other),
+    }
 }
 
 fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
@@ -123,6 +127,7 @@ fn bench_overlap(args: BenchOverlapArgs, format: Format) -> anyhow::Result<()> {
         time_cap_s: args.time_cap_s,
         verdict_check: None,
         visit: None,
+        plugins: Vec::new(),
     };
     spec.validate().map_err(flag_error)?;
     system::start_thread_pool()?;

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
+use anyhow::Context;
 use clap::Args;
 use coordinator::{Config, Coordinator, Embedded, SystemClock};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -123,6 +124,10 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
         lease_for: LOCAL_LEASE,
         deadline: None,
         idle_timeout: None,
+        child_exe: Some(
+            std::env::current_exe()
+                .context("cannot find the sweep executable to run plugin points in")?,
+        ),
     };
     let slots = Slots::start(queue, options, runtime.handle().clone())?;
 

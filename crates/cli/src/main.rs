@@ -68,6 +68,13 @@ enum Command {
     Cancel(remote::CancelArgs),
     /// The workers a coordinator knows.
     Workers(remote::WorkersArgs),
+    /// Internal: run one job (its spec as JSON on stdin) and write its records (a JSON array) on
+    /// stdout; how a worker isolates a job that runs foreign code (`worker::child`).
+    #[command(name = worker::child::RUN_JOB, hide = true)]
+    RunJob {
+        #[arg(long)]
+        attempt: u32,
+    },
 }
 
 fn main() -> std::process::ExitCode {
@@ -84,6 +91,16 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::from(2);
         }
     };
+    if let Command::RunJob { attempt } = cli.command {
+        // No logging set-up: stdout carries the records, stderr the error alone.
+        return match worker::child::serve(&mut std::io::stdin(), &mut std::io::stdout(), attempt) {
+            Ok(()) => std::process::ExitCode::SUCCESS,
+            Err(error) => {
+                eprintln!("{error}");
+                std::process::ExitCode::FAILURE
+            }
+        };
+    }
     system::init_logging();
     let result = match cli.command {
         Command::Bench(command) => bench::run(command, cli.format),
@@ -100,6 +117,7 @@ fn main() -> std::process::ExitCode {
         Command::Submit(args) => remote::submit(&args, cli.format),
         Command::Cancel(args) => remote::cancel(&args, cli.format),
         Command::Workers(args) => remote::workers(&args, cli.format),
+        Command::RunJob { .. } => Ok(()), // served above
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -358,6 +358,10 @@ pub fn worker(args: &WorkerArgs) -> anyhow::Result<()> {
         lease_for,
         deadline: args.deadline,
         idle_timeout,
+        child_exe: Some(
+            std::env::current_exe()
+                .context("cannot find the sweep executable to run plugin points in")?,
+        ),
     };
     let slots = Slots::start(Arc::new(remote), options, runtime.handle().clone())?;
     let halted = runtime.block_on(async {

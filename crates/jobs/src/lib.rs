@@ -24,6 +24,7 @@ mod child;
 mod command;
 mod command_plan;
 mod plan;
+pub mod plugin;
 mod run;
 mod spec;
 mod states;

@@ -12,6 +12,8 @@
 //! ci_target = 0.01         # optional: more sets until each 95 % CI half-width is <= 1 %,
 //! time_cap_s = 30          #   or until 30 s of measurement (default 60 s; only with ci_target)
 //! visits = 3               # optional: measure every point in 3 visits spread over the campaign
+//! plugins = ["plugins/libmine.so"]  # optional: C kernels (include/sweep_overlap.h) timed
+//!                          #   beside `algorithms`; paths relative to the plan's folder
 //!
 //! [[noop]]
 //! count = 1000
@@ -52,6 +54,7 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 use crate::command_plan::expand_command;
+use crate::plugin;
 use crate::spec::{JobSpec, NoopSpec};
 use crate::states::States;
 use crate::sweep::{Issue, Sweep, Written, cartesian};
@@ -105,13 +108,16 @@ impl Plan {
             .parent()
             .filter(|d| !d.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
-        Self::parse_in(text, file_name, dir)
+        parse_document(text, file_name, dir, true).map_err(|issue| locate(issue, text, file_name))
     }
 
     /// [`Plan::parse`] with the plan's folder given: a plan submitted from another machine or
-    /// folder names its programs relative to the folder it was read from.
+    /// folder names its programs relative to the folder it was read from. A plan read on
+    /// another's behalf (a coordinator's) never opens its plugins: opening a library runs its
+    /// initialisers, foreign code that only a worker started with `--allow-commands` may run;
+    /// the files are hashed, and a precision a plugin lacks fails its points when they run.
     pub fn parse_in(text: &str, file_name: &str, dir: &Path) -> Result<Plan, PlanError> {
-        parse_document(text, file_name, dir).map_err(|issue| locate(issue, text, file_name))
+        parse_document(text, file_name, dir, false).map_err(|issue| locate(issue, text, file_name))
     }
 
     /// Sum of the jobs' [`JobSpec::estimate_seconds`] on one core.
@@ -146,6 +152,8 @@ pub(crate) struct Defaults {
     pub dir: PathBuf,
     /// The state files EDMD points start from (`from_state`, relative to the plan's folder).
     pub states: States,
+    /// Whether plugins are opened to check their symbols (see [`Plan::parse_in`]).
+    pub open_plugins: bool,
 }
 
 /// How one `[[kind]]` table (at `header`) becomes jobs. Adding a job kind is: a [`JobSpec`]
@@ -172,7 +180,12 @@ const TOP_LEVEL: &[&str] = &[
     "tune",
 ];
 
-fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue> {
+fn parse_document(
+    text: &str,
+    file_name: &str,
+    dir: &Path,
+    open_plugins: bool,
+) -> Result<Plan, Issue> {
     let document = DeTable::parse(text)
         .map_err(|e| Issue::new(e.span().unwrap_or(0..0), None, e.message().to_owned()))?;
     let document = document.get_ref();
@@ -219,6 +232,7 @@ fn parse_document(text: &str, file_name: &str, dir: &Path) -> Result<Plan, Issue
         seed: top.integer("seed", Some(0), &|_| Ok(()))?,
         dir: dir.to_path_buf(),
         states: States::in_folder(dir),
+        open_plugins,
     };
 
     // Every sweep table, in file order, with its kind.
@@ -328,6 +342,7 @@ const OVERLAP_KEYS: &[&str] = &[
     "time_cap_s",
     "verdict_check",
     "visits",
+    "plugins",
 ];
 
 fn positive_length(x: f64) -> Result<(), String> {
@@ -352,6 +367,7 @@ fn at_least_one_up_to(max: u64) -> impl Fn(u64) -> Result<(), String> {
 fn reason(e: OverlapError) -> String {
     match e {
         OverlapError::Invalid { reason, .. } => reason,
+        other => other.to_string(),
     }
 }
 
@@ -405,6 +421,10 @@ fn expand_overlap(
         sweep.optional_integers("verdict_check", &at_least_one_up_to(MAX_CONFIGURATIONS))?;
     // One number for the sweep, not swept: visits are repeats of a point, not a parameter of it.
     let visits = sweep.integer("visits", Some(1), &at_least_one_up_to(MAX_VISITS))?;
+    // One set per point, like `algorithms`: each file hashed and opened once, here.
+    let plugins = sweep.name_set("plugins", Vec::new(), &|written| {
+        plugin::resolve(&defaults.dir, written, defaults.open_plugins).map_err(|e| e.to_string())
+    })?;
 
     let lens = [
         seed.len(),
@@ -450,13 +470,27 @@ fn expand_overlap(
                 time_cap_s: time_cap_s[i[9]],
                 verdict_check: verdict_check[i[10]],
                 visit: None,
+                plugins: plugins.iter().map(|p| p.file.clone()).collect(),
             };
             // The kernel crate's own rules, so that a rule added there is enforced here too.
-            point
-                .validate()
-                .map_err(|OverlapError::Invalid { key, reason }| {
+            point.validate().map_err(|e| match e {
+                OverlapError::Invalid { key, reason } => {
                     Issue::new(sweep.span_of(key), Some(key), reason)
-                })?;
+                }
+                other => Issue::new(sweep.header(), None, other.to_string()),
+            })?;
+            if let Some(missing) = plugins.iter().find(|p| !p.exports(point.precision)) {
+                return Err(Issue::new(
+                    sweep.span_of("plugins"),
+                    Some("plugins"),
+                    format!(
+                        "plugin {} does not export `{}`, needed for the sweep's {} points",
+                        missing.file.path,
+                        plugin::symbol(point.precision),
+                        point.precision
+                    ),
+                ));
+            }
             Ok(point)
         })
         .collect::<Result<Vec<PointSpec>, Issue>>()?;

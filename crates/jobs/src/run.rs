@@ -4,10 +4,12 @@ use std::cell::RefCell;
 use std::thread::sleep;
 use std::time::{Duration, Instant};
 
-use overlap::{Calibration, OverlapError, PointSpec, run_point};
+use overlap::foreign::check_foreign;
+use overlap::{Calibration, OverlapError, Plugins, PointSpec, Precision, run_point_with};
 use serde_json::{Map, Value, json};
 
 use crate::command::run_command;
+use crate::plugin::{Loaded, PluginError};
 use crate::spec::{JobSpec, NoopSpec};
 
 /// One result record: field name → JSON value (scalars, and the array of an overlap pass's block
@@ -19,6 +21,16 @@ pub enum JobError {
     /// The overlap spec is out of its domain (it was not validated by a plan) or cannot run.
     #[error("overlap: {0}")]
     Overlap(#[from] OverlapError),
+    /// A plugin of the point cannot be used (gone, changed, lacks the point's precision …).
+    #[error("overlap: {0}")]
+    Plugin(#[from] PluginError),
+    /// Two plugins of one point report the same name.
+    #[error("overlap: plugins {first} and {second} both call themselves `{name}`")]
+    PluginNames {
+        name: String,
+        first: String,
+        second: String,
+    },
     /// The scene cannot be simulated, or a solver could not resolve a contact.
     #[error("edmd: {0}")]
     Edmd(#[from] edmd::EdmdError),
@@ -125,19 +137,75 @@ fn four_digits(x: f64) -> f64 {
 /// Mixed into a point's generator seed for its checking set, independent of the timed sets.
 const VERDICT_SEED: u64 = 0x7665_7264_6963_7473;
 
+/// Configurations of a plugin's check before timing when the point sets no `verdict_check`
+/// (half bulk, half near-contact shell): about 0.1 s, and every decade of the shell's gaps
+/// gets thousands of them.
+const PLUGIN_CHECK: u64 = 100_000;
+
+/// The kernels of the point's plugins in its precision, from `libraries` (one per plugin, in
+/// order); two plugins may not share a name (it is their column).
+fn load_plugins(point: &PointSpec, libraries: &[Loaded]) -> Result<Plugins, JobError> {
+    let mut plugins = Plugins::default();
+    let mut names: Vec<(String, &str)> = Vec::new();
+    for (library, file) in libraries.iter().zip(&point.plugins) {
+        let name = match point.precision {
+            Precision::F32 => {
+                let kernel = library.foreign::<f32>()?;
+                let name = kernel.name().to_owned();
+                plugins.f32.push(kernel);
+                name
+            }
+            Precision::F64 => {
+                let kernel = library.foreign::<f64>()?;
+                let name = kernel.name().to_owned();
+                plugins.f64.push(kernel);
+                name
+            }
+        };
+        if let Some((_, first)) = names.iter().find(|(n, _)| *n == name) {
+            return Err(JobError::PluginNames {
+                name,
+                first: (*first).to_owned(),
+                second: file.path.clone(),
+            });
+        }
+        names.push((name, &file.path));
+    }
+    Ok(plugins)
+}
+
 fn run_overlap(point: &PointSpec, generator_seed: u64) -> Result<Vec<Record>, JobError> {
     let seeded = PointSpec {
         seed: generator_seed,
         ..point.clone()
     };
-    let report =
-        CALIBRATION.with_borrow_mut(|calibration| run_point(&seeded, calibration, &mut |_| {}))?;
+    // Kept open until the timing is done: the kernels live in them.
+    let libraries = point
+        .plugins
+        .iter()
+        .map(Loaded::open_checked)
+        .collect::<Result<Vec<Loaded>, PluginError>>()?;
+    let plugins = load_plugins(point, &libraries)?;
+    // Before any timing: a plugin that answers wrongly is not measured.
+    let check = point.verdict_check.unwrap_or(PLUGIN_CHECK);
+    let check_seed = generator_seed ^ VERDICT_SEED;
+    for kernel in &plugins.f32 {
+        check_foreign(&seeded, kernel, check, check_seed)?;
+    }
+    for kernel in &plugins.f64 {
+        check_foreign(&seeded, kernel, check, check_seed)?;
+    }
+    let report = CALIBRATION.with_borrow_mut(|calibration| {
+        run_point_with(&seeded, &plugins, calibration, &mut |_| {})
+    })?;
+    drop(plugins);
+    drop(libraries);
     let mut records: Vec<Record> = report
         .timings
         .iter()
         .map(|t| {
             record([
-                ("algorithm", json!(t.algorithm.name())),
+                ("algorithm", json!(t.algorithm)),
                 ("repeat", json!(t.repeat)),
                 ("ms", json!(t.ms)),
                 ("ns_per_check", json!(t.ns_per_check)),
@@ -312,6 +380,7 @@ mod tests {
             time_cap_s: None,
             verdict_check: None,
             visit: None,
+            plugins: Vec::new(),
         });
         let records = run(&job, 1).expect("a valid point runs");
         assert_eq!(records.len(), 2 * 2 + 1);

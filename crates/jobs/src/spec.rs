@@ -44,10 +44,23 @@ impl JobSpec {
         }
     }
 
-    /// Whether running the job executes code that is not part of `sweep` (a program job): such
-    /// jobs are leased only to workers started with `--allow-commands`.
+    /// Whether running the job runs code that is not part of this build (a program job, an
+    /// overlap point's C plugins): such jobs are leased only to workers started with
+    /// `--allow-commands`, and plugin points run in a child process, so that a crash of that
+    /// code fails the job, not the worker.
     pub fn runs_foreign_code(&self) -> bool {
-        matches!(self, Self::Command(_))
+        match self {
+            Self::Overlap(p) => !p.plugins.is_empty(),
+            Self::Command(_) => true,
+            Self::Noop(_) | Self::Edmd(_) => false,
+        }
+    }
+
+    /// Whether running the job loads foreign code into the process that runs it (an overlap
+    /// point's C plugins), which a worker therefore runs in a child process; a program job is
+    /// a process of its own already.
+    pub fn loads_foreign_code(&self) -> bool {
+        matches!(self, Self::Overlap(p) if !p.plugins.is_empty())
     }
 
     /// The scheduling pass the store leases the job in (every queued job of an earlier pass of
@@ -102,7 +115,8 @@ impl JobSpec {
                     + p.algorithms
                         .iter()
                         .map(|&a| check_ns(a, p.precision))
-                        .sum::<f64>();
+                        .sum::<f64>()
+                    + p.plugins.len() as f64 * plugin_check_ns(p.precision);
                 per_config_ns * p.configurations as f64 * f64::from(p.repeats) * 1e-9
             }
             Self::Noop(n) => n.duration_ms as f64 * 1e-3,
@@ -144,6 +158,12 @@ fn stream_ns(precision: Precision) -> f64 {
     }
 }
 
+/// One check of a plugin, unknown code: as the slowest built-in per-pair kernel (QRI), so
+/// that an estimate errs long. Its verdict check (untimed, about 0.1 s) is in the noise.
+fn plugin_check_ns(precision: Precision) -> f64 {
+    check_ns(Algorithm::Qri, precision)
+}
+
 /// One check of `algorithm`, averaged over the (L*, W*, R*) plane.
 fn check_ns(algorithm: Algorithm, precision: Precision) -> f64 {
     let (f32_ns, f64_ns) = match algorithm {
@@ -179,6 +199,7 @@ mod tests {
             time_cap_s: None,
             verdict_check: None,
             visit: None,
+            plugins: Vec::new(),
         })
     }
 

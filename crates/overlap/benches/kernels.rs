@@ -34,6 +34,7 @@ fn point() -> PointSpec {
         time_cap_s: None,
         verdict_check: None,
         visit: None,
+        plugins: Vec::new(),
     }
 }
 

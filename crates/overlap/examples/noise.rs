@@ -33,6 +33,7 @@ fn measure(rounds: u32) {
                         time_cap_s: None,
                         verdict_check: None,
                         visit: None,
+                        plugins: Vec::new(),
                     };
                     let report = match measure_once(&spec, &calibration, &mut |_| {}) {
                         Ok(report) => report,

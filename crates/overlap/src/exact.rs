@@ -62,6 +62,18 @@ pub fn margin_sign<T: Real>(
     Ok(expansion_margin(&wide, &half, r))
 }
 
+/// Whether `cfg` lies farther from the boundary than rounding can move it, so that a kernel
+/// of precision `T` must give the exact verdict there (|d² − R²| beyond [`rounding_band`]): a
+/// different verdict is a wrong algorithm, not a rounding.
+pub fn beyond_rounding<T: Real>(cfg: &Configuration<T>, cuboid: &Cuboid<T>, radius: T) -> bool {
+    let wide = Configuration {
+        r_sc: cfg.r_sc.map(T::to_f64),
+        axes: cfg.axes.map(|e| e.map(T::to_f64)),
+    };
+    let margin = f64_margin(&wide, &cuboid.half.map(T::to_f64), radius.to_f64());
+    margin.abs() > rounding_band(cfg, cuboid, radius)
+}
+
 /// d² − R² in plain f64 arithmetic, in a fixed order.
 fn f64_margin(cfg: &Configuration<f64>, half: &[f64; 3], r: f64) -> f64 {
     let d2: f64 = (0..3)

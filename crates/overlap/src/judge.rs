@@ -10,7 +10,6 @@
 
 use crate::algorithm::Algorithm;
 use crate::config::{Configuration, Cuboid};
-use crate::error::OverlapError;
 use crate::exact::{ExactError, overlaps_exactly};
 use crate::kernels::Kernels;
 use crate::kernels::ocsi::min_distance;
@@ -65,7 +64,7 @@ pub fn judge<T: Kernels>(case: &Case) -> Judgement {
                 .map(|a| (a, crate::overlaps(a, &cfg, &cuboid, radius)))
                 .collect()
         })
-        .map_err(|OverlapError::Invalid { key, reason }| format!("{key}: {reason}"));
+        .map_err(|e| e.to_string());
     Judgement {
         kernels,
         exact,

@@ -12,6 +12,8 @@
 //!   from it, on a checking set apart from the timed ones (bulk and near-boundary shell);
 //!   [`judge`]: one configuration a user gives, judged by every kernel where the precision can
 //!   and exactly; [`range`]: what a precision can judge.
+//! - [`foreign`]: per-pair kernels of C plugins (`include/sweep_overlap.h`), checked against
+//!   Eq. 2 before they are timed, then timed beside the built-in ones.
 //!
 //! Every kernel is generic over [`Real`] = `f32` | `f64`.
 
@@ -21,6 +23,7 @@ pub mod config;
 pub mod error;
 pub mod estimate;
 pub mod exact;
+pub mod foreign;
 pub mod judge;
 pub mod kernels;
 pub mod noise;
@@ -36,10 +39,14 @@ pub use batch::{Batch, BatchView};
 pub use config::{Configuration, Cuboid};
 pub use error::OverlapError;
 pub use estimate::{Estimate, Stop};
+pub use foreign::{Foreign, ForeignFn, PluginFile};
 pub use kernels::Kernels;
 pub use kernels::ocsi::min_distance;
 pub use noise::{Calibration, References};
-pub use protocol::{AlgorithmSummary, PointReport, PointSpec, Timing, measure_once, run_point};
+pub use protocol::{
+    AlgorithmSummary, Plugins, PointReport, PointSpec, Timing, measure_once, run_point,
+    run_point_with,
+};
 pub use real::Real;
 
 /// Verdict of `algorithm` for one configuration (the batched kernel runs on a batch of one).

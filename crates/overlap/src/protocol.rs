@@ -31,6 +31,7 @@ use crate::batch::{Batch, BatchView, Lane, verdict_words};
 use crate::config::Cuboid;
 use crate::error::OverlapError;
 use crate::estimate::{Estimate, Goal, QUANTILE, Stop, estimate, median, quantile};
+use crate::foreign::{Foreign, Packed, PluginFile, count_foreign};
 use crate::kernels::{Kernels, arvo::arvo, ocsi::ocsi, qrf::qrf, qri::qri};
 use crate::noise::{Calibration, References, compute_reference_ns};
 use crate::real::Real;
@@ -69,6 +70,10 @@ pub struct PointSpec {
     /// touching the done one. Each visit is its own job with its own configuration sets.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visit: Option<u32>,
+    /// C plugins timed beside `algorithms` ([`crate::foreign`]), each by its file and hash.
+    /// Absent from the serialised spec when empty, so points without plugins keep their ids.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plugins: Vec<PluginFile>,
 }
 
 fn invalid(key: &'static str, reason: String) -> OverlapError {
@@ -178,7 +183,8 @@ pub fn block_configurations(n: usize) -> usize {
 /// One pass: one algorithm over one configuration set.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
-    pub algorithm: Algorithm,
+    /// A built-in algorithm's name ([`Algorithm::name`]) or a plugin's.
+    pub algorithm: String,
     pub repeat: u32,
     /// The set's run time as the robust estimate gives it: `ns_per_check` × N_c.
     pub ms: f64,
@@ -225,7 +231,8 @@ pub struct PointReport {
 /// An algorithm's result at a point: the robust estimate over the blocks of every set.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AlgorithmSummary {
-    pub algorithm: Algorithm,
+    /// A built-in algorithm's name or a plugin's.
+    pub algorithm: String,
     /// A set's run time by the estimate: `ns_per_check` × N_c.
     pub mean_ms: f64,
     /// The [`QUANTILE`] of the blocks' ns/check over every set ([`crate::estimate`]).
@@ -241,10 +248,10 @@ pub struct AlgorithmSummary {
 impl PointReport {
     /// One summary per algorithm, in the order they ran.
     pub fn summary(&self) -> Vec<AlgorithmSummary> {
-        let mut algorithms: Vec<Algorithm> = Vec::new();
+        let mut algorithms: Vec<&str> = Vec::new();
         for t in &self.timings {
-            if !algorithms.contains(&t.algorithm) {
-                algorithms.push(t.algorithm);
+            if !algorithms.contains(&t.algorithm.as_str()) {
+                algorithms.push(&t.algorithm);
             }
         }
         algorithms
@@ -269,7 +276,7 @@ impl PointReport {
                     runs.iter().map(|t| f(t)).sum::<f64>() / runs.len() as f64
                 };
                 AlgorithmSummary {
-                    algorithm,
+                    algorithm: algorithm.to_owned(),
                     mean_ms: estimate.value * self.configurations as f64 * 1e-6,
                     ns_per_check: estimate.value,
                     acceptance: mean(|t| t.acceptance),
@@ -293,9 +300,29 @@ pub fn run_point(
     calibration: &mut Calibration,
     on_repeat: &mut dyn FnMut(u32),
 ) -> Result<PointReport, OverlapError> {
+    run_point_with(spec, &Plugins::default(), calibration, on_repeat)
+}
+
+/// The kernels of a point's plugins, loaded by the caller, in the precision the point runs
+/// (the other list may stay empty); timed after the built-in algorithms, in this order.
+#[derive(Clone, Debug, Default)]
+pub struct Plugins {
+    pub f32: Vec<Foreign<f32>>,
+    pub f64: Vec<Foreign<f64>>,
+}
+
+/// [`run_point`] with the point's plugins timed beside its algorithms, on the same sets, in
+/// the same blocks, under the same noise checks.
+pub fn run_point_with(
+    spec: &PointSpec,
+    plugins: &Plugins,
+    calibration: &mut Calibration,
+    on_repeat: &mut dyn FnMut(u32),
+) -> Result<PointReport, OverlapError> {
     spec.validate()?;
-    rerun_while_disturbed(calibration, |calibration| {
-        measure_once(spec, calibration, on_repeat)
+    rerun_while_disturbed(calibration, |calibration| match spec.precision {
+        Precision::F32 => measure::<f32>(spec, &plugins.f32, calibration, on_repeat),
+        Precision::F64 => measure::<f64>(spec, &plugins.f64, calibration, on_repeat),
     })
 }
 
@@ -308,8 +335,8 @@ pub fn measure_once(
     on_repeat: &mut dyn FnMut(u32),
 ) -> Result<PointReport, OverlapError> {
     match spec.precision {
-        Precision::F32 => measure::<f32>(spec, calibration, on_repeat),
-        Precision::F64 => measure::<f64>(spec, calibration, on_repeat),
+        Precision::F32 => measure::<f32>(spec, &[], calibration, on_repeat),
+        Precision::F64 => measure::<f64>(spec, &[], calibration, on_repeat),
     }
 }
 
@@ -380,9 +407,11 @@ fn time_pass(ranges: &[Range<usize>], mut body: impl FnMut(Range<usize>) -> u64)
     }
 }
 
-/// One measurement of the point: every set, every algorithm, the references around them.
+/// One measurement of the point: every set, every algorithm and plugin, the references around
+/// them.
 fn measure<T: Kernels>(
     spec: &PointSpec,
+    plugins: &[Foreign<T>],
     calibration: &Calibration,
     on_repeat: &mut dyn FnMut(u32),
 ) -> Result<PointReport, OverlapError> {
@@ -412,9 +441,12 @@ fn measure<T: Kernels>(
     let mut verdicts = vec![0u64; verdict_words(n)];
     let mut batch = Batch::<T>::zeroed(n);
     let arrays_bytes = batch.bytes() as u64;
-    let mut timings = Vec::with_capacity(spec.algorithms.len() * spec.repeats as usize);
-    // Per algorithm, per set: the blocks, for the stopping rule.
-    let mut blocks: Vec<Vec<Vec<f64>>> = vec![Vec::new(); spec.algorithms.len()];
+    let entrants = spec.algorithms.len() + plugins.len();
+    let mut timings = Vec::with_capacity(entrants * spec.repeats as usize);
+    // Per algorithm (then plugin), per set: the blocks, for the stopping rule.
+    let mut blocks: Vec<Vec<Vec<f64>>> = vec![Vec::new(); entrants];
+    // The plugins' copy of each set (see `crate::foreign`); none without plugins.
+    let mut packed = Packed::<T>::default();
     let (mut generation_ms, mut timed_s, mut timed_cpu_s) = (0.0, 0.0, 0.0);
     let mut stream_blocks = Vec::new();
     let mut stream_ns_first = f64::NAN;
@@ -427,6 +459,9 @@ fn measure<T: Kernels>(
             &volume,
             derive_seed(spec.seed, u64::from(repeat)),
         );
+        if !plugins.is_empty() {
+            packed.fill(&batch);
+        }
         generation_ms += set_started.elapsed().as_secs_f64() * 1e3;
         let view = batch.view();
 
@@ -438,6 +473,7 @@ fn measure<T: Kernels>(
         // references compare the first set's with the last one's.
         for _ in 0..WARM_READS {
             black_box(stream_read(black_box(view)));
+            black_box(T::xor_fold(black_box(packed.values())));
         }
         let stream = time_pass(&ranges, |r| stream_read(black_box(view.range(r))));
         black_box(stream.count);
@@ -447,11 +483,21 @@ fn measure<T: Kernels>(
         }
         stream_blocks.extend_from_slice(&stream.block_ns);
 
-        for (a, &algorithm) in spec.algorithms.iter().enumerate() {
+        let builtins = spec.algorithms.iter().map(|&algorithm| {
             let pass = time_pass(&ranges, |r| {
                 let words = &mut verdicts[r.start / 64..][..verdict_words(r.len())];
                 count_overlaps(algorithm, black_box(view.range(r)), &cuboid, radius, words)
             });
+            (algorithm.name().to_owned(), pass)
+        });
+        // Run lazily, one after the other, as the loop below asks: the interleaving is unchanged.
+        let foreign = plugins.iter().map(|plugin| {
+            let pass = time_pass(&ranges, |r| {
+                count_foreign(plugin, black_box(packed.range(r)), &cuboid, radius)
+            });
+            (plugin.name().to_owned(), pass)
+        });
+        for (a, (algorithm, pass)) in builtins.chain(foreign).enumerate() {
             timed_s += pass.seconds;
             timed_cpu_s += pass.cpu_seconds;
             let ns_per_check = quantile(&pass.block_ns, QUANTILE);

@@ -69,20 +69,44 @@ pub fn check_verdicts(spec: &PointSpec, configurations: u64, seed: u64) -> Verdi
     }
 }
 
+/// The checking set of `spec`'s point: `configurations` configurations drawn from `seed`, half
+/// bulk, half shell (see the module's doc), in `T`.
+pub struct CheckingSet<T> {
+    pub bulk: Vec<Configuration<T>>,
+    pub shell: Vec<Configuration<T>>,
+    /// The decade of each shell configuration's gap.
+    pub decades: Vec<usize>,
+}
+
+impl<T: Real> CheckingSet<T> {
+    pub fn draw(spec: &PointSpec, configurations: u64, seed: u64) -> Self {
+        let volume = spec.spherocuboid();
+        let bulk_len = (configurations / 2) as usize;
+        let bulk = generate::<T>(&volume, bulk_len, derive_seed(seed, 0));
+        let bulk: Vec<Configuration<T>> = (0..bulk_len).map(|i| bulk.get(i)).collect();
+        let mut rng = Rng::new(derive_seed(seed, 1));
+        let (shell, decades) = (bulk_len..configurations as usize)
+            .map(|_| {
+                let (cfg, decade) = shell_configuration(&volume, spec.r_star, &mut rng);
+                (convert(&cfg), decade)
+            })
+            .unzip();
+        Self {
+            bulk,
+            shell,
+            decades,
+        }
+    }
+}
+
 fn check<T: Kernels>(spec: &PointSpec, configurations: u64, seed: u64) -> VerdictCheck {
-    let volume = spec.spherocuboid();
     let cuboid = Cuboid::<T>::from_reduced(spec.l_star, spec.w_star);
     let radius = T::from_f64(spec.r_star);
-    let bulk_len = (configurations / 2) as usize;
-    let bulk = generate::<T>(&volume, bulk_len, derive_seed(seed, 0));
-    let bulk: Vec<Configuration<T>> = (0..bulk_len).map(|i| bulk.get(i)).collect();
-    let mut rng = Rng::new(derive_seed(seed, 1));
-    let (shell, decades): (Vec<Configuration<T>>, Vec<usize>) = (bulk_len..configurations as usize)
-        .map(|_| {
-            let (cfg, decade) = shell_configuration(&volume, spec.r_star, &mut rng);
-            (convert(&cfg), decade)
-        })
-        .unzip();
+    let CheckingSet {
+        bulk,
+        shell,
+        decades,
+    } = CheckingSet::<T>::draw(spec, configurations, seed);
     let mut report = VerdictCheck {
         bulk: 0,
         shell: 0,
@@ -272,6 +296,7 @@ mod tests {
             time_cap_s: None,
             verdict_check: Some(20_000),
             visit: None,
+            plugins: Vec::new(),
         };
         let f32_check = check_verdicts(&spec(Precision::F32), 20_000, 7);
         let f64_check = check_verdicts(&spec(Precision::F64), 20_000, 7);

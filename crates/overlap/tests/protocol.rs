@@ -23,6 +23,7 @@ fn spec(configurations: u64, repeats: u32) -> PointSpec {
         time_cap_s: None,
         verdict_check: None,
         visit: None,
+        plugins: Vec::new(),
     }
 }
 
@@ -136,6 +137,7 @@ fn ci_target_and_time_cap() {
 fn precision_keys_are_checked() {
     let key = |p: PointSpec| match p.validate() {
         Err(OverlapError::Invalid { key, .. }) => Some(key),
+        Err(other) => panic!("{other}"),
         Ok(()) => None,
     };
     assert_eq!(

@@ -24,6 +24,7 @@ fn point(l_star: f64, configurations: u64, seed: u64) -> JobSpec {
         time_cap_s: None,
         verdict_check: None,
         visit: None,
+        plugins: Vec::new(),
     })
 }
 

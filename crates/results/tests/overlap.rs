@@ -28,6 +28,7 @@ fn point(l_star: f64, w_star: f64, r_star: f64, precision: Precision) -> PointSp
         time_cap_s: None,
         verdict_check: None,
         visit: None,
+        plugins: Vec::new(),
     }
 }
 

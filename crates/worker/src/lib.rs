@@ -4,11 +4,13 @@
 //! in local mode, the coordinator embedded in the process (`coordinator::Embedded`). The worker
 //! links neither the store nor the scheduler.
 //!
+//! - [`child`]: jobs that run foreign code (C plugins), run in a child process.
 //! - [`provenance`]: what the worker tells the coordinator about its machine and build.
 //! - [`slots`]: the pinned threads and the heartbeat that keeps their leases.
 //! - [`pace`]: how many jobs a slot leases at once, and when it asks for more.
 //! - [`remote`]: the [`JobQueue`] of a coordinator reached over gRPC.
 
+pub mod child;
 pub mod pace;
 pub mod provenance;
 pub mod remote;

@@ -18,6 +18,7 @@
 use std::collections::HashMap;
 use std::future::Future;
 use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -29,6 +30,7 @@ use tokio::runtime::Handle;
 use tokio::sync::watch;
 
 use crate::WorkerError;
+use crate::child::run_in_child;
 use crate::pace::Pace;
 
 #[derive(Clone, Debug)]
@@ -49,6 +51,10 @@ pub struct WorkerOptions {
     pub deadline: Option<f64>,
     /// Stop once no slot has had a job for this long.
     pub idle_timeout: Option<Duration>,
+    /// The executable that runs a job in a child process (`EXE __run-job`, see
+    /// [`crate::child`]): the worker's own binary, given by it (this crate does not assume it is
+    /// linked into `sweep`). Without it, a job that runs foreign code fails.
+    pub child_exe: Option<PathBuf>,
 }
 
 /// Leases currently held by this worker, by job id.
@@ -501,7 +507,7 @@ impl<Q: JobQueue> Slot<Q> {
             started += 1;
             self.reporter.hold(&lease);
             let began = Instant::now();
-            let ran = run_job(&lease, pool);
+            let ran = run_job(&lease, pool, self.options.child_exe.as_deref());
             pace.observe_job(began.elapsed());
             match ran {
                 Ok(records) => completions.push(Completion {
@@ -689,9 +695,35 @@ impl<Q: JobQueue> Reporter<Q> {
 /// Runs one leased job pinned to the slot's core; records come back as JSON objects. An
 /// exclusive job runs alone on the machine, so its untimed generation may use every core (the
 /// global pool, started before any pinning); any other job keeps all its work on its own core.
-fn run_job(lease: &Lease, pool: &rayon::ThreadPool) -> Result<Vec<String>, String> {
+/// A job that runs foreign code runs in a child process instead ([`crate::child`]), started
+/// from this (pinned) thread, so it keeps the core; its generation then uses that core only,
+/// exclusive or not.
+fn run_job(
+    lease: &Lease,
+    pool: &rayon::ThreadPool,
+    child_exe: Option<&Path>,
+) -> Result<Vec<String>, String> {
     let spec: JobSpec = serde_json::from_str(&lease.params_json)
         .map_err(|e| format!("job {}: unreadable parameters: {e}", lease.job_id))?;
+    if spec.loads_foreign_code() {
+        return match child_exe {
+            // A crash names no plugin by itself: the job's own (its files).
+            Some(exe) => {
+                run_in_child(exe, &lease.params_json, lease.attempt).map_err(|e| match &spec {
+                    JobSpec::Overlap(point) => {
+                        let files: Vec<&str> =
+                            point.plugins.iter().map(|f| f.path.as_str()).collect();
+                        format!("{e} [plugins: {}]", files.join(", "))
+                    }
+                    _ => e,
+                })
+            }
+            None => Err(format!(
+                "job {} runs foreign code, and this worker has no executable to isolate it in",
+                lease.job_id
+            )),
+        };
+    }
     let run = || jobs::run(&spec, lease.attempt);
     let ran = std::panic::catch_unwind(AssertUnwindSafe(|| {
         if lease.exclusive {
@@ -713,6 +745,33 @@ fn run_job(lease: &Lease, pool: &rayon::ThreadPool) -> Result<Vec<String>, Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn foreign_code_never_runs_in_the_workers_process() {
+        // A plugin point (its file need not exist: it must not be opened here).
+        let params_json = r#"{"kind":"overlap","l_star":2,"w_star":2,"r_star":0.5,"acceptance":0.4,"configurations":100,"repeats":1,"precision":"f32","algorithms":["ocsi"],"seed":0,"plugins":[{"path":"/nowhere/libx.so","blake3":"00"}]}"#;
+        let spec: JobSpec = serde_json::from_str(params_json).expect("a plugin point");
+        assert!(spec.loads_foreign_code());
+        let lease = Lease {
+            job_id: "j".into(),
+            kind: "overlap".into(),
+            params_json: params_json.into(),
+            attempt: 1,
+            token: 1,
+            expires_at: f64::NAN,
+            exclusive: false,
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a pool");
+        let error = run_job(&lease, &pool, None).expect_err("no executable to isolate it in");
+        assert!(error.contains("runs foreign code"), "{error}");
+        // With an executable, the child runs it (here one that is no sweep: it fails, naming
+        // the plugin files).
+        let error = run_job(&lease, &pool, Some(Path::new("/bin/false"))).expect_err("fails");
+        assert!(error.contains("/nowhere/libx.so"), "{error}");
+    }
 
     #[test]
     fn the_worker_is_idle_only_while_every_slot_is() {

@@ -117,6 +117,7 @@ fn run_until_finished(
         lease_for: Duration::from_secs(60),
         deadline,
         idle_timeout,
+        child_exe: None,
     };
     let slots = Slots::start(queue, options, runtime.handle().clone()).unwrap();
     // The limit only keeps a broken worker from hanging the test.

@@ -126,6 +126,7 @@ fn options(lease_batch: u32) -> WorkerOptions {
         lease_for: Duration::from_secs(60),
         deadline: None,
         idle_timeout: None,
+        child_exe: None,
     }
 }
 

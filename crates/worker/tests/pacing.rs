@@ -126,6 +126,7 @@ fn run(queue: Arc<Recorder>, lease_for: Duration, until_settled: u64) {
         lease_for,
         deadline: None,
         idle_timeout: None,
+        child_exe: None,
     };
     let slots =
         Slots::start(queue.clone(), options, runtime.handle().clone()).expect("slots start");
