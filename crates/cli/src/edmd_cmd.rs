@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use edmd::Scene;
+use edmd::{FrameEvery, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::output::{Format, print_json, print_table};
@@ -30,12 +30,33 @@ pub struct EdmdArgs {
     #[arg(long, value_name = "K", requires = "save_state", value_parser = clap::value_parser!(u64).range(1..))]
     checkpoint_every: Option<u64>,
     /// Write a trajectory here, in GSD with HOOMD's schema (OVITO and the `gsd` Python package
-    /// read it): a frame at the start and every `--every` collisions.
+    /// read it): a frame at the start and then as `--every` says.
     #[arg(long, value_name = "FILE.gsd")]
     trajectory: Option<PathBuf>,
-    /// Collisions between trajectory frames (default: 10 per particle, 10⁴·N/1000).
-    #[arg(long, value_name = "K", requires = "trajectory", value_parser = clap::value_parser!(u64).range(1..))]
-    every: Option<u64>,
+    /// Between trajectory frames: K collisions (`20000`), or a simulated time with its unit
+    /// `t`, σ √(m / k_B T) (`0.5t`: a frame at the first collision at or after each multiple).
+    /// Default: 10 collisions per particle, 10⁴·N/1000.
+    #[arg(long, value_name = "K|Tt", requires = "trajectory", value_parser = parse_every)]
+    every: Option<FrameEvery>,
+}
+
+/// `--every`: a positive whole number of collisions, or a positive time ending in `t`.
+fn parse_every(text: &str) -> Result<FrameEvery, String> {
+    let bad = || {
+        format!(
+            "expected collisions (e.g. 20000) or a time in σ√(m/k_BT) ending in t (e.g. 0.5t), got {text:?}"
+        )
+    };
+    match text.strip_suffix('t') {
+        Some(time) => match time.parse::<f64>() {
+            Ok(dt) if dt.is_finite() && dt > 0.0 => Ok(FrameEvery::Time(dt)),
+            _ => Err(bad()),
+        },
+        None => match text.parse::<u64>() {
+            Ok(k) if k > 0 => Ok(FrameEvery::Collisions(k)),
+            _ => Err(bad()),
+        },
+    }
 }
 
 pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
@@ -83,8 +104,10 @@ pub fn run(args: &EdmdArgs, format: Format) -> anyhow::Result<()> {
         save_final: args.save_state.is_some(),
         on_state: Some(&mut on_state),
         frame_every: match args.trajectory {
-            Some(_) => args.every.unwrap_or(10 * scene.n as u64),
-            None => 0,
+            Some(_) => args
+                .every
+                .unwrap_or(FrameEvery::Collisions(10 * scene.n as u64)),
+            None => FrameEvery::Never,
         },
         on_frame: Some(&mut on_frame),
     };

@@ -107,7 +107,8 @@ async fn step_all(coordinator: &Coordinator) -> anyhow::Result<()> {
         let (Some(id), Some(name), Some(text)) = (id.as_str(), name.as_str(), text.as_str()) else {
             continue;
         };
-        let plan = match Plan::parse(text, name) {
+        // Read as a coordinator reads a submitted plan: plugins are never opened here.
+        let plan = match Plan::parse_in(text, name, std::path::Path::new(".")) {
             Ok(plan) => plan,
             Err(e) => {
                 tracing::warn!(campaign = id, error = %e, "[[tune]]: the campaign's plan does not parse any more");

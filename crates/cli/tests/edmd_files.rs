@@ -135,4 +135,46 @@ fn a_trajectory_has_a_frame_every_k_collisions() {
     assert_eq!(last_frame, 4);
     let out = sweep(&["edmd", &s, "--every", "5"]);
     assert!(!out.status.success(), "--every needs --trajectory");
+    for bad in ["0", "0t", "xt", "1.5", "-1t"] {
+        let every = format!("--every={bad}");
+        let out = sweep(&["edmd", &s, "--trajectory", &p("b.gsd"), &every]);
+        assert!(
+            !out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--every"),
+            "--every {bad}"
+        );
+    }
+}
+
+#[test]
+fn a_trajectory_can_have_a_frame_every_time_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    let s = scene(dir.path(), "t.toml", 2_000, "");
+    let report = ok(sweep(&[
+        "edmd",
+        &s,
+        "--trajectory",
+        &p("t.gsd"),
+        "--every",
+        "0.01t",
+        "--format",
+        "json",
+    ]));
+    let report: serde_json::Value = serde_json::from_slice(&report.stdout).unwrap();
+    let bytes = std::fs::read(p("t.gsd")).unwrap();
+    let index_at = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;
+    let mut last_frame = 0;
+    for e in bytes[index_at..].chunks(32) {
+        if u64::from_le_bytes(e[16..24].try_into().unwrap()) == 0 {
+            break;
+        }
+        last_frame = u64::from_le_bytes(e[0..8].try_into().unwrap());
+    }
+    // The start, then one frame per 0.01 of the time the run simulated (equilibration
+    // included, which the report's sim_time leaves out: at least as many).
+    let sim_time = report["sim_time"].as_f64().unwrap();
+    assert!(
+        last_frame as f64 >= (sim_time / 0.01).floor(),
+        "{last_frame} frames, {sim_time}"
+    );
 }

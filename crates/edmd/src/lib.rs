@@ -96,7 +96,7 @@ pub mod superquadric;
 pub mod support_distance;
 
 pub use report::{FinalState, ParticleDump, RunReport};
-pub use run::{Frame, HookResult, Hooks, run, run_with_hooks, run_with_state};
+pub use run::{Frame, FrameEvery, HookResult, Hooks, run, run_with_hooks, run_with_state};
 pub use scene::{
     Neighbours, Scene, SceneError, ShapeKind, default_delta_nnl, default_neighbours,
     fill_shape_defaults,

@@ -59,10 +59,24 @@ pub struct Hooks<'a> {
     /// to the present, so that a continuation is bit for bit the continuous run).
     pub save_final: bool,
     pub on_state: Option<&'a mut dyn FnMut(&SavedState) -> HookResult>,
-    /// Collisions between frames handed to `on_frame` (0: none); the first frame is the state
-    /// the equilibration starts from.
-    pub frame_every: u64,
+    /// When frames are handed to `on_frame`; the first frame is the state the equilibration
+    /// starts from.
+    pub frame_every: FrameEvery,
     pub on_frame: Option<&'a mut dyn FnMut(&Frame) -> HookResult>,
+}
+
+/// How often a run shows a frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum FrameEvery {
+    #[default]
+    Never,
+    /// Every this many collisions (counted from the end of the initial state).
+    Collisions(u64),
+    /// Every this much simulated time (the engine's unit, σ √(m / k_B T)): a frame at the
+    /// first collision at or after each multiple of it, with the bodies at that collision's
+    /// time (`Frame::time`), so a frame never extrapolates a trajectory past an event it has
+    /// not seen. Frames are then at most one collision late: ≈ τ_free / N after the multiple.
+    Time(f64),
 }
 
 /// The configuration at one moment, for a trajectory: every body advanced to `time` (copies),
@@ -341,9 +355,11 @@ fn measure<M: Saves>(
             e.fail(EdmdError::Hook(why));
         }
     };
-    if frame_every > 0 {
+    if frame_every != FrameEvery::Never {
         show(&mut eng);
     }
+    // Time frames are counted from the clock the equilibration starts at.
+    let (t0, mut next_frame) = (eng.t, 1.0);
     let mut observe = |e: &mut Engine<M>| {
         let done = e.acc.collisions;
         if done.is_multiple_of(every) {
@@ -352,8 +368,14 @@ fn measure<M: Saves>(
         if checkpoint_every > 0 && done.is_multiple_of(checkpoint_every) {
             save(e);
         }
-        if frame_every > 0 && done.is_multiple_of(frame_every) {
-            show(e);
+        match frame_every {
+            FrameEvery::Collisions(k) if k > 0 && done.is_multiple_of(k) => show(e),
+            FrameEvery::Time(dt) if dt > 0.0 && e.t - t0 >= next_frame * dt => {
+                show(e);
+                // One frame however many multiples a long free flight passed.
+                next_frame = ((e.t - t0) / dt).floor() + 1.0;
+            }
+            _ => {}
         }
     };
     eng.advance(scene.equilibrate, &mut observe)?;

@@ -1,7 +1,9 @@
 //! Restarts: a run continued from its state file is, bit for bit, the run that never stopped;
 //! checkpoints and trajectory frames do not change a run.
 
-use edmd::{FinalState, Hooks, Neighbours, SavedState, Scene, ShapeKind, run_with_hooks};
+use edmd::{
+    FinalState, FrameEvery, Hooks, Neighbours, SavedState, Scene, ShapeKind, run_with_hooks,
+};
 
 fn scene(shape: ShapeKind, neighbours: Neighbours, collisions: u64) -> Scene {
     let mut s = Scene::new(
@@ -170,7 +172,7 @@ fn frames_do_not_perturb_the_run_and_see_every_step() {
         Ok(())
     };
     let hooks = Hooks {
-        frame_every: 1_000,
+        frame_every: FrameEvery::Collisions(1_000),
         on_frame: Some(&mut on_frame),
         ..Hooks::default()
     };
@@ -190,10 +192,43 @@ fn a_failing_hook_stops_the_run_with_its_message() {
         }
     };
     let hooks = Hooks {
-        frame_every: 500,
+        frame_every: FrameEvery::Collisions(500),
         on_frame: Some(&mut on_frame),
         ..Hooks::default()
     };
     let err = run_with_hooks(&s, &mut |_| {}, hooks).expect_err("stops");
     assert!(err.to_string().contains("disk full"), "{err}");
+}
+
+/// Frames at a time interval: one at the first collision at or after each multiple of it, the
+/// bodies at that collision's time; the run is the same with them.
+#[test]
+fn time_frames_come_at_the_first_collision_after_each_interval() {
+    let s = scene(ShapeKind::Sphere, Neighbours::Nnl, 20_000);
+    let (plain, _) = run(&s, None, 0);
+    let mut times = Vec::new();
+    let mut on_frame = |f: &edmd::Frame| {
+        assert!(f.bodies.iter().all(|b| b.t == f.time));
+        times.push(f.time);
+        Ok(())
+    };
+    let dt = 0.05;
+    let hooks = Hooks {
+        frame_every: FrameEvery::Time(dt),
+        on_frame: Some(&mut on_frame),
+        ..Hooks::default()
+    };
+    let (_, framed) = run_with_hooks(&s, &mut |_| {}, hooks).expect("run");
+    assert_same_bits(&plain, &framed, "with time frames");
+    let t0 = times[0];
+    assert!(times.len() > 5, "{times:?}");
+    for (k, t) in times.iter().enumerate().skip(1) {
+        let due = t0 + k as f64 * dt;
+        // At or after its multiple, and before the next one (256 spheres collide far more
+        // often than every 0.05).
+        assert!(
+            *t >= due - 1e-12 && *t < due + dt,
+            "frame {k} at {t}, due {due}"
+        );
+    }
 }
