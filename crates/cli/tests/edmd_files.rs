@@ -106,6 +106,22 @@ fn a_saved_state_continues_bit_for_bit_and_draws() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--state"));
 }
 
+/// The last frame a GSD file's index lists (GSD 2: the index's offset at byte 8, entries of
+/// 32 bytes, frame first, an unused entry of size 0).
+fn last_frame(path: &str) -> u64 {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..8], &0x65DF_65DF_65DF_65DFu64.to_le_bytes());
+    let index_at = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;
+    let mut last = 0;
+    for e in bytes[index_at..].chunks(32) {
+        if u64::from_le_bytes(e[16..24].try_into().unwrap()) == 0 {
+            break;
+        }
+        last = u64::from_le_bytes(e[0..8].try_into().unwrap());
+    }
+    last
+}
+
 #[test]
 fn a_trajectory_has_a_frame_every_k_collisions() {
     let dir = tempfile::tempdir().unwrap();
@@ -121,18 +137,8 @@ fn a_trajectory_has_a_frame_every_k_collisions() {
         "--format",
         "json",
     ]));
-    let bytes = std::fs::read(p("t.gsd")).unwrap();
-    assert_eq!(&bytes[..8], &0x65DF_65DF_65DF_65DFu64.to_le_bytes());
     // The index: frames 0..=4 (the start, then every 500 collisions of 2000).
-    let index_at = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;
-    let mut last_frame = 0;
-    for e in bytes[index_at..].chunks(32) {
-        if u64::from_le_bytes(e[16..24].try_into().unwrap()) == 0 {
-            break;
-        }
-        last_frame = u64::from_le_bytes(e[0..8].try_into().unwrap());
-    }
-    assert_eq!(last_frame, 4);
+    assert_eq!(last_frame(&p("t.gsd")), 4);
     let out = sweep(&["edmd", &s, "--every", "5"]);
     assert!(!out.status.success(), "--every needs --trajectory");
     for bad in ["0", "0t", "xt", "1.5", "-1t"] {
@@ -161,15 +167,7 @@ fn a_trajectory_can_have_a_frame_every_time_interval() {
         "json",
     ]));
     let report: serde_json::Value = serde_json::from_slice(&report.stdout).unwrap();
-    let bytes = std::fs::read(p("t.gsd")).unwrap();
-    let index_at = u64::from_le_bytes(bytes[8..16].try_into().unwrap()) as usize;
-    let mut last_frame = 0;
-    for e in bytes[index_at..].chunks(32) {
-        if u64::from_le_bytes(e[16..24].try_into().unwrap()) == 0 {
-            break;
-        }
-        last_frame = u64::from_le_bytes(e[0..8].try_into().unwrap());
-    }
+    let last_frame = last_frame(&p("t.gsd"));
     // The start, then one frame per 0.01 of the time the run simulated (equilibration
     // included, which the report's sim_time leaves out: at least as many).
     let sim_time = report["sim_time"].as_f64().unwrap();

@@ -25,33 +25,26 @@ fn main() {
         let t_star = uniform();
         let truth = |x: f64| 1.0 + curvature * (range.position(x) - t_star).powi(2);
         let (mut done, mut in_flight): (Vec<Evaluation>, Vec<Proposal>) = (Vec::new(), Vec::new());
+        // The oldest evaluation in flight finishes, with its noise.
+        let mut finish = |done: &mut Vec<Evaluation>, in_flight: &mut Vec<Proposal>| {
+            let p = in_flight.remove(0);
+            let (a, b) = (uniform(), uniform());
+            let normal = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
+            done.push(Evaluation {
+                x: p.x,
+                repeat: p.repeat,
+                outcome: Outcome::Value(truth(p.x) * (1.0 + noise * normal)),
+            });
+        };
         let conclusion = loop {
             match tune::next(&range, &Goal::Minimise(settings), &done, &in_flight) {
                 Step::Propose(p) => in_flight.extend(p),
-                Step::Wait => {
-                    let p = in_flight.remove(0);
-                    let (a, b) = (uniform(), uniform());
-                    let normal = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
-                    let value = truth(p.x) * (1.0 + noise * normal);
-                    done.push(Evaluation {
-                        x: p.x,
-                        repeat: p.repeat,
-                        outcome: Outcome::Value(value),
-                    });
-                }
+                Step::Wait => finish(&mut done, &mut in_flight),
                 Step::Done(c) => break c,
             }
+            // Two slots per state point, as a campaign with other state points would give it.
             if in_flight.len() > 2 {
-                // Two slots per state point, as a campaign with other state points would give it.
-                let p = in_flight.remove(0);
-                let (a, b) = (uniform(), uniform());
-                let normal = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
-                let value = truth(p.x) * (1.0 + noise * normal);
-                done.push(Evaluation {
-                    x: p.x,
-                    repeat: p.repeat,
-                    outcome: Outcome::Value(value),
-                });
+                finish(&mut done, &mut in_flight);
             }
         };
         runs.push(done.len() as f64);

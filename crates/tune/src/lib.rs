@@ -143,3 +143,16 @@ fn next_repeat(x: f64, done: &[&Evaluation], in_flight: &[&Proposal]) -> u32 {
     let flying = in_flight.iter().filter(|p| p.x == x).map(|p| p.repeat);
     done.chain(flying).map(|r| r + 1).max().unwrap_or(0)
 }
+
+/// The evaluations done and in flight at values inside the range (a grid's runs outside it
+/// belong to no search of it).
+fn in_range<'a>(
+    range: &Range,
+    done: &'a [Evaluation],
+    in_flight: &'a [Proposal],
+) -> (Vec<&'a Evaluation>, Vec<&'a Proposal>) {
+    (
+        done.iter().filter(|e| range.contains(e.x)).collect(),
+        in_flight.iter().filter(|p| range.contains(p.x)).collect(),
+    )
+}

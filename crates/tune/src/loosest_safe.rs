@@ -11,7 +11,9 @@
 //! must not make a value look safe.
 
 use crate::lattice::{Range, split};
-use crate::{Conclusion, Evaluation, Outcome, Proposal, Step, Stopped, TuneError, next_repeat};
+use crate::{
+    Conclusion, Evaluation, Outcome, Proposal, Step, Stopped, TuneError, in_range, next_repeat,
+};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
@@ -79,8 +81,7 @@ pub fn next(
     done: &[Evaluation],
     in_flight: &[Proposal],
 ) -> Step {
-    let done: Vec<&Evaluation> = done.iter().filter(|e| range.contains(e.x)).collect();
-    let in_flight: Vec<&Proposal> = in_flight.iter().filter(|p| range.contains(p.x)).collect();
+    let (done, in_flight) = in_range(range, done, in_flight);
     let allowed = settings
         .max_evaluations
         .saturating_sub(done.len() + in_flight.len());

@@ -26,7 +26,8 @@
 use crate::lattice::{Range, split};
 use crate::noise::{self, Point};
 use crate::{
-    Conclusion, Evaluation, Objective, Outcome, Proposal, Step, Stopped, TuneError, next_repeat,
+    Conclusion, Evaluation, Objective, Outcome, Proposal, Step, Stopped, TuneError, in_range,
+    next_repeat,
 };
 
 /// The first values evaluated, as positions in the range: the middle and the quarters. The ends
@@ -100,8 +101,7 @@ pub fn next(
     done: &[Evaluation],
     in_flight: &[Proposal],
 ) -> Step {
-    let done: Vec<&Evaluation> = done.iter().filter(|e| range.contains(e.x)).collect();
-    let in_flight: Vec<&Proposal> = in_flight.iter().filter(|p| range.contains(p.x)).collect();
+    let (done, in_flight) = in_range(range, done, in_flight);
     let taken: Vec<f64> = done
         .iter()
         .map(|e| e.x)
