@@ -66,6 +66,12 @@ pub fn from_plan(
         id: digest.to_hex()[..16].to_string(),
         name: plan.name.clone(),
         plan_text: text.to_string(),
+        searches: plan
+            .tunes
+            .iter()
+            .map(serde_json::to_string)
+            .collect::<Result<_, _>>()
+            .expect("a search serialises"),
     };
     Ok(Campaign {
         plan,

@@ -161,7 +161,7 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
                     bar.set_position(finished);
                     if searching && finished_before != Some(finished) {
                         finished_before = Some(finished);
-                        let issued = searching::step(&coordinator, &campaign.campaign, searches, campaign.plan.exclusive_timing).await?;
+                        let issued = searching::step(&coordinator, &campaign.campaign, searches).await?;
                         if issued.new_jobs > 0 {
                             bar.inc_length(issued.new_jobs);
                             continue;

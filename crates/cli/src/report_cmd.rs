@@ -371,7 +371,7 @@ fn tune_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         database::read(db, async |store| Ok(tune::report::rows(store).await?))?;
     for u in &unreadable {
         eprintln!(
-            "warning: campaign {}: its plan does not parse any more ({}); its searches are not shown",
+            "warning: campaign {}: a search this version cannot read ({}) is not shown",
             u.campaign, u.reason
         );
     }

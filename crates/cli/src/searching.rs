@@ -1,12 +1,13 @@
 //! `[[tune]]` searches driven: after jobs finish, each search's next evaluations are submitted
 //! into its campaign. Local mode calls [`step`] itself; a coordinator runs [`drive`] beside
-//! its service. Nothing is kept in memory: the searches are re-read from the campaigns' plans
-//! and their evaluations from the jobs, so a restarted coordinator carries on where it was.
+//! its service. Nothing is kept in memory: the searches are read back as stored with their
+//! campaigns and their evaluations from the jobs, so a restarted coordinator carries on where
+//! it was.
 
 use std::time::Duration;
 
 use coordinator::{Coordinator, NewCampaign};
-use jobs::{Plan, TuneSearch};
+use jobs::TuneSearch;
 
 use crate::campaign::new_job;
 
@@ -21,13 +22,15 @@ pub async fn step(
     coordinator: &Coordinator,
     campaign: &NewCampaign,
     searches: &[TuneSearch],
-    exclusive: bool,
 ) -> anyhow::Result<Issued> {
     let steps = tune::drive::steps(coordinator.store(), searches).await?;
     let jobs: Vec<_> = steps
         .iter()
-        .flat_map(|s| s.jobs())
-        .map(|spec| new_job(&spec, exclusive))
+        .flat_map(|s| {
+            s.jobs()
+                .into_iter()
+                .map(|spec| new_job(&spec, s.search.exclusive))
+        })
         .collect();
     let new_jobs = if jobs.is_empty() {
         0
@@ -92,44 +95,34 @@ async fn changes(coordinator: &Coordinator) -> anyhow::Result<(u64, u64, usize)>
 }
 
 async fn step_all(coordinator: &Coordinator) -> anyhow::Result<()> {
-    let campaigns = coordinator
-        .store()
-        .query_read_only_with(
-            "SELECT id, name, plan_text FROM campaigns
-             WHERE cancelled_at IS NULL AND plan_text LIKE '%tune%' ORDER BY created_at, id",
-            &[],
-        )
-        .await?;
-    for row in &campaigns.rows {
-        let [id, name, text] = row.as_slice() else {
-            continue;
-        };
-        let (Some(id), Some(name), Some(text)) = (id.as_str(), name.as_str(), text.as_str()) else {
-            continue;
-        };
-        // Read as a coordinator reads a submitted plan: plugins are never opened here.
-        let plan = match Plan::parse_in(text, name, std::path::Path::new(".")) {
-            Ok(plan) => plan,
+    let stored = coordinator.store().searches().await?;
+    let mut campaigns: Vec<(NewCampaign, Vec<TuneSearch>)> = Vec::new();
+    for s in stored.into_iter().filter(|s| !s.cancelled) {
+        let search: TuneSearch = match serde_json::from_str(&s.search) {
+            Ok(search) => search,
             Err(e) => {
-                tracing::warn!(campaign = id, error = %e, "[[tune]]: the campaign's plan does not parse any more");
+                tracing::warn!(campaign = %s.campaign_id, error = %e, "[[tune]]: a stored search this version cannot read");
                 continue;
             }
         };
-        if plan.tunes.is_empty() {
-            continue;
+        match campaigns.last_mut() {
+            Some((c, searches)) if c.id == s.campaign_id => searches.push(search),
+            _ => campaigns.push((
+                // The campaign exists: submitting into it adds jobs and changes nothing else.
+                NewCampaign {
+                    id: s.campaign_id,
+                    name: s.campaign_name,
+                    plan_text: String::new(),
+                    searches: Vec::new(),
+                },
+                vec![search],
+            )),
         }
-        let campaign = NewCampaign {
-            id: id.to_owned(),
-            name: name.to_owned(),
-            plan_text: text.to_owned(),
-        };
-        let issued = step(coordinator, &campaign, &plan.tunes, plan.exclusive_timing).await?;
+    }
+    for (campaign, searches) in &campaigns {
+        let issued = step(coordinator, campaign, searches).await?;
         if issued.new_jobs > 0 {
-            tracing::info!(
-                campaign = id,
-                jobs = issued.new_jobs,
-                "[[tune]]: evaluations issued"
-            );
+            tracing::info!(campaign = %campaign.id, jobs = issued.new_jobs, "[[tune]]: evaluations issued");
         }
     }
     Ok(())

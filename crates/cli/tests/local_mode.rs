@@ -929,7 +929,7 @@ fn fig13_database(path: &Path, with_ellipsoids: bool) {
             allow_commands: false,
         };
         store.register_worker(&worker, 1.0).await.unwrap();
-        let campaign = store::NewCampaign { id: "fig13".into(), name: "fig13".into(), plan_text: String::new() };
+        let campaign = store::NewCampaign { id: "fig13".into(), name: "fig13".into(), plan_text: String::new(), searches: Vec::new() };
         store.submit(&campaign, &jobs, 1.0).await.unwrap();
         loop {
             let leases = store.lease("w", 64, Duration::from_secs(60), 2.0, true).await.unwrap();

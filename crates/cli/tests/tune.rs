@@ -131,7 +131,7 @@ fn a_search_resumed_after_kill_9_reuses_every_finished_evaluation() {
 }
 
 #[test]
-fn a_coordinator_refuses_a_plan_it_cannot_drive_and_plan_counts_the_searches() {
+fn sweep_plan_counts_the_searches_of_a_plan() {
     let dir = tempfile::tempdir().unwrap();
     let plan = dir.path().join("tune.toml");
     std::fs::write(&plan, PLAN.replace("phi = 0.4", "phi = [0.3, 0.4]")).unwrap();

@@ -71,6 +71,7 @@ async fn allocator_reads_on_a_million_jobs() {
         id: "bench".into(),
         name: "bench".into(),
         plan_text: String::new(),
+        searches: Vec::new(),
     };
     let started = Instant::now();
     c.submit(&campaign, &jobs).await.unwrap();

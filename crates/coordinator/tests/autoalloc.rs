@@ -148,6 +148,7 @@ impl Setup {
             id: name.into(),
             name: name.into(),
             plan_text: String::new(),
+            searches: Vec::new(),
         };
         self.coordinator.submit(&campaign, &jobs).await.unwrap();
     }

@@ -32,6 +32,7 @@ fn campaign(id: &str) -> NewCampaign {
         id: id.to_owned(),
         name: id.to_owned(),
         plan_text: String::new(),
+        searches: Vec::new(),
     }
 }
 

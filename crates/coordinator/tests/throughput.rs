@@ -59,6 +59,7 @@ async fn noop_jobs_per_second() {
             id: "bench".into(),
             name: "bench".into(),
             plan_text: String::new(),
+            searches: Vec::new(),
         };
         let jobs = noop_jobs();
         let started = Instant::now();

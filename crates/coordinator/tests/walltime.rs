@@ -48,6 +48,7 @@ async fn setup(dir: &tempfile::TempDir, jobs: &[NewJob]) -> (Coordinator, Arc<Ma
         id: "c".into(),
         name: "c".into(),
         plan_text: String::new(),
+        searches: Vec::new(),
     };
     coordinator.submit(&campaign, jobs).await.unwrap();
     (coordinator, clock)

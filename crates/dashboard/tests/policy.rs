@@ -29,6 +29,7 @@ async fn coordinator(dir: &tempfile::TempDir, jobs: usize) -> Coordinator {
         id: "camp".into(),
         name: "policy".into(),
         plan_text: String::new(),
+        searches: Vec::new(),
     };
     let jobs: Vec<NewJob> = (0..jobs)
         .map(|i| NewJob {
@@ -388,6 +389,7 @@ async fn run_superquadrics(coordinator: &Coordinator) {
         id: "fig13".into(),
         name: "fig13".into(),
         plan_text: String::new(),
+        searches: Vec::new(),
     };
     coordinator.submit(&campaign, &new_jobs).await.unwrap();
     coordinator.register(&worker("w-fig13")).await.unwrap();

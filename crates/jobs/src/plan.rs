@@ -273,6 +273,9 @@ fn parse_document(
             ));
         }
     }
+    for t in tunes.iter_mut() {
+        t.exclusive = exclusive_timing;
+    }
     Ok(Plan {
         name,
         exclusive_timing,

@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use toml::de::{DeTable, DeValue};
 
 use crate::JobSpec;
@@ -35,7 +35,7 @@ pub const MAX_REPEAT: u64 = 1000;
 /// The default budget of one search, repeats included.
 pub const DEFAULT_MAX_EVALUATIONS: u64 = 12;
 
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "kind", content = "field")]
 pub enum TuneGoal {
     /// Minimise this record field.
@@ -45,7 +45,7 @@ pub enum TuneGoal {
 }
 
 /// One search: one state point of a `[[tune]]` table.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TuneSearch {
     pub knob: String,
     pub range: [f64; 2],
@@ -53,6 +53,9 @@ pub struct TuneSearch {
     pub max_evaluations: u64,
     /// The state point: the scene with the knob at its default and the seed of repeat 0.
     pub template: edmd::Scene,
+    /// The plan's `exclusive`: its evaluations are timed alone on the cluster.
+    #[serde(default)]
+    pub exclusive: bool,
 }
 
 impl TuneSearch {
@@ -217,6 +220,7 @@ pub(crate) fn expand_tune(
                 goal: goal.clone(),
                 max_evaluations,
                 template,
+                exclusive: false,
             }),
             _ => Err(Issue::new(
                 header.clone(),

@@ -178,6 +178,7 @@ async fn a_failed_job_reads_with_the_parameters_a_done_one_has() {
         id: "c".into(),
         name: "c".into(),
         plan_text: String::new(),
+        searches: Vec::new(),
     };
     store.submit(&campaign, &[broken], T0).await.unwrap();
     let lease = store

@@ -93,6 +93,7 @@ async fn the_visits_and_quality_of_43200_timings() {
                 id: "table1-again".into(),
                 name: "again".into(),
                 plan_text: String::new(),
+                searches: Vec::new(),
             },
             &specs[..10].iter().map(new_job).collect::<Vec<_>>(),
             T0 + 1.0,

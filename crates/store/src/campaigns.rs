@@ -4,7 +4,7 @@ use sqlx::{Row, SqliteConnection};
 
 use crate::Store;
 use crate::error::{Error, Result};
-use crate::types::{NewCampaign, NewJob, SubmitOutcome};
+use crate::types::{NewCampaign, NewJob, StoredSearch, SubmitOutcome};
 
 impl Store {
     /// Records a campaign and its jobs in one transaction.
@@ -55,6 +55,16 @@ impl Store {
                 .bind(now)
                 .execute(&mut *conn)
                 .await?;
+                for search in &campaign.searches {
+                    sqlx::query(
+                        "INSERT INTO searches (campaign_id, search) VALUES (?1, ?2)
+                         ON CONFLICT DO NOTHING",
+                    )
+                    .bind(&campaign.id)
+                    .bind(search)
+                    .execute(&mut *conn)
+                    .await?;
+                }
                 let (mut new_jobs, mut requeued) = (0, 0);
                 for (document, len) in documents {
                     let (new, again) =
@@ -72,6 +82,28 @@ impl Store {
             })
         })
         .await
+    }
+
+    /// Every search stored with a campaign (see [`NewCampaign::searches`]), in the order the
+    /// campaigns were created.
+    pub async fn searches(&self) -> Result<Vec<StoredSearch>> {
+        let rows = sqlx::query(
+            "SELECT c.id, c.name, c.cancelled_at IS NOT NULL, s.search
+             FROM searches AS s JOIN campaigns AS c ON c.id = s.campaign_id
+             ORDER BY c.created_at, c.id, s.rowid",
+        )
+        .fetch_all(&self.reader)
+        .await?;
+        rows.iter()
+            .map(|row| {
+                Ok(StoredSearch {
+                    campaign_id: row.try_get(0)?,
+                    campaign_name: row.try_get(1)?,
+                    cancelled: row.try_get(2)?,
+                    search: row.try_get(3)?,
+                })
+            })
+            .collect()
     }
 
     /// Cancels a campaign: its queued jobs become `cancelled`, except jobs that also belong to another

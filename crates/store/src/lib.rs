@@ -47,7 +47,7 @@ pub use leases::SCAN_AHEAD;
 pub use types::{
     Allocation, AllocationState, AllocatorState, CampaignInfo, CompleteOutcome, Completion,
     ExportRow, FailOutcome, FailedJob, Granted, JobInfo, JobResults, JobState, Lease, LeaseRef,
-    NewCampaign, NewJob, QueryResult, QueueSample, Ran, Status, SubmitOutcome, Within, WorkerInfo,
-    WorkerRecord,
+    NewCampaign, NewJob, QueryResult, QueueSample, Ran, Status, StoredSearch, SubmitOutcome,
+    Within, WorkerInfo, WorkerRecord,
 };
 pub use writer::WriteGroups;

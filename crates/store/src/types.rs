@@ -12,6 +12,18 @@ pub struct NewCampaign {
     pub id: String,
     pub name: String,
     pub plan_text: String,
+    /// Its adaptive searches (JSON documents the store does not read), kept with it.
+    #[serde(default)]
+    pub searches: Vec<String>,
+}
+
+/// A search stored with its campaign.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StoredSearch {
+    pub campaign_id: String,
+    pub campaign_name: String,
+    pub cancelled: bool,
+    pub search: String,
 }
 
 /// A job (one point of a sweep) as submitted. `id` must be a hash of `kind` and the canonical

@@ -1,6 +1,6 @@
 //! `sweep report tune`: every search of every campaign's plan, where it stands.
 
-use jobs::{Plan, TuneGoal, TuneSearch};
+use jobs::{TuneGoal, TuneSearch};
 use serde::Serialize;
 use store::Store;
 
@@ -35,48 +35,29 @@ pub struct PathPoint {
     pub safe: Option<bool>,
 }
 
-/// A campaign whose plan could not be read again (a search cannot be shown without it).
+/// A stored search this version cannot read.
 #[derive(Clone, Debug, Serialize)]
 pub struct Unreadable {
     pub campaign: String,
     pub reason: String,
 }
 
-/// The searches of every campaign of the database (a search in several campaigns once).
+/// The searches of every campaign of the database (a search in several campaigns once), and
+/// those this version cannot read.
 pub async fn searches(
     store: &Store,
 ) -> Result<(Vec<(String, TuneSearch)>, Vec<Unreadable>), DriveError> {
-    let plans = store
-        .query_read_only_with(
-            "SELECT name, plan_text FROM campaigns ORDER BY created_at, id",
-            &[],
-        )
-        .await
-        .map_err(results::Error::from)?;
     let (mut found, mut unreadable): (Vec<(String, TuneSearch)>, Vec<Unreadable>) =
         Default::default();
-    for row in &plans.rows {
-        let [
-            serde_json::Value::String(name),
-            serde_json::Value::String(text),
-        ] = row.as_slice()
-        else {
-            continue;
-        };
-        if !text.contains("[[tune]]") && !text.contains("[tune]") {
-            continue;
-        }
-        // As a coordinator reads a submitted plan: plugins are hashed, never opened.
-        match Plan::parse_in(text, name, std::path::Path::new(".")) {
-            Ok(plan) => {
-                for search in plan.tunes {
-                    if !found.iter().any(|(_, s)| *s == search) {
-                        found.push((name.clone(), search));
-                    }
+    for s in store.searches().await.map_err(results::Error::from)? {
+        match serde_json::from_str::<TuneSearch>(&s.search) {
+            Ok(search) => {
+                if !found.iter().any(|(_, f)| *f == search) {
+                    found.push((s.campaign_name, search));
                 }
             }
             Err(e) => unreadable.push(Unreadable {
-                campaign: name.clone(),
+                campaign: s.campaign_name,
                 reason: e.to_string(),
             }),
         }

@@ -71,6 +71,7 @@ pub async fn complete_all_at(
         id: campaign.into(),
         name: campaign.into(),
         plan_text: String::new(),
+        searches: Vec::new(),
     };
     store.submit(&new, &jobs, at).await.expect("submitted");
     loop {

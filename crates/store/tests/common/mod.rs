@@ -47,6 +47,7 @@ pub fn campaign(id: &str) -> NewCampaign {
         id: id.to_owned(),
         name: format!("campaign {id}"),
         plan_text: "name = 'x'".to_owned(),
+        searches: Vec::new(),
     }
 }
 
