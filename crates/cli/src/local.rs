@@ -252,11 +252,11 @@ pub fn run(args: &RunArgs, format: Format) -> anyhow::Result<()> {
 
 /// One line on the searches at the end of a run.
 fn tune_summary(steps: &[tune::drive::SearchStep], db: &std::path::Path) -> String {
-    let mut by_reason: std::collections::BTreeMap<String, usize> = Default::default();
+    let mut by_reason: std::collections::BTreeMap<&str, usize> = Default::default();
     for s in steps {
         let reason = match &s.step {
-            tune::Step::Done(c) => format!("{:?}", c.stopped).to_lowercase(),
-            _ => "unfinished".to_owned(),
+            tune::Step::Done(c) => c.stopped.as_str(),
+            _ => "unfinished",
         };
         *by_reason.entry(reason).or_default() += 1;
     }

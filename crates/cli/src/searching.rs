@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use coordinator::{Coordinator, NewCampaign};
 use jobs::TuneSearch;
+use store::StoredSearch;
 
 use crate::campaign::new_job;
 
@@ -47,55 +48,41 @@ pub async fn step(
 /// How often a coordinator looks whether jobs have finished since its last step.
 const EVERY: Duration = Duration::from_secs(1);
 
-/// The coordinator's driver: whenever jobs have finished, a step of every search of every
-/// campaign that is not cancelled. A step that fails is logged and tried again at the next
-/// finished job; it never stops the service.
+/// The coordinator's driver: whenever jobs have finished or arrived, or searches were
+/// submitted, a step of every search of every campaign that is not cancelled. A coordinator
+/// without searches reads one small table a second and nothing else. A step that fails is
+/// logged and tried again at the next change; it never stops the service.
 pub async fn drive(coordinator: Coordinator) {
     let mut ticker = tokio::time::interval(EVERY);
     let mut seen_before = None;
     loop {
         ticker.tick().await;
-        // A step is due when a job has finished or been added, or a campaign submitted.
-        let seen = match changes(&coordinator).await {
-            Ok(seen) => seen,
+        let stored = match coordinator.store().searches().await {
+            Ok(stored) if stored.is_empty() => continue,
+            Ok(stored) => stored,
             Err(e) => {
-                tracing::warn!(error = %format!("{e:#}"), "[[tune]]: cannot read the queue");
+                tracing::warn!(error = %e, "[[tune]]: cannot read the searches");
+                continue;
+            }
+        };
+        let seen = match coordinator.status(None).await {
+            Ok(s) => (s.done + s.failed + s.cancelled, s.total, stored.len()),
+            Err(e) => {
+                tracing::warn!(error = %e, "[[tune]]: cannot read the queue");
                 continue;
             }
         };
         if seen_before == Some(seen) {
             continue;
         }
-        match step_all(&coordinator).await {
+        match step_all(&coordinator, stored).await {
             Ok(()) => seen_before = Some(seen),
             Err(e) => tracing::warn!(error = %format!("{e:#}"), "[[tune]]: a step failed"),
         }
     }
 }
 
-/// What changes when a step may be due: jobs finished, jobs in all, campaigns.
-async fn changes(coordinator: &Coordinator) -> anyhow::Result<(u64, u64, usize)> {
-    let status = coordinator.status(None).await?;
-    let campaigns = coordinator
-        .store()
-        .query_read_only_with("SELECT count(*) FROM campaigns", &[])
-        .await?;
-    let count = campaigns.rows.len();
-    let campaigns = campaigns
-        .rows
-        .first()
-        .and_then(|r| r.first())
-        .and_then(serde_json::Value::as_u64)
-        .unwrap_or(count as u64) as usize;
-    Ok((
-        status.done + status.failed + status.cancelled,
-        status.total,
-        campaigns,
-    ))
-}
-
-async fn step_all(coordinator: &Coordinator) -> anyhow::Result<()> {
-    let stored = coordinator.store().searches().await?;
+async fn step_all(coordinator: &Coordinator, stored: Vec<StoredSearch>) -> anyhow::Result<()> {
     let mut campaigns: Vec<(NewCampaign, Vec<TuneSearch>)> = Vec::new();
     for s in stored.into_iter().filter(|s| !s.cancelled) {
         let search: TuneSearch = match serde_json::from_str(&s.search) {

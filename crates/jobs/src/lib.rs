@@ -31,6 +31,7 @@ mod states;
 mod sweep;
 mod tune;
 
+pub use child::signal_name;
 pub use command::CommandSpec;
 pub use plan::{
     MAX_CONFIGURATIONS, MAX_JOBS, MAX_NOOP_DURATION_MS, MAX_REDUCED_LENGTH, MAX_REPEATS,

@@ -97,13 +97,13 @@ pub fn resolve(folder: &Path, written: &str, open: bool) -> Result<Resolved, Plu
     let path: PathBuf = folder.join(written);
     // An absolute path in the spec: a worker started elsewhere finds the same file.
     let path = std::path::absolute(&path).unwrap_or(path);
-    let blake3 = hash_file(&path)?;
+    let file = PluginFile {
+        path: path.display().to_string(),
+        blake3: hash_file(&path)?,
+    };
     if !open {
         return Ok(Resolved {
-            file: PluginFile {
-                path: path.display().to_string(),
-                blake3,
-            },
+            file,
             f32: true,
             f64: true,
         });
@@ -112,25 +112,18 @@ pub fn resolve(folder: &Path, written: &str, open: bool) -> Result<Resolved, Plu
     library
         .lookup::<unsafe extern "C" fn() -> *const c_char>(NAME_SYMBOL)
         .ok_or_else(|| PluginError::MissingName {
-            path: path.display().to_string(),
+            path: file.path.clone(),
         })?;
     let f32 = library.kernel::<f32>().is_ok();
     let f64 = library.kernel::<f64>().is_ok();
     if !f32 && !f64 {
         return Err(PluginError::MissingPrecision {
-            path: path.display().to_string(),
+            path: file.path,
             symbol: symbol(Precision::F32),
             precision: Precision::F32,
         });
     }
-    Ok(Resolved {
-        file: PluginFile {
-            path: path.display().to_string(),
-            blake3,
-        },
-        f32,
-        f64,
-    })
+    Ok(Resolved { file, f32, f64 })
 }
 
 /// An opened plugin; its kernels are valid while it lives.

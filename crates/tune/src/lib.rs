@@ -89,6 +89,19 @@ pub enum Stopped {
     RangeEndSafe,
 }
 
+impl Stopped {
+    /// The name reports give it (as serialised).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Stopped::Converged => "converged",
+            Stopped::Budget => "budget",
+            Stopped::NothingUsable => "nothing_usable",
+            Stopped::NoSafeValue => "no_safe_value",
+            Stopped::RangeEndSafe => "range_end_safe",
+        }
+    }
+}
+
 /// The answer of a finished search.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Conclusion {
@@ -155,4 +168,22 @@ fn in_range<'a>(
         done.iter().filter(|e| range.contains(e.x)).collect(),
         in_flight.iter().filter(|p| range.contains(p.x)).collect(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stopped;
+
+    #[test]
+    fn a_stop_is_named_as_it_is_serialised() {
+        for s in [
+            Stopped::Converged,
+            Stopped::Budget,
+            Stopped::NothingUsable,
+            Stopped::NoSafeValue,
+            Stopped::RangeEndSafe,
+        ] {
+            assert_eq!(serde_json::to_value(s).unwrap(), s.as_str());
+        }
+    }
 }

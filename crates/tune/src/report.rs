@@ -137,10 +137,7 @@ pub fn table(rows: &[SearchRow]) -> String {
                         o.mean, o.half_width, o.x, o.runs
                     )
                 }),
-                serde_json::to_value(c.stopped)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_owned))
-                    .unwrap_or_default(),
+                c.stopped.as_str().to_owned(),
             ),
             None => ("–".into(), "–".into(), "–".into(), "running".into()),
         };

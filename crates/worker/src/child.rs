@@ -11,7 +11,7 @@ use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-use jobs::JobSpec;
+use jobs::{JobSpec, signal_name};
 
 /// The hidden subcommand of the executable that runs one job as a child.
 pub const RUN_JOB: &str = "__run-job";
@@ -102,27 +102,6 @@ fn tail(text: &str) -> String {
         start += 1;
     }
     text[start..].to_owned()
-}
-
-/// The usual name of a Linux signal number.
-fn signal_name(signal: i32) -> String {
-    let name = match signal {
-        1 => "SIGHUP",
-        2 => "SIGINT",
-        4 => "SIGILL",
-        5 => "SIGTRAP",
-        6 => "SIGABRT",
-        7 => "SIGBUS",
-        8 => "SIGFPE",
-        9 => "SIGKILL",
-        11 => "SIGSEGV",
-        13 => "SIGPIPE",
-        15 => "SIGTERM",
-        24 => "SIGXCPU",
-        31 => "SIGSYS",
-        _ => return format!("signal {signal}"),
-    };
-    name.to_owned()
 }
 
 #[cfg(test)]
