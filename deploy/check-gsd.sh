@@ -9,7 +9,10 @@ sweep=$(realpath "$1")
 cd "$(dirname "$0")/.."
 venv=target/pyenv
 if [[ ! -x $venv/bin/python ]] || ! "$venv/bin/python" -c 'import gsd.hoomd, numpy' 2> /dev/null; then
-    python3 -m venv "$venv"
+    if ! command -v python3 > /dev/null || ! python3 -m venv "$venv"; then
+        echo "check-gsd: SKIPPED: no python3 with venv on this machine"
+        exit 0
+    fi
     if ! "$venv/bin/pip" install -q gsd numpy; then
         echo "check-gsd: SKIPPED: pip could not install the gsd package (no package index reachable?)"
         exit 0
