@@ -249,20 +249,50 @@ fn edmd_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
     if out.is_none() && !json && name != "accuracy" {
         bail!("report {name}: give --out FILE.png or FILE.svg, or --format json");
     }
-    let (rows, failed, verdicts) = database::read(db(args)?, async |store| {
+    let (rows, failed, verdicts, searches) = database::read(db(args)?, async |store| {
         let rows = results::edmd_runs(store, clock).await?;
-        if name != "accuracy" {
-            return Ok((rows, Vec::new(), Vec::new()));
+        match name {
+            "accuracy" => {
+                let failed = results::failed_edmd_runs(store).await?;
+                Ok((
+                    rows,
+                    failed,
+                    results::overlap_verdicts(store).await?,
+                    Vec::new(),
+                ))
+            }
+            "fig11" => Ok((
+                rows,
+                Vec::new(),
+                Vec::new(),
+                tune::report::rows(store).await?.0,
+            )),
+            _ => Ok((rows, Vec::new(), Vec::new(), Vec::new())),
         }
-        let failed = results::failed_edmd_runs(store).await?;
-        Ok((rows, failed, results::overlap_verdicts(store).await?))
     })?;
+    // Fig. 11 draws the Δ*_NNL that searches found minimising the τ_c of the same clock.
+    let tau_field = match clock {
+        Clock::Cpu => "tau_c_cpu_us",
+        Clock::Wall => "tau_c_us",
+    };
+    let searched = tune::report::fig11_minima(&searches, tau_field, unit);
+    let other_clock = searches
+        .iter()
+        .filter(|s| s.knob == "delta_nnl")
+        .filter(|s| matches!(&s.goal, jobs::TuneGoal::Min(f) if f.starts_with("tau_c") && f != tau_field))
+        .count();
+    if other_clock > 0 {
+        eprintln!(
+            "note: {other_clock} search(es) of delta_nnl minimised the other clock's τ_c: not drawn with --clock {}",
+            args.clock
+        );
+    }
     if clock == Clock::Cpu && rows.iter().any(|r| r.clock == Clock::Wall) {
         eprintln!(
             "note: some records have no CPU τ_c (written before it was kept): their wall-clock τ_c is used"
         );
     }
-    if rows.is_empty() && verdicts.is_empty() {
+    if rows.is_empty() && verdicts.is_empty() && searched.is_empty() {
         bail!("report {name}: no EDMD results in {}", db(args)?.display());
     }
     match name {
@@ -274,7 +304,9 @@ fn edmd_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         "fig8" => finish(report::fig8(&rows, out), json, out, |f| &f.missing)?,
         "fig9" => finish(report::fig9(&rows, unit, out), json, out, |f| &f.missing)?,
         "fig10" => finish(report::fig10(&rows, unit, out), json, out, |f| &f.missing)?,
-        "fig11" => finish(report::fig11(&rows, unit, out), json, out, |f| &f.missing)?,
+        "fig11" => finish(report::fig11(&rows, &searched, unit, out), json, out, |f| {
+            &f.missing
+        })?,
         "fig13" => finish(report::fig13(&rows, out), json, out, |f| &f.missing)?,
         _ => accuracy(
             report::accuracy_report(&rows, &failed, &verdicts)?,

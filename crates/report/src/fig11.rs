@@ -1,5 +1,7 @@
 //! Figure 11 of De Michele: the optimal Δ*_NNL, the minimum of each curve of Fig. 10, against φ
 //! per X0 and against X0 per φ; a minimum the Δ_NNL grid does not bracket is drawn as a bound.
+//! Minima found by `[[tune]]` searches (given as [`LocatedMinimum`]s with
+//! [`MinimumMethod::Search`]) are drawn beside those of grids, as curves of their own.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -31,21 +33,31 @@ pub struct LocatedMinimum {
     pub n: u32,
     /// Δ*_NNL in `length_unit`.
     pub delta_star: f64,
+    /// Δ*_NNL in σ (the equal-volume sphere's diameter), whatever `length_unit` is.
     pub delta_star_sigma: f64,
+    /// A search's: where the runs could not tell the τ_c from the minimum's, in `length_unit`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interval: Option<[f64; 2]>,
     pub tau_c_us: f64,
-    /// False when the grid's edge is the smallest value: `delta_star` is then only a bound.
+    /// False when the grid's edge (a search's range end) is the smallest value: `delta_star` is
+    /// then only a bound.
     pub bracketed: bool,
     pub method: MinimumMethod,
-    /// The Δ_NNL grid's ends, in `length_unit`.
+    /// The Δ_NNL grid's (a search's range's) ends, in `length_unit`.
     pub grid: [f64; 2],
     /// Eq. 73 at the grid point nearest Δ*: the share of τ_c spent on list updates.
     pub update_share: Option<f64>,
 }
 
 impl Fig11 {
-    pub fn new(rows: &[EdmdRow], unit: LengthUnit) -> Result<Self, ReportError> {
+    /// The minima of the grids in `rows` and those `searched` (in `unit` already).
+    pub fn new(
+        rows: &[EdmdRow],
+        searched: &[LocatedMinimum],
+        unit: LengthUnit,
+    ) -> Result<Self, ReportError> {
         let curves = delta_curves(rows, unit);
-        let minima: Vec<LocatedMinimum> = curves
+        let mut minima: Vec<LocatedMinimum> = curves
             .iter()
             .filter_map(|c| {
                 let optimum = c.optimum.as_ref()?;
@@ -56,6 +68,7 @@ impl Fig11 {
                     n: c.n,
                     delta_star: m.x,
                     delta_star_sigma: optimum.minimum_sigma?,
+                    interval: None,
                     tau_c_us: m.y,
                     bracketed: m.bracketed(),
                     method: m.method,
@@ -68,6 +81,7 @@ impl Fig11 {
                 })
             })
             .collect();
+        minima.extend_from_slice(searched);
         let located = |keep: &dyn Fn(&LocatedMinimum) -> bool| {
             minima.iter().filter(|m| m.bracketed && keep(m)).count()
         };
@@ -75,14 +89,14 @@ impl Fig11 {
         for x0 in PAPER_X0 {
             if located(&|m| same(m.x0, x0)) < 2 {
                 missing.push(format!(
-                    "located Δ*_NNL at X0 = {x0} for two or more φ (the paper: 0.25 to 0.55): NNL runs over a Δ_NNL grid bracketing the minimum"
+                    "located Δ*_NNL at X0 = {x0} for two or more φ (the paper: 0.25 to 0.55): NNL runs over a Δ_NNL grid bracketing the minimum, or a [[tune]] search of delta_nnl"
                 ));
             }
         }
         for phi in FIG11_PHI {
             if located(&|m| same(m.phi, phi)) < 2 {
                 missing.push(format!(
-                    "located Δ*_NNL at φ = {phi} for two or more X0: NNL runs over a Δ_NNL grid bracketing the minimum"
+                    "located Δ*_NNL at φ = {phi} for two or more X0: NNL runs over a Δ_NNL grid bracketing the minimum, or a [[tune]] search of delta_nnl"
                 ));
             }
         }
@@ -139,12 +153,14 @@ impl Fig11 {
         x_desc: &str,
         x_log: bool,
     ) -> Panel {
-        let mut groups: BTreeMap<(Key, u32), Vec<&LocatedMinimum>> = BTreeMap::new();
+        // A search's minima are a curve of their own beside the grid's at the same state points.
+        let mut groups: BTreeMap<((Key, u32), bool), Vec<&LocatedMinimum>> = BTreeMap::new();
         for m in &self.minima {
-            groups.entry(group(m)).or_default().push(m);
+            let searched = m.method == MinimumMethod::Search;
+            groups.entry((group(m), searched)).or_default().push(m);
         }
         let mut series = Vec::new();
-        for (colour, (key, minima)) in groups.into_iter().enumerate() {
+        for (colour, ((key, searched), minima)) in groups.into_iter().enumerate() {
             let mut located: Vec<(f64, f64)> = minima
                 .iter()
                 .filter(|m| m.bracketed)
@@ -156,8 +172,9 @@ impl Fig11 {
                 .filter(|m| !m.bracketed)
                 .map(|m| (x(m), m.delta_star))
                 .collect();
+            let source = if searched { " (search)" } else { "" };
             series.push(Series {
-                label: label(key),
+                label: format!("{}{source}", label(key)),
                 points: located,
                 style: Style::Measured,
                 colour,
@@ -183,11 +200,12 @@ impl Fig11 {
     }
 }
 
-/// Fig. 11's data, drawn into `path` when one is given.
+/// Fig. 11's data from grids and searches, drawn into `path` when one is given.
 pub fn fig11(
     rows: &[EdmdRow],
+    searched: &[LocatedMinimum],
     unit: LengthUnit,
     path: Option<&Path>,
 ) -> Result<Fig11, ReportError> {
-    drawn(Fig11::new(rows, unit)?, path, Fig11::draw)
+    drawn(Fig11::new(rows, searched, unit)?, path, Fig11::draw)
 }

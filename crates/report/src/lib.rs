@@ -63,7 +63,7 @@ pub use fig7::{fig7, fig7_svg};
 pub use fig8::{Fig8, fig8};
 pub use fig9::{Fig9, fig9};
 pub use fig10::{Fig10, fig10};
-pub use fig11::{Fig11, fig11};
+pub use fig11::{Fig11, LocatedMinimum, fig11};
 pub use fig13::{EllipsoidRatio, ExponentCurve, Fig13, fig13};
 pub use minimum::{Minimum, MinimumMethod, locate_minimum};
 pub use overlap_accuracy::{OverlapAccuracy, PrecisionSetting, VerdictRow, overlap_accuracy};

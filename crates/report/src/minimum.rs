@@ -15,6 +15,9 @@ pub enum MinimumMethod {
     /// The smallest value is at an end of the grid: the minimum is not bracketed, and `x` is
     /// only that end.
     GridEdge,
+    /// Not fitted to a grid: the answer of a `[[tune]]` search (the vertex of its last parabola,
+    /// or its best evaluated value).
+    Search,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

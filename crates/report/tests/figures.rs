@@ -335,7 +335,7 @@ mod edmd_figures {
                     "fig8" => fig8(&rows, Some(&path)).map(|_| ()),
                     "fig9" => fig9(&rows, unit, Some(&path)).map(|_| ()),
                     "fig10" => fig10(&rows, unit, Some(&path)).map(|_| ()),
-                    _ => fig11(&rows, unit, Some(&path)).map(|_| ()),
+                    _ => fig11(&rows, &[], unit, Some(&path)).map(|_| ()),
                 };
                 drawn.unwrap_or_else(|e| panic!("{name}.{extension}: {e}"));
                 let bytes = std::fs::metadata(&path).expect("written").len();
@@ -463,7 +463,7 @@ mod edmd_figures {
 
         // Δ* = 0.05/φ σ, exactly, where the grid brackets it; in the paper's unit it is that over
         // the smallest semi-axis.
-        let f11 = fig11(&rows, LengthUnit::SemiAxis, None).expect("fig11");
+        let f11 = fig11(&rows, &[], LengthUnit::SemiAxis, None).expect("fig11");
         for m in &f11.minima {
             assert!(m.bracketed, "{m:?}");
             assert!((m.delta_star_sigma - 0.05 / m.phi).abs() < 1e-9, "{m:?}");
@@ -550,7 +550,7 @@ mod edmd_figures {
             fig8(&rows, Some(&path)).err(),
             fig9(&rows, unit, Some(&path)).err(),
             fig10(&rows, unit, Some(&path)).err(),
-            fig11(&rows, unit, Some(&path)).err(),
+            fig11(&rows, &[], unit, Some(&path)).err(),
             accuracy(&rows).err(),
         ];
         for (error, needle) in errors.into_iter().zip([
@@ -732,5 +732,65 @@ mod superquadric_figure {
             other => panic!("expected missing points, got {other:?}"),
         }
         assert!(!path.exists(), "no empty figure was written");
+    }
+}
+
+/// Fig. 11 from `[[tune]]` searches alone: their minima count as located, are drawn as curves of
+/// their own, and a range end is drawn as a bound.
+mod fig11_from_searches {
+    use report::{LengthUnit, LocatedMinimum, MinimumMethod, fig11};
+
+    fn searched(x0: f64, phi: f64, delta: f64, bracketed: bool) -> LocatedMinimum {
+        LocatedMinimum {
+            x0,
+            phi,
+            n: 256,
+            delta_star: delta,
+            delta_star_sigma: delta,
+            interval: Some([0.8 * delta, 1.25 * delta]),
+            tau_c_us: 20.0,
+            bracketed,
+            method: MinimumMethod::Search,
+            grid: [0.02, 1.5],
+            update_share: None,
+        }
+    }
+
+    #[test]
+    fn searched_minima_alone_make_the_figure() {
+        let mut minima = Vec::new();
+        for x0 in [0.5, 2.0] {
+            for phi in [0.40, 0.55] {
+                minima.push(searched(x0, phi, 0.05 / phi, true));
+            }
+        }
+        minima.push(searched(2.0, 0.3, 1.5, false));
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let path = dir.path().join("fig11.svg");
+        let f = fig11(&[], &minima, LengthUnit::Sigma, Some(&path)).expect("fig11");
+        assert_eq!(f.minima, minima);
+        // Two φ at each of the paper's X0 and two X0 at each of the right panel's φ.
+        assert!(f.missing.is_empty(), "{:?}", f.missing);
+        let f = fig11(&[], &minima[1..], LengthUnit::Sigma, None).expect("fig11");
+        assert!(
+            f.missing.iter().any(|m| m.contains("X0 = 0.5 for two")),
+            "{:?}",
+            f.missing
+        );
+        let svg = std::fs::read_to_string(&path).expect("the figure");
+        assert!(
+            svg.contains("X0 = 2, N = 256 (search)"),
+            "the search's curve is labelled"
+        );
+        assert!(
+            !svg.contains("X0 = 2, N = 256<"),
+            "no grid curve without a grid"
+        );
+    }
+
+    #[test]
+    fn only_bounds_are_not_a_figure() {
+        let bound = searched(2.0, 0.4, 1.5, false);
+        assert!(fig11(&[], &[bound], LengthUnit::Sigma, None).is_err());
     }
 }

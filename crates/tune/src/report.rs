@@ -169,3 +169,40 @@ pub fn paths(rows: &[SearchRow]) -> Vec<report::SearchPath> {
         })
         .collect()
 }
+
+/// The Δ*_NNL that ellipsoid searches minimising `field` (the τ_c of the figure's clock) have
+/// found, as Fig. 11 draws them beside the grids' minima. A search still running, or one that
+/// found nothing usable, has no minimum yet; one whose best run lies at an end of its range has
+/// only a bound (as a grid's edge).
+pub fn fig11_minima(
+    rows: &[SearchRow],
+    field: &str,
+    unit: report::LengthUnit,
+) -> Vec<report::LocatedMinimum> {
+    rows.iter()
+        .filter(|r| {
+            r.shape == "ellipsoid"
+                && r.knob == "delta_nnl"
+                && matches!(&r.goal, TuneGoal::Min(f) if f == field)
+        })
+        .filter_map(|r| {
+            let c = r.conclusion.as_ref()?;
+            let (best, [lo, hi], objective) = (c.best?, c.interval?, c.objective?);
+            let at_end = |end: f64| ((objective.x / end).ln()).abs() < 1e-9;
+            let length = |x: f64| unit.convert(x, r.x0);
+            Some(report::LocatedMinimum {
+                x0: r.x0,
+                phi: r.phi,
+                n: u32::try_from(r.n).ok()?,
+                delta_star: length(best),
+                delta_star_sigma: best,
+                interval: Some([length(lo), length(hi)]),
+                tau_c_us: objective.mean,
+                bracketed: !at_end(r.range[0]) && !at_end(r.range[1]),
+                method: report::MinimumMethod::Search,
+                grid: [length(r.range[0]), length(r.range[1])],
+                update_share: None,
+            })
+        })
+        .collect()
+}
