@@ -152,6 +152,30 @@ function renderAllocations(snapshot) {
     el("td", { class: x.state === "failed" ? "bad" : "muted" }, x.reason))));
 }
 
+// The [[tune]] searches: a running one shows how many of its runs are done, a concluded one the
+// value it found and why it stopped.
+function renderSearches(snapshot) {
+  const searches = snapshot.searches || [];
+  $("searches-section").hidden = searches.length === 0;
+  if (searches.length === 0) return;
+  const num = (x) => (x === null || x === undefined ? "–" : Number(x).toPrecision(4));
+  $("searches").tBodies[0].replaceChildren(...searches.map((s) => {
+    const c = s.conclusion;
+    const goal = s.goal.kind === "min" ? `min ${s.goal.field}` : "loosest safe";
+    const o = c && c.objective;
+    return el("tr", {},
+      el("td", {}, s.campaign),
+      el("td", {}, `${s.shape} N = ${s.n}, φ = ${s.phi}, X0 = ${s.x0}`),
+      el("td", { class: "mono" }, s.knob),
+      el("td", {}, goal),
+      el("td", { class: "num" }, `${s.evaluations} / ${s.max_evaluations}`),
+      el("td", { class: c ? "ok" : "warn" }, c ? c.stopped : "running"),
+      el("td", { class: "num" }, c ? num(c.best) : "–"),
+      el("td", { class: "num" }, c && c.interval ? `[${num(c.interval[0])}, ${num(c.interval[1])}]` : "–"),
+      el("td", { class: "num" }, o ? `${num(o.mean)} ± ${num(o.half_width)} at ${num(o.x)} (${o.runs} runs)` : "–"));
+  }));
+}
+
 function renderFailures(snapshot) {
   const body = $("failures").tBodies[0];
   if (snapshot.failures.length === 0) return;
@@ -238,6 +262,7 @@ async function refresh() {
     renderCampaigns(snapshot);
     renderWorkers(snapshot);
     renderAllocations(snapshot);
+    renderSearches(snapshot);
     renderFailures(snapshot);
     await renderFigures(snapshot);
     $("updated").textContent = `sampled at ${when(snapshot.taken_at)}`;

@@ -4,7 +4,7 @@
 //! Cost: a sample is O(jobs) (the counts group every job of every campaign by state; jobs done
 //! per worker read the done jobs through the state index, and jobs done per allocation are
 //! summed from them) plus O(running) for the jobs in hand, O(20) for the failures and O(50) for
-//! the allocations. The next sample starts [`MIN_PERIOD`] or ten times the last
+//! the allocations; with `[[tune]]` searches, O(EDMD jobs) more to say where each stands. The next sample starts [`MIN_PERIOD`] or ten times the last
 //! sample's duration after it, whichever is longer: whatever the campaign's size, sampling keeps
 //! at most a tenth of one core busy, on the read-only connections (never the writer). Each
 //! snapshot says what its sample cost (`sample_s`) and when the next is due.
@@ -21,6 +21,8 @@ use crate::figures::FigureLink;
 use serde::Serialize;
 use store::{FailureRecord, JobInHand};
 use tokio::sync::{Notify, watch};
+use tune::drive::DriveError;
+use tune::report::SearchRow;
 
 /// The shortest time between two samples.
 pub const MIN_PERIOD: Duration = Duration::from_secs(1);
@@ -95,6 +97,10 @@ pub struct Snapshot {
     pub allocations: Report,
     /// Why the page draws nothing, or nothing for some kind of done job.
     pub figures_absent: Vec<String>,
+    /// The `[[tune]]` searches of the campaigns, running and concluded, as `sweep report tune
+    /// --format json` gives them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub searches: Vec<SearchRow>,
     /// Done jobs by kind (which figures can be drawn).
     #[serde(skip)]
     pub done_by_kind: Vec<(String, u64)>,
@@ -228,6 +234,16 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
         });
     }
     let done_by_kind = store.done_by_kind().await?;
+    let searches = match tune::report::rows(store).await {
+        Ok((rows, _)) => rows,
+        Err(DriveError::Results(e)) => return Err(e),
+        // A stored search this version cannot drive is reported by `sweep report tune`; the
+        // page shows the others.
+        Err(error) => {
+            tracing::warn!(%error, "status page: the searches cannot be shown");
+            Vec::new()
+        }
+    };
     let figures = crate::figures::BY_KIND
         .iter()
         .filter(|(kind, _)| done_by_kind.iter().any(|(k, _)| k == kind))
@@ -245,6 +261,7 @@ async fn sample(coordinator: &Coordinator, history: &mut History) -> results::Re
         allocations,
         figures_absent: crate::figures::absent(&done_by_kind),
         done_by_kind,
+        searches,
     })
 }
 

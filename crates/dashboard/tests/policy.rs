@@ -450,3 +450,57 @@ async fn the_page_draws_fig13_from_superquadric_runs() {
         }
     }
 }
+
+/// A campaign's `[[tune]]` search is on the page while it runs: its state point, knob and goal,
+/// the runs done out of its budget, and no conclusion yet.
+#[tokio::test]
+async fn a_running_search_is_shown() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(dir.path().join("c.db")).await.unwrap();
+    let coordinator = Coordinator::new(store, Config::default(), Arc::new(SystemClock)).unwrap();
+    let plan = jobs::Plan::parse(
+        "name = \"t\"\n[[tune]]\nfamily = \"edmd\"\nknob = \"delta_nnl\"\nrange = [0.05, 1.0]\n\
+         goal = \"min tau_c_us\"\nmax_evaluations = 9\nshape = \"ellipsoid\"\nx0 = 2.0\nn = 64\n\
+         phi = 0.3\nneighbours = \"nnl\"\ncollisions = 1000\n",
+        "t.toml",
+    )
+    .unwrap();
+    let search = &plan.tunes[0];
+    let first = search.evaluation(0.2, 0);
+    let campaign = NewCampaign {
+        id: "camp".into(),
+        name: "t".into(),
+        plan_text: String::new(),
+        searches: vec![serde_json::to_string(search).unwrap()],
+    };
+    let job = NewJob {
+        id: first.id(),
+        kind: first.kind().into(),
+        params_json: first.canonical_json(),
+        estimate_s: 1.0,
+        exclusive: false,
+        pass: 0,
+        foreign_code: false,
+    };
+    coordinator.submit(&campaign, &[job]).await.unwrap();
+    let router = router(&coordinator, "127.0.0.1:8080").await;
+    let (_, _, body) = call(&router, request("GET", "/api/snapshot", LOOPBACK, &[])).await;
+    let snapshot: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let searches = snapshot["searches"].as_array().expect("searches");
+    assert_eq!(searches.len(), 1, "{body}");
+    let s = &searches[0];
+    assert_eq!(s["campaign"], "t");
+    assert_eq!(s["knob"], "delta_nnl");
+    assert_eq!(s["goal"]["field"], "tau_c_us");
+    assert_eq!(
+        (s["shape"].as_str(), s["x0"].as_f64()),
+        (Some("ellipsoid"), Some(2.0))
+    );
+    assert_eq!(
+        (s["evaluations"].as_u64(), s["max_evaluations"].as_u64()),
+        (Some(0), Some(9))
+    );
+    assert!(s["conclusion"].is_null(), "running: {s}");
+    let page = std::str::from_utf8(include_bytes!("../page/page.js")).unwrap();
+    assert!(page.contains("renderSearches(snapshot)"));
+}
