@@ -153,32 +153,47 @@ impl Fig11 {
         x_desc: &str,
         x_log: bool,
     ) -> Panel {
-        // A search's minima are a curve of their own beside the grid's at the same state points.
-        let mut groups: BTreeMap<((Key, u32), bool), Vec<&LocatedMinimum>> = BTreeMap::new();
+        let mut groups: BTreeMap<(Key, u32), Vec<&LocatedMinimum>> = BTreeMap::new();
         for m in &self.minima {
-            let searched = m.method == MinimumMethod::Search;
-            groups.entry((group(m), searched)).or_default().push(m);
+            groups.entry(group(m)).or_default().push(m);
         }
         let mut series = Vec::new();
-        for (colour, ((key, searched), minima)) in groups.into_iter().enumerate() {
-            let mut located: Vec<(f64, f64)> = minima
-                .iter()
-                .filter(|m| m.bracketed)
-                .map(|m| (x(m), m.delta_star))
-                .collect();
-            located.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (colour, (key, minima)) in groups.into_iter().enumerate() {
+            let located = |searched: bool| {
+                let mut points: Vec<(f64, f64)> = minima
+                    .iter()
+                    .filter(|m| m.bracketed && (m.method == MinimumMethod::Search) == searched)
+                    .map(|m| (x(m), m.delta_star))
+                    .collect();
+                points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                points
+            };
+            let (from_grids, from_searches) = (located(false), located(true));
+            // A search's minima are diamonds over the grids' curve of the same state points
+            // (where its runs are a grid of their own, the two agree), or the curve itself.
+            let search_style = if from_grids.is_empty() {
+                Style::Measured
+            } else {
+                Style::Located
+            };
+            for (points, suffix, style) in [
+                (from_grids, "", Style::Measured),
+                (from_searches, " (search)", search_style),
+            ] {
+                if !points.is_empty() {
+                    series.push(Series {
+                        label: format!("{}{suffix}", label(key)),
+                        points,
+                        style,
+                        colour,
+                    });
+                }
+            }
             let bounds: Vec<(f64, f64)> = minima
                 .iter()
                 .filter(|m| !m.bracketed)
                 .map(|m| (x(m), m.delta_star))
                 .collect();
-            let source = if searched { " (search)" } else { "" };
-            series.push(Series {
-                label: format!("{}{source}", label(key)),
-                points: located,
-                style: Style::Measured,
-                colour,
-            });
             if !bounds.is_empty() {
                 series.push(Series {
                     label: String::new(),
