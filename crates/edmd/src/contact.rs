@@ -35,6 +35,10 @@ pub struct Hit {
 /// Steps allowed in one search before it is abandoned as a solver failure.
 const MAX_STEPS: u32 = 1_000_000;
 
+/// Halvings of the first step from a contact the bodies are leaving before the search gives up:
+/// 2⁻⁶⁰ ε_d/ḋ_max is far below any time the distance solver resolves.
+const MAX_PARTING_HALVINGS: i32 = 60;
+
 /// First contact of A and B within `horizon` after their common current time (both bodies
 /// must be at the same time; B's position already carries the periodic image shift).
 ///
@@ -115,6 +119,8 @@ pub fn predict<S: Surface>(
     // and 10 the jump saved few distances and its overshoots deep into overlaps cost hundreds
     // of Newton–Raphson fallbacks per 10⁴ collisions.
     let mut secant = sa.max_curvature_radius().is_finite() && sb.max_curvature_radius().is_finite();
+    // Halvings of the first step from a contact the bodies are leaving (see the parting arm below).
+    let mut parting_halvings = 0;
     for _ in 0..MAX_STEPS {
         if t > t2 {
             return None;
@@ -134,8 +140,9 @@ pub fn predict<S: Surface>(
                 if far {
                     ((k * safe).min(t2 - t), safe)
                 } else {
-                    proved = safe >= p.eps_d / ddmax;
-                    (safe.max(p.eps_d / ddmax), safe)
+                    let step = p.eps_d / ddmax * 0.5f64.powi(parting_halvings);
+                    proved = safe >= step;
+                    (safe.max(step), safe)
                 }
             }
             None => (p.eps_d / ddmax, 0.0),
@@ -167,6 +174,21 @@ pub fn predict<S: Surface>(
         // p = 4 pair and missed the contact. The secant below is used only when what it found
         // is proved to be the first contact.
         match (last, next) {
+            // The step starts at a contact the bodies are leaving (the collision just processed:
+            // an approaching one returned above) and ends in an overlap. The bracket holds two
+            // zeros, the parting one at its start and the contact sought: refined, it would give
+            // the parting one, a collision of separating bodies at once, predicted anew for ever.
+            // Halve the step until it ends apart (d grows from t, so it will): the contact
+            // sought then lies beyond, bracketed from a positive distance.
+            (Some((tl, l)), Some(n)) if tl == t && l.d <= 0.0 && n.d < 0.0 => {
+                parting_halvings += 1;
+                if parting_halvings > MAX_PARTING_HALVINGS {
+                    search.stats.failures += 1;
+                    search.stats.failed = Some("contact time (bodies at contact do not part)");
+                    return None;
+                }
+                continue;
+            }
             (Some((tl, l)), Some(n)) if l.d >= 0.0 && n.d < 0.0 => {
                 return search.refine(tl, &l, tn, &n);
             }
@@ -224,6 +246,7 @@ pub fn predict<S: Surface>(
         if let Some(n) = next {
             last = Some((tn, n));
         }
+        parting_halvings = 0;
     }
     search.stats.failures += 1;
     search.stats.failed = Some("contact time (Eq. 39 stepping)");

@@ -49,6 +49,9 @@ pub(crate) struct Engine<M: Model> {
     /// The first error of the event loop (a contact search no solver could resolve, a list beyond
     /// its limits); the loop stops on it.
     failure: Option<EdmdError>,
+    /// The pair and time of the last predicted collision the bodies turned out to leave: the
+    /// same one again means the search predicts it for ever (see [`Engine::collision`]).
+    last_parting: Option<(u32, u32, f64)>,
     /// The collision sequence so far, carried from one engine of a run to the next.
     pub(crate) sequence: Fingerprint,
 }
@@ -148,6 +151,7 @@ impl<M: FirstCollision> Engine<M> {
                 ..Default::default()
             },
             failure: None,
+            last_parting: None,
             sequence: Fingerprint::default(),
         };
         if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
@@ -201,6 +205,7 @@ impl<M: FirstCollision> Engine<M> {
             order: Vec::new(),
             acc: s.acc,
             failure: None,
+            last_parting: None,
             sequence: s.sequence,
         }
     }
@@ -362,6 +367,23 @@ impl<M: FirstCollision> Engine<M> {
             true
         } else {
             self.acc.separating += 1;
+            // Nothing changed but the counters: predicted anew, the same pair would meet at the
+            // same time again, for ever. A contact search that does so cannot resolve the pair.
+            let pair = (ev.a.min(ev.b), ev.a.max(ev.b), self.t);
+            if self.last_parting == Some(pair) && self.failure.is_none() {
+                let arr = |v: V3| [v.x, v.y, v.z];
+                self.failure = Some(EdmdError::Unresolved(Box::new(crate::UnresolvedContact {
+                    quantity: "contact time (a contact of parting bodies predicted again)",
+                    a,
+                    b,
+                    t: self.t,
+                    ra: arr(ba.r),
+                    rb: arr(bb.r + offset),
+                    va: arr(ba.v),
+                    vb: arr(bb.v),
+                })));
+            }
+            self.last_parting = Some(pair);
             false
         };
         self.update_escape(a);

@@ -254,3 +254,87 @@ fn grazing_with_rotation() {
         }
     }
 }
+
+/// A pair captured from the relaxation of ellipsoids X0 = 2, φ = 0.5, N = 256, NNL, ε_d = 0.1,
+/// seed 0 (body 60 and 61, just after their collision): touching (d = −0 at the start) and
+/// parting, and overlapping again one step ε_d/ḋ_max later. The search once refined that bracket
+/// to its parting zero and predicted a collision of separating bodies at once; the engine found
+/// it anew after each such non-collision, for ever (the run stalled at 51 collisions).
+fn parting_pair() -> (Ellipsoid, Body, Body) {
+    let b = 0.5 / 2f64.cbrt();
+    let e = Ellipsoid::new(2.0 * b, b, b);
+    // Rows are the body axes (Eq. 1).
+    let a = body(
+        V3::new(1.8016860057495225, 4.085490799317319, 2.3845323521048605),
+        V3::new(-0.3331240016171673, 1.6561848346774297, 0.32926783732624193),
+        M3::new(
+            -0.3966324083299732,
+            0.8383159000934941,
+            -0.37404436142361575,
+            -0.8625574456181725,
+            -0.4797790863320157,
+            -0.16064458075848587,
+            -0.3141295682851567,
+            0.25891790198603737,
+            0.9133915558839649,
+        ),
+        V3::new(-7.710162104295447, -4.16631226613384, -1.1618559139783557),
+    );
+    let bb = body(
+        V3::new(1.4644325094357924, 4.293159428900535, 3.1236242382333534),
+        V3::new(1.2034048718954071, -0.6148573109127705, 0.31846269815035516),
+        M3::new(
+            -0.3270841592894291,
+            -0.8695166592097817,
+            -0.3700766570571397,
+            0.31631293413593875,
+            0.26828903695099904,
+            -0.9099269862742937,
+            0.8904841831499539,
+            -0.41468273656925464,
+            0.1872862716570371,
+        ),
+        V3::new(-5.699662914483983, 3.5338457736615143, -3.265454050167361),
+    );
+    (e, a, bb)
+}
+
+#[test]
+fn a_parting_contact_is_not_predicted_again_and_the_next_one_is_found() {
+    let (e, a, b) = parting_pair();
+    let p = ContactParams {
+        eps_d: 0.1,
+        ..params()
+    };
+    let mut st = SolverStats::default();
+    let d = |t: f64, st: &mut SolverStats| {
+        distance(&e, &a.pose_after(t), &e, &b.pose_after(t), None, &p.tol, st)
+            .unwrap()
+            .d
+    };
+    // The captured state: at contact, and parting.
+    assert!(d(0.0, &mut st).abs() < 1e-12);
+    assert!(d(1e-4, &mut st) > 0.0);
+    for (x, y) in [(&a, &b), (&b, &a)] {
+        let h = predict(&e, x, &e, y, f64::INFINITY, &p, &mut st)
+            .expect("the bodies overlap later: a contact must be found");
+        assert!(
+            h.t > 1e-4,
+            "predicted the parting contact again: t = {}",
+            h.t
+        );
+        let (px, py) = (x.pose_after(h.t), y.pose_after(h.t));
+        let u = (x.v + x.w.cross(&(h.xc - px.r))) - (y.v + y.w.cross(&(h.xc - py.r)));
+        assert!(
+            u.dot(&h.n) > 0.0,
+            "the predicted contact is not approaching"
+        );
+        assert!(d(h.t, &mut st).abs() < 1e-10, "not a contact");
+        // The first one after the parting: apart all the way there.
+        for k in 1..200 {
+            let t = h.t * f64::from(k) / 200.0;
+            assert!(d(t, &mut st) > 0.0, "overlap at t = {t} before {}", h.t);
+        }
+    }
+    assert_eq!(st.failures, 0);
+}

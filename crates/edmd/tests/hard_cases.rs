@@ -890,3 +890,16 @@ proptest! {
         }
     }
 }
+
+/// ε_d = 0.1, the loosest the tune crate's search tries: a step of ε_d/ḋ_max from a collision
+/// just processed may hold the bodies' next contact. This scene once stalled at its 51st
+/// collision (a contact of parting bodies predicted again and again at the same time); with the
+/// engine's guard alone it would end in an unresolved contact, not pass.
+#[test]
+fn a_loose_eps_d_neither_stalls_nor_overlaps() {
+    let mut scene = Scene::new(ShapeKind::Ellipsoid, 256, 0.5);
+    scene.x0 = 2.0;
+    scene.eps_d = 0.1;
+    scene.seed = 0;
+    run_scene_clean(scene, Neighbours::Nnl, 2_000);
+}
