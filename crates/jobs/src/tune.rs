@@ -211,17 +211,34 @@ pub(crate) fn expand_tune(
             scene_table.insert(key.clone(), value.clone());
         }
     }
+    let range_span = table.get("range").map_or(header.clone(), |v| v.span());
     expand_scenes(&scene_table)?
         .into_iter()
         .map(|spec| match spec {
-            JobSpec::Edmd(template) => Ok(TuneSearch {
-                knob: knob.clone(),
-                range,
-                goal: goal.clone(),
-                max_evaluations,
-                template,
-                exclusive: false,
-            }),
+            JobSpec::Edmd(template) => {
+                let search = TuneSearch {
+                    knob: knob.clone(),
+                    range,
+                    goal: goal.clone(),
+                    max_evaluations,
+                    template,
+                    exclusive: false,
+                };
+                // Every bound a scene puts on a knob is one-sided (ε_d below the smallest
+                // semi-axis, tolerances positive): the range's ends are runnable, so is all of it.
+                for end in range {
+                    if let JobSpec::Edmd(scene) = search.evaluation(end, 0)
+                        && let Err(e) = scene.validate()
+                    {
+                        return Err(Issue::new(
+                            range_span.clone(),
+                            Some("range"),
+                            format!("{knob} = {end} makes a scene that cannot run: {e}"),
+                        ));
+                    }
+                }
+                Ok(search)
+            }
             _ => Err(Issue::new(
                 header.clone(),
                 None,

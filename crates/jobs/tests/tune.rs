@@ -114,3 +114,17 @@ fn bad_tune_tables_are_refused_naming_the_key() {
         assert!(e.to_string().starts_with("t.toml:"), "{e}");
     }
 }
+
+#[test]
+fn a_range_reaching_values_no_scene_can_run_is_refused_at_plan_time() {
+    // ε_d must stay below the smallest semi-axis (0.397 at X0 = 2): a search up to 1 would
+    // fail every evaluation above it and call them unsafe.
+    let text = "[[tune]]\nfamily = \"edmd\"\nknob = \"eps_d\"\nrange = [1e-6, 1.0]\n\
+                goal = \"loosest safe\"\nshape = \"ellipsoid\"\nx0 = 2.0\nn = 256\nphi = 0.3\n";
+    let e = Plan::parse(text, "t.toml").unwrap_err();
+    assert_eq!((e.key.as_deref(), e.line), (Some("range"), 4), "{e}");
+    assert!(e.to_string().contains("eps_d = 1"), "{e}");
+    assert!(e.to_string().contains("smallest semi-axis"), "{e}");
+    let fine = text.replace("1.0]", "0.1]");
+    assert_eq!(Plan::parse(&fine, "t.toml").unwrap().tunes.len(), 1);
+}

@@ -29,7 +29,7 @@ pub enum DriveError {
 pub struct SearchStep {
     pub search: TuneSearch,
     pub step: Step,
-    /// Its evaluations done (failed ones included), for reports.
+    /// Its evaluations done in its range (failed ones included), for reports.
     pub done: Vec<Evaluation>,
 }
 
@@ -96,9 +96,13 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
                 TuneGoal::Min(f) if f == "tau_c_cpu_us" => &cpu,
                 _ => &wall,
             };
-            let (done, in_flight) = evaluations(search, runs, &failed, &pending);
+            let (mut done, in_flight) = evaluations(search, runs, &failed, &pending);
+            let step = crate::next(&range, &goal, &done, &in_flight);
+            // Runs of the same scenes outside the range (another search's, a grid's) are not
+            // this search's.
+            done.retain(|e| range.contains(e.x));
             Ok(SearchStep {
-                step: crate::next(&range, &goal, &done, &in_flight),
+                step,
                 search: search.clone(),
                 done,
             })

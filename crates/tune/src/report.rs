@@ -128,13 +128,17 @@ pub fn table(rows: &[SearchRow]) -> String {
         };
         let (best, interval, objective, stopped) = match &r.conclusion {
             Some(c) => (
-                c.best.map_or("–".to_owned(), |b| format!("{b:.4}")),
-                c.interval
-                    .map_or("–".to_owned(), |[a, b]| format!("[{a:.4}, {b:.4}]")),
+                c.best.map_or("–".to_owned(), significant),
+                c.interval.map_or("–".to_owned(), |[a, b]| {
+                    format!("[{}, {}]", significant(a), significant(b))
+                }),
                 c.objective.map_or("–".to_owned(), |o| {
                     format!(
-                        "{:.4} ± {:.4} at {:.4} ({} runs)",
-                        o.mean, o.half_width, o.x, o.runs
+                        "{} ± {} at {} ({} runs)",
+                        significant(o.mean),
+                        significant(o.half_width),
+                        significant(o.x),
+                        o.runs
                     )
                 }),
                 c.stopped.as_str().to_owned(),
@@ -147,6 +151,19 @@ pub fn table(rows: &[SearchRow]) -> String {
         ));
     }
     out
+}
+
+/// Four significant digits: the knobs span many decades (ε_d 1e-7, Δ_NNL 0.3, τ_c 20 µs).
+fn significant(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let magnitude = x.abs().log10().floor();
+    if (-2.0..4.0).contains(&magnitude) {
+        format!("{x:.*}", (3.0 - magnitude) as usize)
+    } else {
+        format!("{x:.3e}")
+    }
 }
 
 /// The rows as the figure of their paths draws them.
