@@ -24,25 +24,52 @@ pub async fn step(
     campaign: &NewCampaign,
     searches: &[TuneSearch],
 ) -> anyhow::Result<Issued> {
-    let steps = tune::drive::steps(coordinator.store(), searches).await?;
-    let jobs: Vec<_> = steps
+    step_campaigns(
+        coordinator,
+        std::slice::from_ref(&(campaign.clone(), searches.to_vec())),
+    )
+    .await
+}
+
+/// [`step`] for the searches of several campaigns, each one's evaluations into its own: the
+/// EDMD jobs are read once for all of them.
+async fn step_campaigns(
+    coordinator: &Coordinator,
+    campaigns: &[(NewCampaign, Vec<TuneSearch>)],
+) -> anyhow::Result<Issued> {
+    let all: Vec<TuneSearch> = campaigns
         .iter()
-        .flat_map(|s| {
-            s.jobs()
-                .into_iter()
-                .map(|spec| new_job(&spec, s.search.exclusive))
-        })
+        .flat_map(|(_, s)| s.iter().cloned())
         .collect();
-    let new_jobs = if jobs.is_empty() {
-        0
-    } else {
-        let outcome = coordinator.submit(campaign, &jobs).await?;
-        outcome.new_jobs + outcome.requeued
+    let mut steps = tune::drive::steps(coordinator.store(), &all)
+        .await?
+        .into_iter();
+    let mut issued = Issued {
+        new_jobs: 0,
+        all_done: true,
     };
-    Ok(Issued {
-        new_jobs,
-        all_done: steps.iter().all(|s| matches!(s.step, tune::Step::Done(_))),
-    })
+    for (campaign, searches) in campaigns {
+        let mine: Vec<_> = steps.by_ref().take(searches.len()).collect();
+        issued.all_done &= mine.iter().all(|s| matches!(s.step, tune::Step::Done(_)));
+        let jobs: Vec<_> = mine
+            .iter()
+            .flat_map(|s| {
+                s.jobs()
+                    .into_iter()
+                    .map(|spec| new_job(&spec, s.search.exclusive))
+            })
+            .collect();
+        if jobs.is_empty() {
+            continue;
+        }
+        let outcome = coordinator.submit(campaign, &jobs).await?;
+        let new_jobs = outcome.new_jobs + outcome.requeued;
+        if new_jobs > 0 {
+            tracing::info!(campaign = %campaign.id, jobs = new_jobs, "[[tune]]: evaluations issued");
+        }
+        issued.new_jobs += new_jobs;
+    }
+    Ok(issued)
 }
 
 /// How often a coordinator looks whether jobs have finished since its last step.
@@ -106,11 +133,6 @@ async fn step_all(coordinator: &Coordinator, stored: Vec<StoredSearch>) -> anyho
             )),
         }
     }
-    for (campaign, searches) in &campaigns {
-        let issued = step(coordinator, campaign, searches).await?;
-        if issued.new_jobs > 0 {
-            tracing::info!(campaign = %campaign.id, jobs = issued.new_jobs, "[[tune]]: evaluations issued");
-        }
-    }
+    step_campaigns(coordinator, &campaigns).await?;
     Ok(())
 }

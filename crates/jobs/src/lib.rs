@@ -39,4 +39,4 @@ pub use plan::{
 };
 pub use run::{JobError, Record, run};
 pub use spec::{JobSpec, NoopSpec};
-pub use tune::{KNOBS, MINIMISED, TuneGoal, TuneSearch};
+pub use tune::{KNOBS, MINIMISED, TuneGoal, TuneSearch, state_point_of};

@@ -79,10 +79,25 @@ impl TuneSearch {
             .then_some((x, repeat as u32))
     }
 
+    /// What every evaluation of this search has in common: [`state_point_of`] its template.
+    pub fn state_point(&self) -> String {
+        state_point_of(&self.template, &self.knob)
+    }
+
     /// A name for the search: its state point without the knob and the seed.
     pub fn id(&self) -> String {
         self.evaluation(self.range[0], 0).id()
     }
+}
+
+/// A key for `scene` as a search of `knob` sees it: its hash with that knob and the seed
+/// blanked. Two scenes with different keys are never evaluations of one such search; equal keys
+/// are candidates that [`TuneSearch::evaluates`] decides.
+pub fn state_point_of(scene: &edmd::Scene, knob: &str) -> String {
+    let mut blank = scene.clone();
+    set_knob(&mut blank, knob, 0.0);
+    blank.seed = 0;
+    JobSpec::Edmd(blank).id()
 }
 
 fn set_knob(scene: &mut edmd::Scene, knob: &str, x: f64) {

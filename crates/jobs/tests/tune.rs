@@ -57,6 +57,19 @@ fn an_evaluation_is_the_grid_point_of_the_same_scene() {
     let mut far = scene.clone();
     far.seed += 5000;
     assert_eq!(search.evaluates(&far), None, "a seed no repeat has");
+    // The key the driver sorts jobs by: the same for every run of the state point (any knob
+    // value, any seed), another for another state point or another knob's blank.
+    let JobSpec::Edmd(grid_scene) = &grid.jobs[0] else {
+        panic!()
+    };
+    for candidate in [&scene, &far, grid_scene] {
+        assert_eq!(
+            jobs::state_point_of(candidate, "delta_nnl"),
+            search.state_point()
+        );
+    }
+    assert_ne!(other.state_point(), search.state_point());
+    assert_ne!(jobs::state_point_of(&scene, "eps_d"), search.state_point());
 }
 
 #[test]

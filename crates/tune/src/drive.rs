@@ -2,7 +2,10 @@
 //! EDMD jobs (done, failed for good, queued or running), and its next step.
 //!
 //! Nothing is kept between calls: the jobs are the searches' state. A call reads every EDMD job
-//! once (O(jobs) plus O(searches × jobs) matching), which a driver does when a job finishes.
+//! once and hands each to the searches of its state point (O(jobs × knobs searched) hashes, then
+//! O(the state point's jobs) per search), which a driver does when jobs have finished.
+
+use std::collections::{BTreeSet, HashMap};
 
 use edmd::Scene;
 use jobs::{JobSpec, TuneGoal, TuneSearch};
@@ -88,15 +91,25 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
         Vec::new()
     };
     let (failed, pending) = results::edmd_unfinished_scenes(store).await?;
+    let by_point = StatePoints::new(searches);
+    let (wall, cpu) = (
+        by_point.sort(&wall, |r| &r.0),
+        by_point.sort(&cpu, |r| &r.0),
+    );
+    let (failed, pending) = (
+        by_point.sort(&failed, |s| s),
+        by_point.sort(&pending, |s| s),
+    );
     searches
         .iter()
-        .map(|search| {
+        .enumerate()
+        .map(|(i, search)| {
             let (range, goal) = goal_of(search)?;
             let runs = match &search.goal {
-                TuneGoal::Min(f) if f == "tau_c_cpu_us" => &cpu,
-                _ => &wall,
+                TuneGoal::Min(f) if f == "tau_c_cpu_us" => &cpu[i],
+                _ => &wall[i],
             };
-            let (mut done, in_flight) = evaluations(search, runs, &failed, &pending);
+            let (mut done, in_flight) = evaluations(search, runs, &failed[i], &pending[i]);
             let step = crate::next(&range, &goal, &done, &in_flight);
             // Runs of the same scenes outside the range (another search's, a grid's) are not
             // this search's.
@@ -110,15 +123,55 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
         .collect()
 }
 
+/// The searches by state point, to hand each the jobs of its own state point: O(jobs × knobs)
+/// hashes instead of every search looking at every job.
+struct StatePoints<'a> {
+    knobs: BTreeSet<&'a str>,
+    searches: HashMap<(&'a str, String), Vec<usize>>,
+    count: usize,
+}
+
+impl<'a> StatePoints<'a> {
+    fn new(searches: &'a [TuneSearch]) -> Self {
+        let mut by_point: HashMap<(&str, String), Vec<usize>> = HashMap::new();
+        for (i, s) in searches.iter().enumerate() {
+            by_point
+                .entry((s.knob.as_str(), s.state_point()))
+                .or_default()
+                .push(i);
+        }
+        StatePoints {
+            knobs: searches.iter().map(|s| s.knob.as_str()).collect(),
+            searches: by_point,
+            count: searches.len(),
+        }
+    }
+
+    /// `items` handed to the searches whose state point each one's scene is (candidates:
+    /// [`TuneSearch::evaluates`] decides).
+    fn sort<'i, T>(&self, items: &'i [T], scene: impl Fn(&T) -> &Scene) -> Vec<Vec<&'i T>> {
+        let mut sorted = vec![Vec::new(); self.count];
+        for item in items {
+            for &knob in &self.knobs {
+                let key = (knob, jobs::state_point_of(scene(item), knob));
+                for &i in self.searches.get(&key).into_iter().flatten() {
+                    sorted[i].push(item);
+                }
+            }
+        }
+        sorted
+    }
+}
+
 /// A search's evaluations done and in flight. For "loosest safe", a run is judged against the
 /// run of the tightest value (repeat 0): until that one is done the others count as in flight.
 fn evaluations(
     search: &TuneSearch,
-    runs: &[(Scene, EdmdRow)],
-    failed: &[Scene],
-    pending: &[Scene],
+    runs: &[&(Scene, EdmdRow)],
+    failed: &[&Scene],
+    pending: &[&Scene],
 ) -> (Vec<Evaluation>, Vec<Proposal>) {
-    let mine = |scene: &Scene| search.evaluates(scene);
+    let mine = |scene: &&Scene| search.evaluates(scene);
     let mut in_flight: Vec<Proposal> = pending
         .iter()
         .filter_map(mine)
@@ -133,15 +186,15 @@ fn evaluations(
             outcome: Outcome::Failed,
         })
         .collect();
-    let is_reference = |scene: &Scene| mine(scene) == Some((search.range[0], 0));
+    let is_reference = |scene: &&Scene| mine(scene) == Some((search.range[0], 0));
     let reference = runs
         .iter()
-        .find(|(scene, _)| is_reference(scene))
+        .find(|(scene, _)| is_reference(&scene))
         .map(|(_, row)| row);
     // Without a reference that will ever be done, a run cannot be judged: left out.
     let reference_failed = failed.iter().any(is_reference);
-    for (scene, row) in runs {
-        let Some((x, repeat)) = mine(scene) else {
+    for (scene, row) in runs.iter().copied() {
+        let Some((x, repeat)) = mine(&scene) else {
             continue;
         };
         let outcome = match (&search.goal, reference) {
