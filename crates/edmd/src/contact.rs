@@ -179,8 +179,18 @@ pub fn predict<S: Surface>(
             // zeros, the parting one at its start and the contact sought: refined, it would give
             // the parting one, a collision of separating bodies at once, predicted anew for ever.
             // Halve the step until it ends apart (d grows from t, so it will): the contact
-            // sought then lies beyond, bracketed from a positive distance.
-            (Some((tl, l)), Some(n)) if tl == t && l.d <= 0.0 && n.d < 0.0 => {
+            // sought then lies beyond, bracketed from a positive distance. Only where the
+            // bodies part at t and approach at tn: a contact reached by a step (d rounded to
+            // ±0 at t, approaching) is refined below, and an overlap the bodies are still
+            // leaving at tn (a slow parting within a step of a tight ε_d) holds no second zero.
+            // Halving either of those made a Zeno sequence of steps at ε_d = 1e-7.
+            (Some((tl, l)), Some(n))
+                if tl == t
+                    && l.d <= 0.0
+                    && n.d < 0.0
+                    && !approaching(sa, a, b, &l, t)
+                    && approaching(sa, a, b, &n, tn) =>
+            {
                 parting_halvings += 1;
                 if parting_halvings > MAX_PARTING_HALVINGS {
                     search.stats.failures += 1;
