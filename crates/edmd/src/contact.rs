@@ -84,6 +84,12 @@ pub fn predict<S: Surface>(
         }
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
         let gap = separating_axis(sa, &pa, sb, &pb);
+        // A small gap may still prove the horizon free (a pair parting, a close horizon): then
+        // no distance is needed at all.
+        let safe = gap.safe_time(sa, a, sb, b);
+        if t + safe > t2 {
+            return None;
+        }
         if gap.gap <= FAR_GAP {
             // The support points are nearly the closest points: Newton–Raphson starts there.
             let (xa, xb) = (pa.r + gap.offset_a, pb.r + gap.offset_b);
@@ -96,10 +102,7 @@ pub fn predict<S: Surface>(
                 beta,
             };
         }
-        t += gap.safe_time(sa, a, sb, b);
-        if t > t2 {
-            return None;
-        }
+        t += safe;
     };
     let mut cur = search.dist(t, Some(&near));
     if let Some(d0) = cur
@@ -119,6 +122,23 @@ pub fn predict<S: Surface>(
     // and 10 the jump saved few distances and its overshoots deep into overlaps cost hundreds
     // of Newton–Raphson fallbacks per 10⁴ collisions.
     let mut secant = sa.max_curvature_radius().is_finite() && sb.max_curvature_radius().is_finite();
+    if secant
+        && let Some(c) = cur
+        && c.d > p.eps_d
+    {
+        // The speculative jump (below) made at once, from the first distance and its exact slope
+        // ḋ instead of a secant through two: measured at X0 = 2, φ = 0.5, it finds 97 % of the
+        // contacts it tries, and saves the step a secant needs. Tried once a search, either way.
+        secant = false;
+        let slope = search.slope(t, &c);
+        let ts = t + 1.5 * c.d / -slope;
+        if slope < 0.0
+            && ts <= t2
+            && let Jump::Hit(h) = search.speculate(t, &c, ts)
+        {
+            return Some(h);
+        }
+    }
     // Halvings of the first step from a contact the bodies are leaving (see the parting arm below).
     let mut parting_halvings = 0;
     for _ in 0..MAX_STEPS {
@@ -223,20 +243,10 @@ pub fn predict<S: Surface>(
                 // it, else the stepping goes on as if the jump had not been tried (once a search).
                 let ts = tn + 1.5 * n.d * (tn - t) / (l.d - n.d);
                 if ts <= t2 {
-                    let failures_before = search.stats.failures;
-                    match search.dist(ts, Some(&n)) {
-                        Some(sd) if sd.d < 0.0 => {
-                            secant = false;
-                            if let Some(h) = search.refine(tn, &n, ts, &sd)
-                                && search.first_contact_after(tn, &n, &h)
-                            {
-                                return Some(h);
-                            }
-                            search.stats.failures = failures_before;
-                        }
-                        // Overshooting into a deep overlap is expected, not a solver failure.
-                        None => search.stats.failures = failures_before,
-                        _ => {}
+                    match search.speculate(tn, &n, ts) {
+                        Jump::Hit(h) => return Some(h),
+                        Jump::Unproved => secant = false,
+                        Jump::Short => {}
                     }
                 }
             }
@@ -264,8 +274,10 @@ pub fn predict<S: Surface>(
 }
 
 /// Below this separating-axis gap (in units of σ) the contact search switches from the cheap
-/// bounds to Newton–Raphson distances. Only a matter of speed: both ways are rigorous.
-pub const FAR_GAP: f64 = 0.01;
+/// bounds to Newton–Raphson distances. Only a matter of speed: both ways are rigorous. 0.001
+/// rather than 0.01: 10.7 instead of 11.7 distances per collision for ellipsoids X0 = 2,
+/// φ = 0.5, NNL, and fewer for every superquadric of the hard-case suite's short runs.
+pub const FAR_GAP: f64 = 0.001;
 
 /// The best separating axis found between two placed bodies: the support gap along `n` (a lower
 /// bound on their distance), and the offsets of the support points from the centres (lab frame).
@@ -386,6 +398,16 @@ fn approaching<S: Surface>(sa: &S, a: &Body, b: &Body, d: &Distance, t: f64) -> 
     let xc = (d.xa + d.xb) * 0.5;
     let u = (a.v + a.w.cross(&(xc - pa.r))) - (b.v + b.w.cross(&(xc - pb.r)));
     u.dot(&n) > 0.0
+}
+
+/// What a speculative jump past the estimated contact found.
+enum Jump {
+    /// The first contact, proved.
+    Hit(Hit),
+    /// An overlap at the end of the jump, but no contact proved the first.
+    Unproved,
+    /// The bodies still apart at its end: nothing learnt.
+    Short,
 }
 
 struct Search<'a, S: Surface> {
@@ -514,9 +536,50 @@ impl<S: Surface> Search<'_, S> {
         d
     }
 
+    /// A speculative jump from t0 (the bodies `d0` apart) to ts, past the estimated contact: where
+    /// it lands in an overlap, the contact refined from [t0, ts] if it is proved the first after
+    /// t0 ([`Search::first_contact_after`]). Landing deep in an overlap, where no distance exists,
+    /// is expected and not counted as a solver failure.
+    fn speculate(&mut self, t0: f64, d0: &Distance, ts: f64) -> Jump {
+        let failures_before = self.stats.failures;
+        match self.dist(ts, Some(d0)) {
+            Some(sd) if sd.d < 0.0 => {
+                if let Some(h) = self.refine(t0, d0, ts, &sd)
+                    && self.first_contact_after(t0, d0, &h)
+                {
+                    return Jump::Hit(h);
+                }
+                self.stats.failures = failures_before;
+                Jump::Unproved
+            }
+            Some(_) => Jump::Short,
+            None => {
+                self.stats.failures = failures_before;
+                Jump::Short
+            }
+        }
+    }
+
     /// Steps 5 and 6a: the bracket [t_lo, t_hi] holds a sign change of d.
+    ///
+    /// Newton–Raphson on Eqs. (30) starts first from what the bracket already tells, without a
+    /// distance: the first zero of the parabola through both ends with the exact slope ḋ at t_lo
+    /// ([`Search::slope`]), and the closest points of t_lo carried there with their bodies. Only
+    /// where that fails, the paper's way: distances at the middle and at the parabola's zero.
     fn refine(&mut self, t_lo: f64, d_lo: &Distance, t_hi: f64, d_hi: &Distance) -> Option<Hit> {
         let tm = 0.5 * (t_lo + t_hi);
+        let (h, slope) = (t_hi - t_lo, self.slope(t_lo, d_lo));
+        let curv = (d_hi.d - d_lo.d - slope * h) / (h * h);
+        let dm = d_lo.d + slope * 0.5 * h + curv * 0.25 * h * h;
+        if let Some(tz) = first_zero_of_parabola(t_lo, d_lo.d, tm, dm, t_hi, d_hi.d) {
+            let x = self.carried_midpoint(t_lo, d_lo, tz);
+            // A bracket may hold an exit too: a contact of parting bodies is not the one sought.
+            if let Some(hit) = self.newton_contact(x, d_lo.alpha, tz, t_lo, t_hi)
+                && self.closing_at(&hit)
+            {
+                return Some(hit);
+            }
+        }
         let mut w = *d_lo;
         let dm = self.probe(tm, &mut w);
         let tz = if dm.is_finite() {
@@ -528,7 +591,10 @@ impl<S: Surface> Search<'_, S> {
         let mut w = *d_lo;
         let dz = self.probe(tz, &mut w);
         let start = if dz.is_finite() { w } else { *d_lo };
-        if let Some(h) = self.newton_contact(&start, tz, t_lo, t_hi) {
+        let x = (start.xa + start.xb) * 0.5;
+        if let Some(h) = self.newton_contact(x, start.alpha, tz, t_lo, t_hi)
+            && self.closing_at(&h)
+        {
             return Some(h);
         }
         self.stats.contact_fallbacks += 1;
@@ -581,11 +647,17 @@ impl<S: Surface> Search<'_, S> {
         None
     }
 
-    /// Newton–Raphson on Eqs. (30) with the Jacobian of Eq. (31); unknowns (x, α, t).
-    fn newton_contact(&mut self, start: &Distance, t0: f64, t_lo: f64, t_hi: f64) -> Option<Hit> {
+    /// Newton–Raphson on Eqs. (30) with the Jacobian of Eq. (31); unknowns (x, α, t), started from
+    /// the point `x`, the multiplier `alpha` and the time `t0`.
+    fn newton_contact(
+        &mut self,
+        mut x: V3,
+        mut alpha: f64,
+        t0: f64,
+        t_lo: f64,
+        t_hi: f64,
+    ) -> Option<Hit> {
         let (a, b) = (self.a, self.b);
-        let mut x = (start.xa + start.xb) * 0.5;
-        let mut alpha = start.alpha;
         let mut t = t0;
         let tol = self.p.tol;
         let slack = 1e-9 * (t_hi - t_lo) + 1e-15 * t_hi.abs();
@@ -643,6 +715,33 @@ impl<S: Surface> Search<'_, S> {
             }
         }
         None
+    }
+
+    /// ḋ at `t`, where the bodies are `d` apart: the closest points' relative velocity along the
+    /// normal (the terms of the turning normal vanish, x_B − x_A being parallel to it).
+    fn slope(&self, t: f64, d: &Distance) -> f64 {
+        let (a, b) = (self.a, self.b);
+        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        let n = self.sa.place(&pa).grad(&d.xa).normalize();
+        let ua = a.v + a.w.cross(&(d.xa - pa.r));
+        let ub = b.v + b.w.cross(&(d.xb - pb.r));
+        n.dot(&(ub - ua))
+    }
+
+    /// Whether the bodies approach at the contact `h` (the collision rule's u·n > 0).
+    fn closing_at(&self, h: &Hit) -> bool {
+        let (a, b) = (self.a, self.b);
+        let (pa, pb) = (a.pose_after(h.t), b.pose_after(h.t));
+        let u = (a.v + a.w.cross(&(h.xc - pa.r))) - (b.v + b.w.cross(&(h.xc - pb.r)));
+        u.dot(&h.n) > 0.0
+    }
+
+    /// The midpoint of the closest points of time `t`, each carried with its body to time `to`.
+    fn carried_midpoint(&self, t: f64, d: &Distance, to: f64) -> V3 {
+        let (a, b) = (self.a, self.b);
+        let xa = a.pose_after(to).to_lab(&a.pose_after(t).to_body(&d.xa));
+        let xb = b.pose_after(to).to_lab(&b.pose_after(t).to_body(&d.xb));
+        (xa + xb) * 0.5
     }
 
     /// Fallback when Newton–Raphson on Eqs. (30) fails: bisection of d(t) to the Brent tolerance.

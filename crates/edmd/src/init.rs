@@ -51,6 +51,21 @@ impl Geom {
         }
     }
 
+    /// [`Geom::contact_scale`], or `None` where it is proved above `k` without being computed
+    /// (ellipsoids, [`crate::pw::contact_scale_unless_above`]).
+    pub fn contact_scale_unless_above(
+        &self,
+        rot_a: &M3,
+        rot_b: &M3,
+        r: &V3,
+        k: f64,
+    ) -> Option<f64> {
+        match self {
+            Geom::Ellipsoid(e) => crate::pw::contact_scale_unless_above(e, rot_a, e, rot_b, r, k),
+            _ => Some(self.contact_scale(rot_a, rot_b, r)),
+        }
+    }
+
     /// Cheap certificate that the bodies, both scaled by `k` about their centres, do not touch:
     /// their bounding spheres or their bounding boxes are disjoint.
     pub fn surely_apart(&self, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
@@ -429,11 +444,14 @@ impl Packing {
         out.clear();
         self.near.all_around(p, |j| {
             let r = min_image(self.pos[j] - p, self.l);
-            if j != i && !self.geom.surely_apart(q, &self.rot[j], &r, 1.0) {
-                let mu = self.geom.contact_scale(q, &self.rot[j], &r);
-                if mu <= 1.0 + GAP {
-                    out.push((j, mu));
-                }
+            if j != i
+                && !self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
+                && let Some(mu) =
+                    self.geom
+                        .contact_scale_unless_above(q, &self.rot[j], &r, 1.0 + GAP)
+                && mu <= 1.0 + GAP
+            {
+                out.push((j, mu));
             }
             true
         });
@@ -445,7 +463,10 @@ impl Packing {
             let r = min_image(self.pos[j] - p, self.l);
             j == i
                 || self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
-                || self.geom.contact_scale(q, &self.rot[j], &r) > 1.0 + GAP
+                || self
+                    .geom
+                    .contact_scale_unless_above(q, &self.rot[j], &r, 1.0 + GAP)
+                    .is_none_or(|mu| mu > 1.0 + GAP)
         })
     }
 

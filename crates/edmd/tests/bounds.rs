@@ -1,7 +1,7 @@
 //! The contact-free intervals that prune and shorten contact searches, against the independent
 //! Perram–Wertheim overlap test: within a claimed interval the bodies never overlap.
 
-use edmd::contact::separating_axis;
+use edmd::contact::{ContactParams, predict, separating_axis};
 use edmd::distance::{SolverStats, Tolerances, distance};
 use edmd::ellipsoid::Ellipsoid;
 use edmd::geometry::{M3, Placed, Surface, V3};
@@ -74,6 +74,29 @@ proptest! {
         prop_assert!(lower >= 0.0 && gap.closing_estimate(&a, &b) >= 0.0);
         let scale = min_scale(&e, &a, &b, lower.min(3.0), 600);
         prop_assert!(scale > 1.0 - 1e-9, "overlap {scale} before the bound {lower}");
+    }
+
+    /// The whole search, with its speculative jumps and its refinement from the bracket alone:
+    /// the predicted contact is a contact, approached, and nothing overlaps before it.
+    #[test]
+    fn the_predicted_contact_is_the_first_and_the_bodies_approach_there((e, a, b) in pair()) {
+        let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
+        let params = ContactParams { eps_d: 1e-5, brent_tol: 1e-12, tol: Tolerances::default() };
+        let mut stats = SolverStats::default();
+        let horizon = 3.0;
+        let hit = predict(&e, &a, &e, &b, horizon, &params, &mut stats);
+        prop_assert_eq!(stats.failures, 0);
+        let end = hit.map_or(horizon, |h| h.t);
+        let scale = min_scale(&e, &a, &b, end, 600);
+        prop_assert!(scale > 1.0 - 1e-9, "overlap {scale} before {hit:?}");
+        if let Some(h) = hit {
+            let (pa, pb) = (a.pose_after(h.t), b.pose_after(h.t));
+            let at = contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r));
+            prop_assert!((at - 1.0).abs() < 1e-8, "contact scale {at} at the contact");
+            let u = (a.v + a.w.cross(&(h.xc - pa.r))) - (b.v + b.w.cross(&(h.xc - pb.r)));
+            prop_assert!(u.dot(&h.n) > 0.0, "parting at the contact");
+        }
     }
 }
 
