@@ -96,6 +96,13 @@ pub fn run_with_hooks(
     hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
     scene.validate()?;
+    if scene.is_mixture() {
+        return Err(EdmdError::Scene(crate::SceneError::Invalid {
+            key: "species",
+            line: None,
+            reason: "mixtures are not simulated yet".into(),
+        }));
+    }
     let [a, b, c] = scene.semi_axes();
     // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4 (and,
     // for superquadrics, of the sphere inscribed in the ellipsoid inscribed in them).
