@@ -95,7 +95,7 @@ pub mod state;
 pub mod superquadric;
 pub mod support_distance;
 
-pub use report::{FinalState, ParticleDump, RunReport};
+pub use report::{FinalState, PairReport, ParticleDump, RunReport, SpeciesReport};
 pub use run::{Frame, FrameEvery, HookResult, Hooks, run, run_with_hooks, run_with_state};
 pub use scene::{
     Neighbours, Scene, SceneError, ShapeKind, default_delta_nnl, default_neighbours,

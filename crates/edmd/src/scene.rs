@@ -540,7 +540,10 @@ impl Scene {
             if s.shape != ShapeKind::Sphere {
                 return bad(
                     "shape",
-                    format!("species {k}: mixtures are of spheres for now, got {:?}", s.shape),
+                    format!(
+                        "species {k}: mixtures are of spheres for now, got {:?}",
+                        s.shape
+                    ),
                 );
             }
             if !(s.diameter.is_finite() && s.diameter > 0.0) {
@@ -748,7 +751,11 @@ mod species_tests {
         let cases = [
             ("fraction = 0.5", "fraction = 0.6", "fraction"),
             ("diameter = 1.4", "diameter = -1.0", "diameter"),
-            ("polydispersity = 0.08", "polydispersity = 0.3", "polydispersity"),
+            (
+                "polydispersity = 0.08",
+                "polydispersity = 0.3",
+                "polydispersity",
+            ),
             ("diameter = 1.4\n", "diameter = 1.4\nshape2 = 1\n", ""),
         ];
         for (from, to, key) in cases {
@@ -767,9 +774,17 @@ mod species_tests {
                 _ => panic!("{e}"),
             }
         }
-        let e = Scene::from_toml_str(&BINARY.replace("n = 1000", "n = 2\nshape = \"sphere\"").replace("0.5\n", "0.2\n").replacen("fraction = 0.2", "fraction = 0.8", 1)).unwrap_err();
+        let e = Scene::from_toml_str(
+            &BINARY
+                .replace("n = 1000", "n = 2\nshape = \"sphere\"")
+                .replace("0.5\n", "0.2\n")
+                .replacen("fraction = 0.2", "fraction = 0.8", 1),
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("rounds to no body"), "{e}");
-        let e = Scene::from_toml_str(&BINARY.replace("n = 1000", "n = 1000\nshape = \"ellipsoid\"")).unwrap_err();
+        let e =
+            Scene::from_toml_str(&BINARY.replace("n = 1000", "n = 1000\nshape = \"ellipsoid\""))
+                .unwrap_err();
         assert!(matches!(e, SceneError::Invalid { key: "shape", .. }), "{e}");
     }
 

@@ -429,7 +429,12 @@ fn toml_integer(value: &DeValue<'_>) -> Option<Result<i128, String>> {
 fn table_value(table: &DeTable<'_>, key: &str) -> Result<toml::Value, Issue> {
     table
         .iter()
-        .map(|(k, v)| Ok((k.get_ref().to_string(), scalar_value(v.get_ref(), v.span(), key)?)))
+        .map(|(k, v)| {
+            Ok((
+                k.get_ref().to_string(),
+                scalar_value(v.get_ref(), v.span(), key)?,
+            ))
+        })
         .collect::<Result<toml::Table, Issue>>()
         .map(toml::Value::Table)
 }

@@ -996,9 +996,12 @@ fn species_tables_make_mixture_points_and_leave_one_species_ids_alone() {
     assert_eq!(swept.jobs.len(), 2);
     assert!(ids(&swept).contains(&plan.jobs[0].id()));
     // A bad fraction names its key.
-    let e = Plan::parse(&binary.replacen("fraction = 0.5", "fraction = 0.4", 1), "p.toml")
-        .unwrap_err()
-        .to_string();
+    let e = Plan::parse(
+        &binary.replacen("fraction = 0.5", "fraction = 0.4", 1),
+        "p.toml",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("fraction"), "{e}");
     // No species: the id pinned before the key existed.
     let sphere = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n");
