@@ -165,3 +165,50 @@ fn one_size_runs_as_before_species_existed() {
         }
     }
 }
+
+/// Size-polydisperse spheres (one species, δ = 12 %): Z within the errors of BMCSL evaluated on
+/// the moments of the diameters the run drew (`mixture_sizes`, the same draw from the same
+/// seed), 0 overlaps, the drift bound, and the initial state at the requested φ = Σ π σ³/6 / V.
+#[test]
+fn polydisperse_spheres_follow_bmcsl_on_their_own_moments() {
+    let mut s = Scene::new(ShapeKind::Sphere, 500, 0.4);
+    s.species = Some(vec![Species {
+        shape: ShapeKind::Sphere,
+        diameter: 1.0,
+        fraction: 1.0,
+        polydispersity: 0.12,
+    }]);
+    s.collisions = 150_000;
+    s.equilibrate = 30_000;
+    assert!(s.is_mixture());
+    let (sizes, species) = edmd::run::mixture_sizes(&s, &mut edmd::rng::Rng::new(s.seed));
+    assert!(species.iter().all(|&k| k == 0));
+    let n = sizes.len() as f64;
+    let xi = [0, 1, 2, 3].map(|k| sizes.iter().map(|d| d.powi(k)).sum::<f64>() / n);
+    // The spread drawn: 12 % truncated at 3σ (0.986 of it), within sampling error at N = 500.
+    let spread = (xi[2] - xi[1] * xi[1]).sqrt() / xi[1];
+    assert!((spread - 0.986 * 0.12).abs() < 0.01, "spread {spread}");
+    assert!(sizes.iter().all(|&d| (d - 1.0).abs() <= 3.0 * 0.12 + 1e-12));
+    let r = go(&s);
+    let volume: f64 = sizes
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d.powi(3))
+        .sum();
+    assert!(
+        (volume / r.box_length.powi(3) - 0.4).abs() < 1e-12,
+        "φ of the box"
+    );
+    let z = bmcsl(0.4, xi);
+    eprintln!(
+        "polydisperse 12 %: Z {:.4} ± {:.4} BMCSL {z:.4}",
+        r.pressure_z, r.pressure_z_err
+    );
+    assert!(
+        (r.pressure_z - z).abs() < 4.0 * r.pressure_z_err + 0.006 * z,
+        "Z {} vs {z}",
+        r.pressure_z
+    );
+    let sp = r.species.expect("species");
+    assert_eq!(sp.pairs.len(), 1);
+    assert_eq!(sp.pairs[0].collisions, r.collisions);
+}

@@ -606,7 +606,8 @@ fn expand_scenes(
     let has = |key: &str| columns.iter().any(|(k, _)| *k == key);
     for key in EDMD_REQUIRED {
         // A mixture's shape is its species' (edmd::fill_shape_defaults).
-        if !has(key) && !(key == "shape" && has("species")) {
+        let given = has(key) || (key == "shape" && has("species"));
+        if !given {
             return Err(Issue::new(
                 header,
                 Some(key),
