@@ -3,7 +3,6 @@
 
 use std::time::Instant;
 
-use crate::ball::Ball;
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
 use crate::contact::bounding_sphere_window;
@@ -119,7 +118,17 @@ impl<M: FirstCollision> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl)?;
+                let lists = if M::SIZED {
+                    Lists::<M::Region>::build_each(
+                        &surf,
+                        |i| m.surface_of(i),
+                        &bodies,
+                        l,
+                        scene.delta_nnl,
+                    )?
+                } else {
+                    Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl)?
+                };
                 let escape_at = bodies
                     .iter()
                     .enumerate()
@@ -263,7 +272,7 @@ impl<M: FirstCollision> Engine<M> {
     /// Body `i` reached the face of its box: a new box and list for it alone, then its events.
     fn rebuild_box(&mut self, i: usize) {
         self.advance_body(i);
-        let surf = self.m.surface();
+        let surf = self.m.surface_of(i);
         let Neighbourhood::Nnl {
             lists,
             escape_at,
@@ -285,7 +294,7 @@ impl<M: FirstCollision> Engine<M> {
 
     /// After a collision: the escape time of `i` follows its new trajectory (Sec. 3.5, 5c).
     fn update_escape(&mut self, i: usize) {
-        let surf = self.m.surface();
+        let surf = self.m.surface_of(i);
         if let Neighbourhood::Nnl {
             lists,
             escape_at,
@@ -484,9 +493,7 @@ impl FirstCollision for MixedSphereModel {
 /// [`MIXED`](Self::MIXED) is a constant, so that spheres of one size compute one σ² per prediction
 /// and never read a size, while a mixture reads each partner's radius (a second array beside the
 /// bodies with cells; the spare word of each gathered [`Trajectory`] with lists).
-pub(crate) trait Spheres:
-    Model<Extra = (), Region = Ball, Shape = crate::ellipsoid::Ellipsoid>
-{
+pub(crate) trait Spheres: Model<Extra = (), Shape = crate::ellipsoid::Ellipsoid> {
     const MIXED: bool;
     /// The radius of body `i` (read only where [`MIXED`](Self::MIXED)).
     fn radius(&self, i: usize) -> f64;

@@ -1,7 +1,7 @@
 //! The body models the event loop is generic over: what one particle kind costs to simulate,
 //! from its shape to its collision rule and the contact-time search of one pair.
 
-use crate::ball::Ball;
+use crate::ball::{Ball, SizedBall};
 use crate::contact::{ContactParams, predict, separating_axis};
 use crate::distance::SolverStats;
 use crate::ellipsoid::Ellipsoid;
@@ -24,6 +24,14 @@ pub(crate) trait Model {
     /// and time).
     const ROTATES: bool;
     fn surface(&self) -> Self::Shape;
+    /// Body `i`'s own shape, which its neighbour-list region is built around: [`surface`]
+    /// (Self::surface) unless bodies differ in size.
+    #[inline(always)]
+    fn surface_of(&self, _i: usize) -> Self::Shape {
+        self.surface()
+    }
+    /// Whether bodies differ in size, so that lists are built around each one's own shape.
+    const SIZED: bool = false;
     /// Applies the collision of `a` with the image of `b` displaced by `offset`; returns the
     /// impulse given to `b`, or `None` if the bodies separate. `pair` holds their indices, which
     /// only a model with per-body sizes reads.
@@ -164,13 +172,18 @@ impl MixedSphereModel {
 
 impl Model for MixedSphereModel {
     type Extra = ();
-    type Region = Ball;
+    type Region = SizedBall;
     type Shape = Ellipsoid;
     const ROTATES: bool = false;
-    /// The largest sphere: what cells and lists are sized for.
+    /// The largest sphere: what cells and the neighbour-list grid are sized for.
     fn surface(&self) -> Ellipsoid {
         Ellipsoid::new(self.r_max, self.r_max, self.r_max)
     }
+    fn surface_of(&self, i: usize) -> Ellipsoid {
+        let r = self.radius[i];
+        Ellipsoid::new(r, r, r)
+    }
+    const SIZED: bool = true;
     fn collide(
         &mut self,
         [i, j]: [usize; 2],

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use crate::EdmdError;
 use crate::audit::{audit, audit_spheres};
-use crate::ball::Ball;
+use crate::ball::{Ball, SizedBall};
 use crate::contact::ContactParams;
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
@@ -374,10 +374,10 @@ pub(crate) trait Saves: FirstCollision + Sized {
 }
 
 impl Saves for MixedSphereModel {
-    fn wrap(_: EngineState<(), Ball>) -> Option<SavedEngine> {
+    fn wrap(_: EngineState<(), SizedBall>) -> Option<SavedEngine> {
         None
     }
-    fn unwrap(_: SavedEngine) -> Option<EngineState<(), Ball>> {
+    fn unwrap(_: SavedEngine) -> Option<EngineState<(), SizedBall>> {
         None
     }
     fn audit(eng: &Engine<Self>, _: &Geom, tol: f64) -> u64 {
