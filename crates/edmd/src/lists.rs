@@ -693,7 +693,7 @@ mod tests {
     fn sized_ball_lists_match_brute_force_for_each_pair_of_sizes() {
         use crate::ball::SizedBall;
         let delta = 0.2;
-        let radius = |i: usize| if i % 2 == 0 { 0.5 } else { 1.0 };
+        let radius = |i: usize| if i.is_multiple_of(2) { 0.5 } else { 1.0 };
         let sphere = |i: usize| Ellipsoid::new(radius(i), radius(i), radius(i));
         let largest = sphere(1);
         let within = |k: f64| {
@@ -706,14 +706,14 @@ mod tests {
             let mut lists =
                 Lists::<SizedBall>::build_each(&largest, sphere, &b, l, delta).expect("limits");
             let (must, may) = (within(1.0 - 1e-12), within(1.0 + 1e-12));
-            same(&lists, &must, &may, "after the build");
+            same(&lists, must, may, "after the build");
             let mut rng = crate::rng::Rng::new(11);
             for step in 0..200 {
                 let i = step * 7 % n;
                 b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
                 lists.rebuild(&sphere(i), i, &b[i]).expect("limits");
             }
-            same(&lists, &must, &may, "after the rebuilds");
+            same(&lists, must, may, "after the rebuilds");
             // Some small pairs are farther apart than their own reach but within the largest.
             let small_far = (0..n).step_by(2).any(|i| {
                 (0..n).step_by(2).any(|j| {
