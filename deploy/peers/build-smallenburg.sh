@@ -25,7 +25,11 @@ grep -q 'seed = sweep_seed;' "$out/mdSingle.c" || { echo "the seed not found: an
 cp "$repo/deploy/peers/smallenburg-main.c" "$repo/deploy/peers/smallenburg-file-main.c" "$out/"
 gcc -O3 -ffast-math -funroll-loops -march=native -w -I"$out" \
     "$out/smallenburg-main.c" -o "$out/md-single" -lm
-# The same peer started from a configuration file with radii (polydisperse spheres, mixtures).
+# The same peer started from a configuration file with radii (polydisperse spheres, mixtures),
+# with room for 48 neighbours instead of 24 (as its "Too many neighbors. Increase MAXNEIGH."
+# asks: a small sphere among 12 % polydisperse ones at φ = 0.45 has more than 24).
+sed -e 's/^#define MAXNEIGH 24$/#define MAXNEIGH 48/' "$out/mdSingle.c" > "$out/mdSingle-file.c"
+grep -q '^#define MAXNEIGH 48$' "$out/mdSingle-file.c" || { echo "MAXNEIGH not found: another version?" >&2; exit 1; }
 gcc -O3 -ffast-math -funroll-loops -march=native -w -I"$out" \
     "$out/smallenburg-file-main.c" -o "$out/md-single-file" -lm
 echo "$out/md-single"

@@ -20,7 +20,7 @@ char* realpath(const char* path, char* resolved);
 
 unsigned long sweep_seed = 1;
 
-#include "mdSingle.c"
+#include "mdSingle-file.c"
 
 static double now_s(clockid_t clock)
 {
