@@ -118,17 +118,14 @@ impl<M: FirstCollision> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists = if M::SIZED {
-                    Lists::<M::Region>::build_each(
-                        &surf,
-                        |i| m.surface_of(i),
-                        &bodies,
-                        l,
-                        scene.delta_nnl,
-                    )?
-                } else {
-                    Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl)?
-                };
+                // Each body's region around its own shape (the same for all but mixtures).
+                let lists = Lists::<M::Region>::build_each(
+                    &surf,
+                    |i| m.surface_of(i),
+                    &bodies,
+                    l,
+                    scene.delta_nnl,
+                )?;
                 let escape_at = bodies
                     .iter()
                     .enumerate()

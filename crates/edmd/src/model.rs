@@ -30,8 +30,6 @@ pub(crate) trait Model {
     fn surface_of(&self, _i: usize) -> Self::Shape {
         self.surface()
     }
-    /// Whether bodies differ in size, so that lists are built around each one's own shape.
-    const SIZED: bool = false;
     /// Applies the collision of `a` with the image of `b` displaced by `offset`; returns the
     /// impulse given to `b`, or `None` if the bodies separate. `pair` holds their indices, which
     /// only a model with per-body sizes reads.
@@ -123,13 +121,17 @@ impl Model for SphereModel {
 /// compiled without any per-body size: the engine is monomorphised on the model, and the sphere
 /// path asks [`MIXED`](crate::engine::Spheres::MIXED), a constant, whether to read sizes at all.
 /// A scene with one species of one size runs [`SphereModel`] and never looks a species up.
+/// Per-pair costs: one radius read per candidate (with lists, from the spare word of the gathered
+/// [`Trajectory`]), masses in the collision; lists are built of [`SizedBall`]s, so that a small
+/// sphere's list holds only the spheres it can meet before a rebuild, while the cells of the
+/// list grid and of linked cells are sized for the largest pair.
 pub(crate) struct MixedSphereModel {
     /// Per body, in the engine's order.
     pub(crate) radius: Vec<f64>,
     mass: Vec<f64>,
     pub(crate) species: Vec<u16>,
     species_count: usize,
-    /// The largest radius: the cells and neighbour lists are sized for the largest pair.
+    /// The largest radius: cells are sized for the largest pair.
     r_max: f64,
     /// Collisions and collision virial Σ r·Δp per unordered pair of species (index
     /// [`pair_index`](Self::pair_index)).
@@ -183,7 +185,6 @@ impl Model for MixedSphereModel {
         let r = self.radius[i];
         Ellipsoid::new(r, r, r)
     }
-    const SIZED: bool = true;
     fn collide(
         &mut self,
         [i, j]: [usize; 2],
