@@ -39,6 +39,48 @@ impl Region for Ball {
     }
 }
 
+/// A [`Ball`] that knows the size of its body, for bodies of several sizes (a sphere mixture):
+/// two are neighbours only when their bodies can meet before either leaves its ball, i.e. when
+/// their centres are at most r_i + r_j + 2Δ apart, rather than the 2 (r_max + Δ) of the largest
+/// pair. A small sphere's list then holds the spheres within its own reach, not the reach of
+/// the largest ones.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SizedBall {
+    pub c: V3,
+    pub delta: f64,
+    /// The body's bounding radius.
+    pub radius: f64,
+}
+
+impl Region for SizedBall {
+    /// `s` is the body's own surface.
+    fn around<S: Surface>(s: &S, body: &Body, delta: f64) -> Self {
+        SizedBall {
+            c: body.r,
+            delta,
+            radius: s.bounding_radius(),
+        }
+    }
+
+    /// `s` is the largest body's surface.
+    fn reach<S: Surface>(s: &S, delta: f64) -> f64 {
+        2.0 * (s.bounding_radius() + delta)
+    }
+
+    fn centre(&self) -> &V3 {
+        &self.c
+    }
+
+    fn overlaps(&self, other: &Self, shift: &V3, _: f64) -> bool {
+        let reach = self.radius + other.radius + self.delta + other.delta;
+        (other.c + shift - self.c).norm_squared() <= reach * reach
+    }
+
+    fn escape_time<S: Surface>(&self, _: &S, body: &Body, _: f64) -> f64 {
+        leaves_ball(&(body.r - self.c), &body.v, self.delta)
+    }
+}
+
 /// When a point at `p` from the centre, moving at `v`, reaches distance `delta`: the positive root
 /// of |p + v t|² = δ², without cancellation. A point already outside (by rounding) leaves now.
 pub fn leaves_ball(p: &V3, v: &V3, delta: f64) -> f64 {

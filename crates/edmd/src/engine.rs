@@ -8,7 +8,7 @@ use crate::cells::Cells;
 use crate::contact::bounding_sphere_window;
 use crate::geometry::{Surface, V3, image_offset};
 use crate::lists::{Lists, Region};
-use crate::model::{Model, RigidModel, SphereModel};
+use crate::model::{MixedSphereModel, Model, RigidModel, SphereModel};
 use crate::rigid::Body;
 use crate::scene::{Neighbours, Scene};
 use crate::sequence::Fingerprint;
@@ -121,7 +121,14 @@ impl<M: FirstCollision> Engine<M> {
             }
             Neighbours::Nnl => {
                 let surf = m.surface();
-                let lists = Lists::<M::Region>::build(&surf, &bodies, l, scene.delta_nnl)?;
+                // Each body's region around its own shape (the same for all but mixtures).
+                let lists = Lists::<M::Region>::build_each(
+                    &surf,
+                    |i| m.surface_of(i),
+                    &bodies,
+                    l,
+                    scene.delta_nnl,
+                )?;
                 let escape_at = bodies
                     .iter()
                     .enumerate()
@@ -134,7 +141,11 @@ impl<M: FirstCollision> Engine<M> {
                 }
             }
         };
-        let ke_trans = bodies.iter().map(|b| 0.5 * b.v.norm_squared()).sum();
+        let ke_trans = bodies
+            .iter()
+            .enumerate()
+            .map(|(i, b)| m.kinetic(i, b))
+            .sum();
         let mut e = Engine {
             m,
             l,
@@ -263,7 +274,7 @@ impl<M: FirstCollision> Engine<M> {
     /// Body `i` reached the face of its box: a new box and list for it alone, then its events.
     fn rebuild_box(&mut self, i: usize) {
         self.advance_body(i);
-        let surf = self.m.surface();
+        let surf = self.m.surface_of(i);
         let Neighbourhood::Nnl {
             lists,
             escape_at,
@@ -285,7 +296,7 @@ impl<M: FirstCollision> Engine<M> {
 
     /// After a collision: the escape time of `i` follows its new trajectory (Sec. 3.5, 5c).
     fn update_escape(&mut self, i: usize) {
-        let surf = self.m.surface();
+        let surf = self.m.surface_of(i);
         if let Neighbourhood::Nnl {
             lists,
             escape_at,
@@ -351,9 +362,9 @@ impl<M: FirstCollision> Engine<M> {
             let (low, high) = self.bodies.split_at_mut(a);
             (&mut high[0], &mut low[b])
         };
-        let ke_before = 0.5 * (ba.v.norm_squared() + bb.v.norm_squared());
-        let imp = self.m.collide(ba, bb, &offset, &ev.extra);
-        let ke_after = 0.5 * (ba.v.norm_squared() + bb.v.norm_squared());
+        let ke_before = self.m.pair_kinetic([a, b], ba, bb);
+        let imp = self.m.collide([a, b], ba, bb, &offset, &ev.extra);
+        let ke_after = self.m.pair_kinetic([a, b], ba, bb);
         let separation = (bb.r + offset) - ba.r;
         self.count[a] = self.count[a].wrapping_add(1);
         self.count[b] = self.count[b].wrapping_add(1);
@@ -449,8 +460,9 @@ impl<M: FirstCollision> Engine<M> {
     pub(crate) fn energy(&self) -> f64 {
         self.bodies
             .iter()
-            .map(|b| {
-                0.5 * b.v.norm_squared()
+            .enumerate()
+            .map(|(i, b)| {
+                self.m.kinetic(i, b)
                     + if self.inv_i > 0.0 {
                         0.5 * b.w.norm_squared() / self.inv_i
                     } else {
@@ -461,7 +473,10 @@ impl<M: FirstCollision> Engine<M> {
     }
 
     pub(crate) fn momentum(&self) -> V3 {
-        self.bodies.iter().fold(V3::zeros(), |p, b| p + b.v)
+        self.bodies
+            .iter()
+            .enumerate()
+            .fold(V3::zeros(), |p, (i, b)| p + self.m.momentum(i, b))
     }
 }
 
@@ -486,6 +501,49 @@ impl FirstCollision for SphereModel {
     }
 }
 
+impl FirstCollision for MixedSphereModel {
+    #[inline]
+    fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<()>) -> Event<()> {
+        e.first_sphere_collision(i, own)
+    }
+}
+
+/// The sphere models, of one size or several. The sphere path is compiled once for each:
+/// [`MIXED`](Self::MIXED) is a constant, so that spheres of one size compute one σ² per prediction
+/// and never read a size, while a mixture reads each partner's radius (a second array beside the
+/// bodies with cells; the spare word of each gathered [`Trajectory`] with lists).
+pub(crate) trait Spheres: Model<Extra = (), Shape = crate::ellipsoid::Ellipsoid> {
+    const MIXED: bool;
+    /// The radius of body `i` (read only where [`MIXED`](Self::MIXED)).
+    fn radius(&self, i: usize) -> f64;
+    /// Every body's radius (empty for one size), and the scratch of gathered trajectories.
+    fn gather_parts(&mut self) -> (&[f64], &mut Vec<Trajectory>);
+}
+
+impl Spheres for SphereModel {
+    const MIXED: bool = false;
+    #[inline(always)]
+    fn radius(&self, _: usize) -> f64 {
+        0.5
+    }
+    #[inline(always)]
+    fn gather_parts(&mut self) -> (&[f64], &mut Vec<Trajectory>) {
+        (&[], &mut self.gathered)
+    }
+}
+
+impl Spheres for MixedSphereModel {
+    const MIXED: bool = true;
+    #[inline(always)]
+    fn radius(&self, i: usize) -> f64 {
+        self.radius[i]
+    }
+    #[inline(always)]
+    fn gather_parts(&mut self) -> (&[f64], &mut Vec<Trajectory>) {
+        (&self.radius, &mut self.gathered)
+    }
+}
+
 impl<S: Surface + Copy> FirstCollision for RigidModel<S> {
     fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<(V3, V3)>) -> Event<(V3, V3)> {
         let a = e.bodies[i];
@@ -493,16 +551,20 @@ impl<S: Surface + Copy> FirstCollision for RigidModel<S> {
     }
 }
 
-impl Engine<SphereModel> {
+impl<M: Spheres> Engine<M> {
     /// The hot loop of the sphere path. With lists, [`sphere::first_contact`] over the
     /// neighbours' trajectories, gathered with their images, four at a time. With cells, partners
     /// are extrapolated to now without being stored, and the contact time of every candidate is
     /// computed without data-dependent branches (i itself gives +∞); which candidate is the
     /// earliest so far is a select, not a branch: it is unpredictable, and mispredictions would
     /// serialise the square roots and divisions.
+    ///
+    /// In a mixture each pair's contact distance is the sum of the radii; spheres of one size
+    /// compile these branches away.
     fn first_sphere_collision(&mut self, i: usize, own: Event<()>) -> Event<()> {
         let a = &self.bodies[i];
         let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
+        let ri = if M::MIXED { self.m.radius(i) } else { 0.0 };
         let mut horizon = own.t - self.t;
         let found = match &self.nb {
             Neighbourhood::Ll {
@@ -521,6 +583,12 @@ impl Engine<SphereModel> {
                         let bj = &self.bodies[j as usize];
                         let dr = bj.r + bj.v * (self.t - bj.t) - img_offset[j as usize] + origin;
                         let v = bj.v;
+                        let sigma2 = if M::MIXED {
+                            let s = ri + self.m.radius(j as usize);
+                            s * s
+                        } else {
+                            sigma2
+                        };
                         let tau = sphere::contact_time_or_inf(&dr, &(v - a.v), sigma2);
                         partner = if tau < horizon { Some((k, j)) } else { partner };
                         horizon = horizon.min(tau);
@@ -537,16 +605,24 @@ impl Engine<SphereModel> {
                     v: a.v,
                     now: self.t,
                     sigma2,
+                    radius: ri,
                 };
-                let (bodies, gathered) = (&self.bodies, &mut self.m.gathered);
+                let bodies = &self.bodies;
+                let (radius, gathered) = self.m.gather_parts();
                 gathered.clear();
-                gathered.extend(
-                    lists
-                        .of(i)
-                        .iter()
-                        .map(|n| Trajectory::of(&bodies[n.j as usize], &n.offset(self.l))),
-                );
-                sphere::first_contact(gathered, &probe, horizon).map(|(p, tau)| {
+                gathered.extend(lists.of(i).iter().map(|n| {
+                    let mut t = Trajectory::of(&bodies[n.j as usize], &n.offset(self.l));
+                    if M::MIXED {
+                        t.radius = radius[n.j as usize];
+                    }
+                    t
+                }));
+                let found = if M::MIXED {
+                    sphere::first_contact_mixed(gathered, &probe, horizon)
+                } else {
+                    sphere::first_contact(gathered, &probe, horizon)
+                };
+                found.map(|(p, tau)| {
                     horizon = tau;
                     let n = lists.of(i)[p];
                     (n.j, n.shift())

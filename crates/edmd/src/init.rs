@@ -279,6 +279,124 @@ pub fn initial_configuration(
     })
 }
 
+/// A sphere mixture of the given diameters (a body's index is its diameter's) at packing
+/// fraction φ = Σ π σ_i³ / 6 / V without overlaps, at temperature 1 with masses σ_i³: the
+/// compression of [`initial_configuration`] (lattice of the largest sphere, melting, Monte Carlo
+/// steps with Jodrey–Tory pushes, the dynamics where they jam) with each pair's contact at
+/// (σ_i + σ_j)/2. The diameters are placed on the lattice in the order given: shuffle them first.
+pub fn initial_mixture(
+    sizes: &[f64],
+    phi: f64,
+    rng: &mut Rng,
+    relax: &mut Relax,
+) -> Result<Config, EdmdError> {
+    let n = sizes.len();
+    let volume: f64 = sizes
+        .iter()
+        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
+        .sum();
+    let l_target = (volume / phi).cbrt();
+    let sites = fcc_sites(n);
+    let mut l = l_target;
+    let mut packing = loop {
+        let packing = Packing::of_spheres(sites.iter().map(|s| s * l).collect(), sizes, l);
+        if packing.overlaps == 0 {
+            break packing;
+        }
+        l *= 1.05;
+    };
+    let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
+    if packing.l < l_melt {
+        packing.scale(l_melt / packing.l);
+    }
+    let mut steps = Steps {
+        dr: 0.1 * packing.geom.bounding_radius(),
+        dth: 0.0,
+    };
+    for _ in 0..MELT_SWEEPS {
+        let acc = packing.sweep(&steps, rng);
+        steps.adapt(acc, packing.l);
+    }
+    let (mut step, mut sweeps) = (MAX_STEP, 0);
+    while packing.l > l_target {
+        let before = (packing.pos.clone(), packing.l);
+        packing.scale((l_target / packing.l).max(1.0 / (1.0 + step)));
+        for _ in 0..RELAX_SWEEPS {
+            let acc = packing.sweep(&steps, rng);
+            steps.adapt(acc, packing.l);
+        }
+        sweeps += RELAX_SWEEPS;
+        if packing.overlaps == 0 || packing.push_apart(1.0 + 0.5 * step.max(MIN_PUSH)) {
+            step = (step * 1.5).min(MAX_STEP);
+        } else {
+            let (pos, l) = before;
+            let bodies = relax(thermal_mixture(&pos, sizes, l, rng), l, UNJAM_COLLISIONS)?;
+            let pos = bodies
+                .iter()
+                .map(|b| b.r.map(|x| x.rem_euclid(l)))
+                .collect();
+            packing = Packing::of_spheres(pos, sizes, l);
+            step *= 0.5;
+        }
+        if step < MIN_STEP || sweeps > MAX_SWEEPS {
+            return Err(EdmdError::Compression {
+                reached: volume / packing.l.powi(3),
+                target: phi,
+            });
+        }
+    }
+    Ok(Config {
+        l: packing.l,
+        bodies: thermal_mixture(&packing.pos, sizes, packing.l, rng),
+    })
+}
+
+/// Spheres of diameters σ_i (masses σ_i³) at the given places with Maxwell–Boltzmann velocities
+/// at k_B T = 1 (each component of variance 1/m_i), no net momentum Σ m_i v_i.
+fn thermal_mixture(pos: &[V3], sizes: &[f64], l: f64, rng: &mut Rng) -> Vec<Body> {
+    let mass: Vec<f64> = sizes.iter().map(|d| d * d * d).collect();
+    let mut bodies: Vec<Body> = pos
+        .iter()
+        .zip(&mass)
+        .map(|(r, m)| Body {
+            r: r.map(|x| x.rem_euclid(l)),
+            v: V3::new(rng.normal(), rng.normal(), rng.normal()) / m.sqrt(),
+            rot: M3::identity(),
+            w: V3::zeros(),
+            t: 0.0,
+        })
+        .collect();
+    let total: f64 = mass.iter().sum();
+    let mean = bodies
+        .iter()
+        .zip(&mass)
+        .fold(V3::zeros(), |p, (b, m)| p + b.v * *m)
+        / total;
+    let ke: f64 = bodies
+        .iter()
+        .zip(&mass)
+        .map(|(b, m)| 0.5 * m * (b.v - mean).norm_squared())
+        .sum();
+    let scale = (1.5 * pos.len() as f64 / ke).sqrt();
+    for b in bodies.iter_mut() {
+        b.v = (b.v - mean) * scale;
+    }
+    bodies
+}
+
+/// The order [`sort_along_z_curve`] puts the bodies in: the index of the body that goes first,
+/// second, … (for a mixture, whose sizes must follow their bodies).
+pub fn z_curve_order(bodies: &[Body], l: f64) -> Vec<usize> {
+    let per_side = l.floor().clamp(1.0, f64::from((1u32 << 21) - 1));
+    let cell = |x: f64| ((x.rem_euclid(l) / l * per_side) as u32).min(per_side as u32 - 1);
+    let mut order: Vec<usize> = (0..bodies.len()).collect();
+    order.sort_by_cached_key(|&i| {
+        let r = bodies[i].r;
+        spread(cell(r.x)) | spread(cell(r.y)) << 1 | spread(cell(r.z)) << 2
+    });
+    order
+}
+
 /// Bodies at the given places with Maxwell–Boltzmann velocities at k_B T = 1, no net momentum.
 fn thermal_bodies(
     pos: &[V3],
@@ -399,6 +517,9 @@ struct Packing {
     overlaps: usize,
     /// Scratch: the bodies one body touches, with their contact scales, at two places.
     partners: [Vec<(usize, f64)>; 2],
+    /// Per-body diameters of a sphere mixture ([`initial_mixture`]), whose `geom` is then the
+    /// largest sphere; `None`: every body is `geom`.
+    sizes: Option<Vec<f64>>,
 }
 
 impl Packing {
@@ -413,9 +534,45 @@ impl Packing {
             touching: vec![0; n],
             overlaps: 0,
             partners: [Vec::new(), Vec::new()],
+            sizes: None,
         };
         p.count_overlaps();
         p
+    }
+
+    /// Spheres of the given diameters at `pos` in a box of side `l`.
+    fn of_spheres(pos: Vec<V3>, sizes: &[f64], l: f64) -> Self {
+        let n = pos.len();
+        let d_max = sizes.iter().fold(0.0, |m: f64, &d| m.max(d));
+        let mut p = Packing::new(
+            pos,
+            vec![M3::identity(); n],
+            l,
+            Geom::Sphere { sigma: d_max },
+        );
+        p.sizes = Some(sizes.to_vec());
+        p.count_overlaps();
+        p
+    }
+
+    /// The contact scale of bodies `i` (orientation `q`) and `j` at separation `r`: for a sphere
+    /// mixture |r| / ((σ_i + σ_j)/2).
+    #[inline]
+    fn pair_scale(&self, i: usize, j: usize, q: &M3, r: &V3) -> f64 {
+        match &self.sizes {
+            Some(d) => r.norm() / (0.5 * (d[i] + d[j])),
+            None => self.geom.contact_scale(q, &self.rot[j], r),
+        }
+    }
+
+    /// [`Packing::pair_scale`], or `None` where it is proved above `k` without being computed
+    /// ([`Geom::contact_scale_unless_above`]).
+    #[inline]
+    fn pair_scale_unless_above(&self, i: usize, j: usize, q: &M3, r: &V3, k: f64) -> Option<f64> {
+        match &self.sizes {
+            Some(_) => Some(self.pair_scale(i, j, q, r)),
+            None => self.geom.contact_scale_unless_above(q, &self.rot[j], r, k),
+        }
     }
 
     fn count_overlaps(&mut self) {
@@ -446,9 +603,7 @@ impl Packing {
             let r = min_image(self.pos[j] - p, self.l);
             if j != i
                 && !self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
-                && let Some(mu) =
-                    self.geom
-                        .contact_scale_unless_above(q, &self.rot[j], &r, 1.0 + GAP)
+                && let Some(mu) = self.pair_scale_unless_above(i, j, q, &r, 1.0 + GAP)
                 && mu <= 1.0 + GAP
             {
                 out.push((j, mu));
@@ -464,8 +619,7 @@ impl Packing {
             j == i
                 || self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
                 || self
-                    .geom
-                    .contact_scale_unless_above(q, &self.rot[j], &r, 1.0 + GAP)
+                    .pair_scale_unless_above(i, j, q, &r, 1.0 + GAP)
                     .is_none_or(|mu| mu > 1.0 + GAP)
         })
     }
@@ -527,7 +681,7 @@ impl Packing {
                 for &(j, _) in &partners {
                     // Earlier pushes in this loop moved i: the pair is looked at anew.
                     let r = min_image(self.pos[j] - self.pos[i], self.l);
-                    let mu = self.geom.contact_scale(&self.rot[i], &self.rot[j], &r);
+                    let mu = self.pair_scale(i, j, &self.rot[i], &r);
                     if mu > 1.0 + GAP {
                         continue;
                     }

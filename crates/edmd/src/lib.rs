@@ -22,11 +22,14 @@
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
 //!   superquadrics are compressed with the contact scale of [`scale`].
-//! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities;
+//! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities (for a
+//!   sphere mixture [`init::initial_mixture`], each pair in contact at (σ_i + σ_j)/2);
 //!   [`rng`]: the seeded generator it draws from.
 //! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.
-//! - [`model`]: the body models, what one particle kind costs to simulate: the analytic sphere or
-//!   the general rigid body (its collision rule and the contact-time search of one pair).
+//! - [`model`]: the body models, what one particle kind costs to simulate: the analytic sphere,
+//!   spheres of several sizes (mixtures and polydisperse spheres: a radius and a mass ∝ σ³ per
+//!   body, lists of [`ball::SizedBall`]s sized per pair), or the general rigid body (its collision
+//!   rule and the contact-time search of one pair).
 //! - [`engine`]: the event loop, generic over the model: collisions, cell crossings, box escapes,
 //!   each body's first-collision search, and the sums the measurements are made of.
 //! - [`audit`]: the overlap audit of the final state, every pair found through cells and decided
@@ -95,7 +98,7 @@ pub mod state;
 pub mod superquadric;
 pub mod support_distance;
 
-pub use report::{FinalState, ParticleDump, RunReport};
+pub use report::{FinalState, PairReport, ParticleDump, RunReport, SpeciesReport};
 pub use run::{Frame, FrameEvery, HookResult, Hooks, run, run_with_hooks, run_with_state};
 pub use scene::{
     Neighbours, Scene, SceneError, ShapeKind, default_delta_nnl, default_neighbours,

@@ -107,7 +107,28 @@ impl<R: Region> Lists<R> {
         delta: f64,
     ) -> Result<Self, ListLimit> {
         let regions: Vec<R> = bodies.iter().map(|b| R::around(s, b, delta)).collect();
-        let reach = R::reach(s, delta);
+        Self::from_regions(regions, R::reach(s, delta), l, delta)
+    }
+
+    /// [`build`](Self::build) with a surface per body (bodies of several sizes): body `i`'s
+    /// region is around `of(i)`, and `largest`, which no body exceeds, sets the reach. Rebuild
+    /// each body with its own surface too.
+    pub fn build_each<S: Surface>(
+        largest: &S,
+        of: impl Fn(usize) -> S,
+        bodies: &[Body],
+        l: f64,
+        delta: f64,
+    ) -> Result<Self, ListLimit> {
+        let regions: Vec<R> = bodies
+            .iter()
+            .enumerate()
+            .map(|(i, b)| R::around(&of(i), b, delta))
+            .collect();
+        Self::from_regions(regions, R::reach(largest, delta), l, delta)
+    }
+
+    fn from_regions(regions: Vec<R>, reach: f64, l: f64, delta: f64) -> Result<Self, ListLimit> {
         let grid = Cells::new(l, reach).map(|cells| {
             let mut grid = Grid {
                 cells,
@@ -662,6 +683,45 @@ mod tests {
             let lists = check::<Obp>(&e, bodies(n, l, 7), l, 0.15, overlap, overlap);
             assert_eq!(lists.grid.is_some(), l == 10.0);
             assert_eq!(lists.single_image, l > 5.0);
+        }
+    }
+
+    /// Sized balls (a mixture of radii 0.5 and 1): built and rebuilt each around its own
+    /// sphere, the lists hold exactly the pairs whose centres are within r_i + r_j + 2Δ, which
+    /// for two small spheres is well inside the largest pair's reach.
+    #[test]
+    fn sized_ball_lists_match_brute_force_for_each_pair_of_sizes() {
+        use crate::ball::SizedBall;
+        let delta = 0.2;
+        let radius = |i: usize| if i.is_multiple_of(2) { 0.5 } else { 1.0 };
+        let sphere = |i: usize| Ellipsoid::new(radius(i), radius(i), radius(i));
+        let largest = sphere(1);
+        let within = |k: f64| {
+            move |a: &SizedBall, b: &SizedBall, shift: &V3| {
+                (b.c + shift - a.c).norm() <= k * (a.radius + b.radius + 2.0 * delta)
+            }
+        };
+        for (n, l) in [(300, 9.0), (40, 4.0)] {
+            let mut b = bodies(n, l, 5);
+            let mut lists =
+                Lists::<SizedBall>::build_each(&largest, sphere, &b, l, delta).expect("limits");
+            let (must, may) = (within(1.0 - 1e-12), within(1.0 + 1e-12));
+            same(&lists, must, may, "after the build");
+            let mut rng = crate::rng::Rng::new(11);
+            for step in 0..200 {
+                let i = step * 7 % n;
+                b[i].r += V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.6;
+                lists.rebuild(&sphere(i), i, &b[i]).expect("limits");
+            }
+            same(&lists, must, may, "after the rebuilds");
+            // Some small pairs are farther apart than their own reach but within the largest.
+            let small_far = (0..n).step_by(2).any(|i| {
+                (0..n).step_by(2).any(|j| {
+                    let d = (b[j].r - b[i].r).map(|x| x - l * (x / l).round()).norm();
+                    i != j && d > 1.0 + 2.0 * delta && d < 2.0 * (1.0 + delta)
+                })
+            });
+            assert!(small_far);
         }
     }
 

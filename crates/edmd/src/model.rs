@@ -1,7 +1,7 @@
 //! The body models the event loop is generic over: what one particle kind costs to simulate,
 //! from its shape to its collision rule and the contact-time search of one pair.
 
-use crate::ball::Ball;
+use crate::ball::{Ball, SizedBall};
 use crate::contact::{ContactParams, predict, separating_axis};
 use crate::distance::SolverStats;
 use crate::ellipsoid::Ellipsoid;
@@ -24,9 +24,41 @@ pub(crate) trait Model {
     /// and time).
     const ROTATES: bool;
     fn surface(&self) -> Self::Shape;
+    /// Body `i`'s own shape, which its neighbour-list region is built around: [`surface`]
+    /// (Self::surface) unless bodies differ in size.
+    #[inline(always)]
+    fn surface_of(&self, _i: usize) -> Self::Shape {
+        self.surface()
+    }
     /// Applies the collision of `a` with the image of `b` displaced by `offset`; returns the
-    /// impulse given to `b`, or `None` if the bodies separate.
-    fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, x: &Self::Extra) -> Option<V3>;
+    /// impulse given to `b`, or `None` if the bodies separate. `pair` holds their indices, which
+    /// only a model with per-body sizes reads.
+    fn collide(
+        &mut self,
+        pair: [usize; 2],
+        a: &mut Body,
+        b: &mut Body,
+        offset: &V3,
+        x: &Self::Extra,
+    ) -> Option<V3>;
+    /// The translational kinetic energy of bodies `a` and `b` (indices in `pair`): unit masses
+    /// unless the model has its own.
+    #[inline(always)]
+    fn pair_kinetic(&self, _pair: [usize; 2], a: &Body, b: &Body) -> f64 {
+        0.5 * (a.v.norm_squared() + b.v.norm_squared())
+    }
+    /// The translational kinetic energy of body `i`.
+    #[inline(always)]
+    fn kinetic(&self, _i: usize, b: &Body) -> f64 {
+        0.5 * b.v.norm_squared()
+    }
+    /// The momentum of body `i`.
+    #[inline(always)]
+    fn momentum(&self, _i: usize, b: &Body) -> V3 {
+        b.v
+    }
+    /// Starts the model's own sums afresh (a mixture's per-pair counts), with the measured run.
+    fn reset_sums(&mut self) {}
     fn stats(&self) -> SolverStats;
     /// Puts back the counters of a restored run.
     fn set_stats(&mut self, stats: SolverStats);
@@ -59,7 +91,14 @@ impl Model for SphereModel {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
     }
-    fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, _: &()) -> Option<V3> {
+    fn collide(
+        &mut self,
+        _: [usize; 2],
+        a: &mut Body,
+        b: &mut Body,
+        offset: &V3,
+        _: &(),
+    ) -> Option<V3> {
         let n = ((b.r + offset) - a.r).normalize();
         let un = (a.v - b.v).dot(&n);
         if un <= 0.0 {
@@ -69,6 +108,123 @@ impl Model for SphereModel {
         a.v -= n * un;
         b.v += n * un;
         Some(n * un)
+    }
+    fn stats(&self) -> SolverStats {
+        SolverStats::default()
+    }
+    fn set_stats(&mut self, _: SolverStats) {}
+}
+
+/// Hard spheres of several sizes: a binary (or any) mixture, or size-polydisperse spheres. Each
+/// body has its own radius and mass (m ∝ σ³); contact at (σ_i + σ_j)/2, the collision rule of
+/// Eq. (41) with m_i ≠ m_j. A model of its own, so that [`SphereModel`], one σ for every pair, is
+/// compiled without any per-body size: the engine is monomorphised on the model, and the sphere
+/// path asks [`MIXED`](crate::engine::Spheres::MIXED), a constant, whether to read sizes at all.
+/// A scene with one species of one size runs [`SphereModel`] and never looks a species up.
+/// Per-pair costs: one radius read per candidate (with lists, from the spare word of the gathered
+/// [`Trajectory`]), masses in the collision; lists are built of [`SizedBall`]s, so that a small
+/// sphere's list holds only the spheres it can meet before a rebuild, while the cells of the
+/// list grid and of linked cells are sized for the largest pair.
+pub(crate) struct MixedSphereModel {
+    /// Per body, in the engine's order.
+    pub(crate) radius: Vec<f64>,
+    mass: Vec<f64>,
+    pub(crate) species: Vec<u16>,
+    species_count: usize,
+    /// The largest radius: cells are sized for the largest pair.
+    r_max: f64,
+    /// Collisions and collision virial Σ r·Δp per unordered pair of species (index
+    /// [`pair_index`](Self::pair_index)).
+    pub(crate) pair_collisions: Vec<u64>,
+    pub(crate) pair_virial: Vec<f64>,
+    /// As in [`SphereModel`], with each neighbour's radius in [`Trajectory::radius`].
+    pub(crate) gathered: Vec<Trajectory>,
+}
+
+impl MixedSphereModel {
+    /// Bodies of the given diameters and species (masses σ³, the first species' diameter 1
+    /// being the unit).
+    pub(crate) fn new(diameter: &[f64], species: Vec<u16>, species_count: usize) -> Self {
+        let radius: Vec<f64> = diameter.iter().map(|d| 0.5 * d).collect();
+        let r_max = radius.iter().fold(0.0, |m: f64, &r| m.max(r));
+        let pairs = species_count * (species_count + 1) / 2;
+        MixedSphereModel {
+            mass: diameter.iter().map(|d| d * d * d).collect(),
+            radius,
+            species,
+            species_count,
+            r_max,
+            pair_collisions: vec![0; pairs],
+            pair_virial: vec![0.0; pairs],
+            gathered: Vec::new(),
+        }
+    }
+
+    /// The index of the unordered pair of species (a, b) among the S(S+1)/2 pairs, row by row:
+    /// (0,0), (0,1), …, (0,S−1), (1,1), …
+    pub(crate) fn pair_index(&self, a: u16, b: u16) -> usize {
+        let (a, b) = (a.min(b) as usize, a.max(b) as usize);
+        a * self.species_count - a * a.saturating_sub(1) / 2 + (b - a)
+    }
+
+    pub(crate) fn species_count(&self) -> usize {
+        self.species_count
+    }
+}
+
+impl Model for MixedSphereModel {
+    type Extra = ();
+    type Region = SizedBall;
+    type Shape = Ellipsoid;
+    const ROTATES: bool = false;
+    /// The largest sphere: what cells and the neighbour-list grid are sized for.
+    fn surface(&self) -> Ellipsoid {
+        Ellipsoid::new(self.r_max, self.r_max, self.r_max)
+    }
+    fn surface_of(&self, i: usize) -> Ellipsoid {
+        let r = self.radius[i];
+        Ellipsoid::new(r, r, r)
+    }
+    fn collide(
+        &mut self,
+        [i, j]: [usize; 2],
+        a: &mut Body,
+        b: &mut Body,
+        offset: &V3,
+        _: &(),
+    ) -> Option<V3> {
+        let r = (b.r + offset) - a.r;
+        let n = r.normalize();
+        let un = (a.v - b.v).dot(&n);
+        if un <= 0.0 {
+            return None;
+        }
+        // Eq. (41) without rotation: Δp = 2 μ u_n n, μ = m_i m_j / (m_i + m_j), given to j and
+        // taken from i; each velocity changes by Δp over its own mass.
+        let (ma, mb) = (self.mass[i], self.mass[j]);
+        let dp = n * (2.0 * ma * mb / (ma + mb) * un);
+        a.v -= dp / ma;
+        b.v += dp / mb;
+        let k = self.pair_index(self.species[i], self.species[j]);
+        self.pair_collisions[k] += 1;
+        self.pair_virial[k] += r.dot(&dp);
+        Some(dp)
+    }
+    #[inline(always)]
+    fn pair_kinetic(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> f64 {
+        0.5 * (self.mass[i] * a.v.norm_squared() + self.mass[j] * b.v.norm_squared())
+    }
+    #[inline(always)]
+    fn kinetic(&self, i: usize, b: &Body) -> f64 {
+        0.5 * self.mass[i] * b.v.norm_squared()
+    }
+    #[inline(always)]
+    fn momentum(&self, i: usize, b: &Body) -> V3 {
+        b.v * self.mass[i]
+    }
+    fn reset_sums(&mut self) {
+        self.pair_collisions.fill(0);
+        self.pair_virial.fill(0.0);
     }
     fn stats(&self) -> SolverStats {
         SolverStats::default()
@@ -93,7 +249,14 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
     fn surface(&self) -> S {
         self.e
     }
-    fn collide(&self, a: &mut Body, b: &mut Body, offset: &V3, x: &(V3, V3)) -> Option<V3> {
+    fn collide(
+        &mut self,
+        _: [usize; 2],
+        a: &mut Body,
+        b: &mut Body,
+        offset: &V3,
+        x: &(V3, V3),
+    ) -> Option<V3> {
         let mut image = *b;
         image.r += offset;
         let impulse = collide(a, &mut image, &x.0, &x.1, self.inertia, self.inertia);

@@ -68,10 +68,36 @@ pub struct RunReport {
     /// Wall time of the initial state (s): lattice, melting, compression, first lists and events,
     /// and the [`RELAX_COLLISIONS_PER_PARTICLE`](crate::run::RELAX_COLLISIONS_PER_PARTICLE) collisions per particle that relax it.
     pub init_s: f64,
+    /// A mixture's figures per species and pair of species; absent (and not serialised) for one
+    /// species.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub species: Option<SpeciesReport>,
     /// The collision sequence from the first collision of the run (relaxation included); kept
     /// out of the report's JSON (a job stores it as hex, `sweep edmd` does not print it).
     #[serde(skip)]
     pub sequence: Fingerprint,
+}
+
+/// A mixture's measured run by species (numbered from 1, as written in the scene).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SpeciesReport {
+    /// Bodies of each species.
+    pub count: Vec<usize>,
+    /// Their mean diameter (in units of the first species' nominal diameter).
+    pub mean_diameter: Vec<f64>,
+    /// Every unordered pair of species (i ≤ j).
+    pub pairs: Vec<PairReport>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PairReport {
+    pub species: [usize; 2],
+    /// Collisions between the two species in the measured run.
+    pub collisions: u64,
+    /// Their share of all collisions.
+    pub collision_fraction: f64,
+    /// Their part of Z − 1: the pair's collision virial over 2 K (the parts sum to Z − 1).
+    pub pressure_z_part: f64,
 }
 
 /// The final configuration, as `sweep edmd --dump` writes it (README).

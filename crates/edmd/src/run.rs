@@ -4,18 +4,20 @@
 use std::time::Instant;
 
 use crate::EdmdError;
-use crate::audit::audit;
-use crate::ball::Ball;
+use crate::audit::{audit, audit_spheres};
+use crate::ball::{Ball, SizedBall};
 use crate::contact::ContactParams;
 use crate::distance::{SolverStats, Tolerances};
 use crate::ellipsoid::Ellipsoid;
 use crate::engine::EngineState;
 use crate::engine::{Accounting, Engine, FirstCollision};
 use crate::geometry::{Surface, V3};
-use crate::init::{Geom, initial_configuration, sort_along_z_curve};
-use crate::model::{RigidModel, SphereModel};
+use crate::init::{
+    Geom, initial_configuration, initial_mixture, sort_along_z_curve, z_curve_order,
+};
+use crate::model::{MixedSphereModel, RigidModel, SphereModel};
 use crate::nnl::Obp;
-use crate::report::{FinalState, RunReport, final_state};
+use crate::report::{FinalState, PairReport, RunReport, SpeciesReport, final_state};
 use crate::rigid::{Body, Inertia};
 use crate::rng::Rng;
 use crate::scene::{Scene, ShapeKind};
@@ -96,6 +98,9 @@ pub fn run_with_hooks(
     hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
     scene.validate()?;
+    if scene.is_mixture() {
+        return simulate_mixture(scene, progress, hooks);
+    }
     let [a, b, c] = scene.semi_axes();
     // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4 (and,
     // for superquadrics, of the sphere inscribed in the ellipsoid inscribed in them).
@@ -218,6 +223,95 @@ fn simulate<M: Saves>(
     measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
 }
 
+/// A sphere mixture ([`MixedSphereModel`]): the bodies' diameters drawn from the species
+/// ([`mixture_sizes`]), the initial state of [`initial_mixture`], then the measured run as for
+/// one species. State files, checkpoints and trajectories are not written for mixtures yet: a
+/// run that asks for them is refused before anything is simulated.
+fn simulate_mixture(
+    scene: &Scene,
+    progress: &mut dyn FnMut(u64),
+    hooks: Hooks<'_>,
+) -> Result<(RunReport, FinalState), EdmdError> {
+    if hooks.from.is_some()
+        || hooks.checkpoint_every > 0
+        || hooks.save_final
+        || hooks.frame_every != FrameEvery::Never
+    {
+        return Err(EdmdError::Scene(crate::SceneError::Invalid {
+            key: "species",
+            line: None,
+            reason: "state files, checkpoints and trajectories are not written for mixtures yet"
+                .into(),
+        }));
+    }
+    let init = Instant::now();
+    let mut rng = Rng::new(scene.seed);
+    let (sizes, species) = mixture_sizes(scene, &mut rng);
+    let kinds = scene.species.as_ref().map_or(1, Vec::len);
+    let mut sequence = Fingerprint::default();
+    let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
+        let m = MixedSphereModel::new(&sizes, species.clone(), kinds);
+        let n = bodies.len() as u64;
+        let mut eng = Engine::new(m, l, bodies, 0.0, scene, 0.0)?;
+        eng.sequence = std::mem::take(&mut sequence);
+        eng.advance(per_particle * n, |_| {})?;
+        eng.sync_all();
+        sequence = std::mem::take(&mut eng.sequence);
+        Ok(eng.bodies)
+    };
+    let cfg = initial_mixture(&sizes, scene.phi, &mut rng, &mut relax)?;
+    // Bodies close in space close in memory, as for one species; their sizes follow them.
+    let order = z_curve_order(&cfg.bodies, cfg.l);
+    let bodies: Vec<Body> = order.iter().map(|&k| cfg.bodies[k]).collect();
+    let sizes: Vec<f64> = order.iter().map(|&k| sizes[k]).collect();
+    let species: Vec<u16> = order.iter().map(|&k| species[k]).collect();
+    let d_max = sizes.iter().fold(0.0, |m: f64, &d| m.max(d));
+    if cfg.l <= 4.0 * 0.5 * d_max {
+        return Err(EdmdError::BoxTooSmall {
+            l: cfg.l,
+            needed: 2.0 * d_max,
+            why: "the box must exceed twice the largest diameter",
+        });
+    }
+    let m = MixedSphereModel::new(&sizes, species, kinds);
+    let mut eng = Engine::new(m, cfg.l, bodies, 0.0, scene, 0.0)?;
+    eng.sequence = sequence;
+    let geom = Geom::Sphere { sigma: d_max };
+    measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+}
+
+/// Each body's diameter and species, in a random order: N x_k bodies of species k
+/// ([`Scene::species_counts`]) of diameter σ_k / σ_1 (1 + δ_k g), g a standard normal redrawn
+/// until |g| ≤ 3 (δ_k the species' polydispersity), shuffled (Fisher–Yates) so that the
+/// species are mixed on the initial lattice.
+pub fn mixture_sizes(scene: &Scene, rng: &mut Rng) -> (Vec<f64>, Vec<u16>) {
+    let Some(species) = &scene.species else {
+        return (vec![1.0; scene.n], vec![0; scene.n]);
+    };
+    let unit = species[0].diameter;
+    let mut bodies: Vec<(f64, u16)> = Vec::with_capacity(scene.n);
+    for (k, (s, count)) in species.iter().zip(scene.species_counts()).enumerate() {
+        for _ in 0..count {
+            let g = if s.polydispersity > 0.0 {
+                loop {
+                    let g = rng.normal();
+                    if g.abs() <= 3.0 {
+                        break g;
+                    }
+                }
+            } else {
+                0.0
+            };
+            bodies.push((s.diameter / unit * (1.0 + s.polydispersity * g), k as u16));
+        }
+    }
+    for i in (1..bodies.len()).rev() {
+        let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+        bodies.swap(i, j);
+    }
+    bodies.into_iter().unzip()
+}
+
 /// Where the engine of a run came from.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Origin {
@@ -261,15 +355,80 @@ fn restored<M: Saves>(
     }
 }
 
-/// The models whose engine a state file holds.
+/// The models a run measures: whose engine a state file holds (`wrap` gives `None` for a model
+/// that is not saved yet), and how its final state is audited, dumped and broken down.
 pub(crate) trait Saves: FirstCollision + Sized {
-    fn wrap(s: EngineState<Self::Extra, Self::Region>) -> SavedEngine;
+    fn wrap(s: EngineState<Self::Extra, Self::Region>) -> Option<SavedEngine>;
     fn unwrap(s: SavedEngine) -> Option<EngineState<Self::Extra, Self::Region>>;
+    /// Overlapping pairs of the final state ([`audit`]).
+    fn audit(eng: &Engine<Self>, geom: &Geom, tol: f64) -> u64 {
+        audit(&eng.bodies, eng.l, geom, tol)
+    }
+    fn final_state(eng: &Engine<Self>, geom: &Geom) -> FinalState {
+        final_state(&eng.bodies, eng.l, geom)
+    }
+    /// The figures per species and pair of species of a mixture.
+    fn species_report(_: &Engine<Self>, _ke_int: f64) -> Option<SpeciesReport> {
+        None
+    }
+}
+
+impl Saves for MixedSphereModel {
+    fn wrap(_: EngineState<(), SizedBall>) -> Option<SavedEngine> {
+        None
+    }
+    fn unwrap(_: SavedEngine) -> Option<EngineState<(), SizedBall>> {
+        None
+    }
+    fn audit(eng: &Engine<Self>, _: &Geom, tol: f64) -> u64 {
+        let diameters: Vec<f64> = eng.m.radius.iter().map(|r| 2.0 * r).collect();
+        audit_spheres(&eng.bodies, &diameters, eng.l, tol)
+    }
+    fn final_state(eng: &Engine<Self>, _: &Geom) -> FinalState {
+        let mut state = final_state(&eng.bodies, eng.l, &Geom::Sphere { sigma: 1.0 });
+        for (p, r) in state.particles.iter_mut().zip(&eng.m.radius) {
+            p.semi_axes = [*r; 3];
+        }
+        state
+    }
+    fn species_report(eng: &Engine<Self>, ke_int: f64) -> Option<SpeciesReport> {
+        let m = &eng.m;
+        let kinds = m.species_count();
+        let mut count = vec![0usize; kinds];
+        let mut diameter = vec![0.0; kinds];
+        for (&k, r) in m.species.iter().zip(&m.radius) {
+            count[k as usize] += 1;
+            diameter[k as usize] += 2.0 * r;
+        }
+        let total: u64 = m.pair_collisions.iter().sum();
+        let mut pairs = Vec::new();
+        for a in 0..kinds as u16 {
+            for b in a..kinds as u16 {
+                let k = m.pair_index(a, b);
+                pairs.push(PairReport {
+                    species: [a as usize + 1, b as usize + 1],
+                    collisions: m.pair_collisions[k],
+                    collision_fraction: m.pair_collisions[k] as f64 / total.max(1) as f64,
+                    pressure_z_part: m.pair_virial[k] / (2.0 * ke_int),
+                });
+            }
+        }
+        let mean_diameter = diameter
+            .iter()
+            .zip(&count)
+            .map(|(d, &c)| d / c.max(1) as f64)
+            .collect();
+        Some(SpeciesReport {
+            count,
+            mean_diameter,
+            pairs,
+        })
+    }
 }
 
 impl Saves for SphereModel {
-    fn wrap(s: EngineState<(), Ball>) -> SavedEngine {
-        SavedEngine::Sphere(s)
+    fn wrap(s: EngineState<(), Ball>) -> Option<SavedEngine> {
+        Some(SavedEngine::Sphere(s))
     }
     fn unwrap(s: SavedEngine) -> Option<EngineState<(), Ball>> {
         match s {
@@ -280,8 +439,8 @@ impl Saves for SphereModel {
 }
 
 impl Saves for RigidModel<Ellipsoid> {
-    fn wrap(s: EngineState<(V3, V3), Obp>) -> SavedEngine {
-        SavedEngine::Ellipsoid(s)
+    fn wrap(s: EngineState<(V3, V3), Obp>) -> Option<SavedEngine> {
+        Some(SavedEngine::Ellipsoid(s))
     }
     fn unwrap(s: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
         match s {
@@ -292,8 +451,8 @@ impl Saves for RigidModel<Ellipsoid> {
 }
 
 impl Saves for RigidModel<Superquadric> {
-    fn wrap(s: EngineState<(V3, V3), Obp>) -> SavedEngine {
-        SavedEngine::Superquadric(s)
+    fn wrap(s: EngineState<(V3, V3), Obp>) -> Option<SavedEngine> {
+        Some(SavedEngine::Superquadric(s))
     }
     fn unwrap(s: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
         match s {
@@ -349,10 +508,14 @@ fn measure<M: Saves>(
         }
     };
     let mut save = |e: &mut Engine<M>| {
-        if let Some(f) = on_state.as_mut()
-            && let Err(why) = f(&SavedState::new(scene, e.l, M::wrap(e.snapshot())))
-        {
-            e.fail(EdmdError::Hook(why));
+        if let Some(f) = on_state.as_mut() {
+            let Some(engine) = M::wrap(e.snapshot()) else {
+                e.fail(EdmdError::Hook("this model's state is not saved".into()));
+                return;
+            };
+            if let Err(why) = f(&SavedState::new(scene, e.l, engine)) {
+                e.fail(EdmdError::Hook(why));
+            }
         }
     };
     if frame_every != FrameEvery::Never {
@@ -394,7 +557,7 @@ fn measure<M: Saves>(
     eng.sync_all();
     progress(eng.acc.collisions);
     let report = figures(&mut eng, scene, &geom, &measured, init_s);
-    let state = final_state(&eng.bodies, eng.l, &geom);
+    let state = M::final_state(&eng, &geom);
     Ok((report, state))
 }
 
@@ -467,6 +630,7 @@ fn measured_run<M: FirstCollision>(
         separating: eng.acc.separating,
         ..start_acc
     };
+    eng.m.reset_sums();
     let (e0, p0, t0, stats0) = (eng.energy(), eng.momentum(), eng.t, eng.m.stats());
     let blocks = collisions.min(10);
     let mut marks: Vec<(f64, f64)> = Vec::with_capacity(blocks as usize);
@@ -516,7 +680,7 @@ fn pressure(acc: &Accounting, marks: &[(f64, f64)]) -> (f64, f64) {
 }
 
 /// The report of the measured run, from the engine at its end (whose collision sequence it takes).
-fn figures<M: FirstCollision>(
+fn figures<M: Saves>(
     eng: &mut Engine<M>,
     scene: &Scene,
     geom: &Geom,
@@ -554,7 +718,7 @@ fn figures<M: FirstCollision>(
         temperature: 2.0 * eng.acc.ke_int / (3.0 * n as f64 * sim_time),
         energy_drift_rel: (eng.energy() - e0).abs() / e0,
         momentum_drift: (eng.momentum() - p0).norm(),
-        overlaps: audit(&eng.bodies, eng.l, geom, scene.audit_tol),
+        overlaps: M::audit(eng, geom, scene.audit_tol),
         solver_failures: stats.failures,
         contact_nr_fallbacks: stats.contact_fallbacks,
         distance_fallbacks: stats.distance_fallbacks,
@@ -575,6 +739,7 @@ fn figures<M: FirstCollision>(
         n,
         phi: scene.phi,
         init_s,
+        species: M::species_report(eng, eng.acc.ke_int),
         sequence: std::mem::take(&mut eng.sequence),
     }
 }

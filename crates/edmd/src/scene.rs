@@ -109,6 +109,48 @@ pub struct Scene {
     /// a point's id (another state is another point), checked when the file is loaded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from_state_blake3: Option<String>,
+    /// The species of a mixture (`[[species]]` in a scene, `[[edmd.species]]` in a plan; see
+    /// [`Species`]). Unset, it is not serialised: a scene without species is the one-species scene
+    /// it always was, with the same id. With species, lengths are in units of the first species'
+    /// diameter and masses in units of its mass (see [`Species`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub species: Option<Vec<Species>>,
+}
+
+/// One species of a mixture. Spheres only for now (`shape = "sphere"`).
+///
+/// - `diameter`: relative to the first species' (the first is the unit of length whatever it
+///   writes: every diameter is divided by the first one).
+/// - `fraction`: the number fraction x_i; the fractions sum to 1 within [`FRACTION_TOL`]. The
+///   counts are N·x_i rounded by largest remainders ([`Scene::species_counts`]).
+/// - `polydispersity`: δ, the relative standard deviation of the diameter within the species:
+///   each diameter is σ_i (1 + δ g) with g a standard normal truncated to |g| ≤ 3 (redrawn
+///   outside), δ in [0, [`MAX_POLYDISPERSITY`]) so that every diameter is positive. The
+///   truncation makes the realised spread 0.986 δ.
+/// - Masses are proportional to the volume, m = (σ/σ_1)³ m_1 (equal mass density); spheres of
+///   one size and no polydispersity are the one-species scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Species {
+    pub shape: ShapeKind,
+    #[serde(default = "d_diameter")]
+    pub diameter: f64,
+    pub fraction: f64,
+    /// Unset (0) it is not serialised.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub polydispersity: f64,
+}
+
+/// How far from 1 the species' fractions may sum.
+pub const FRACTION_TOL: f64 = 1e-9;
+/// The bound (excluded) on a species' relative size spread.
+pub const MAX_POLYDISPERSITY: f64 = 0.3;
+
+fn d_diameter() -> f64 {
+    1.0
+}
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 fn d_x0() -> f64 {
@@ -153,6 +195,17 @@ pub fn default_delta_nnl(shape: ShapeKind, neighbours: Neighbours) -> f64 {
 /// Adds `neighbours` and `delta_nnl` at their defaults for the table's `shape` (and method) where
 /// the table names none; a table without a valid shape is left for deserialising to report.
 pub fn fill_shape_defaults(table: &mut toml::Table) {
+    // A mixture that names no shape has its first species' shape.
+    if !table.contains_key("shape")
+        && let Some(shape) = table
+            .get("species")
+            .and_then(|s| s.as_array())
+            .and_then(|s| s.first())
+            .and_then(|s| s.get("shape"))
+            .cloned()
+    {
+        table.insert("shape".into(), shape);
+    }
     let Some(shape) = table
         .get("shape")
         .and_then(|v| ShapeKind::deserialize(v.clone()).ok())
@@ -243,7 +296,37 @@ impl Scene {
             audit_tol: d_audit_tol(),
             from_state: None,
             from_state_blake3: None,
+            species: None,
         }
+    }
+
+    /// The number of bodies of each species: ⌊N x_i⌋, and the bodies left over one each to the
+    /// species with the largest remainders N x_i − ⌊N x_i⌋ (the first among equal ones), so
+    /// that the counts sum to N. One count (N) without species.
+    pub fn species_counts(&self) -> Vec<usize> {
+        let Some(species) = &self.species else {
+            return vec![self.n];
+        };
+        let exact: Vec<f64> = species.iter().map(|s| s.fraction * self.n as f64).collect();
+        let mut counts: Vec<usize> = exact.iter().map(|x| x.floor() as usize).collect();
+        let left = self.n.saturating_sub(counts.iter().sum());
+        let mut by_remainder: Vec<usize> = (0..exact.len()).collect();
+        by_remainder.sort_by(|&a, &b| {
+            let rem = |k: usize| exact[k] - exact[k].floor();
+            rem(b).total_cmp(&rem(a)).then(a.cmp(&b))
+        });
+        for &k in by_remainder.iter().cycle().take(left) {
+            counts[k] += 1;
+        }
+        counts
+    }
+
+    /// Whether the scene is a mixture the engine simulates with per-body sizes: more than one
+    /// species, or one with a size spread. One species of one size is the one-species scene.
+    pub fn is_mixture(&self) -> bool {
+        self.species
+            .as_ref()
+            .is_some_and(|s| s.len() > 1 || s.iter().any(|s| s.polydispersity > 0.0))
     }
 
     /// Parses and validates; range errors name the key and, when found in `src`, its line.
@@ -254,13 +337,19 @@ impl Scene {
         fill_shape_defaults(&mut table);
         // Deserialised from the text, not the table, so that a type error names its line; the
         // defaults go last, where they move no line.
-        let mut text = src.to_owned();
-        for (key, value) in &table {
-            if !named.contains(key) {
-                text.push_str(&format!("\n{key} = {value}\n"));
+        // Keys appended after a `[[species]]` table would land in it: a mixture is deserialised
+        // from the table (its type errors then name the key without the line).
+        let scene: Scene = if table.contains_key("species") {
+            toml::Value::Table(table).try_into().map_err(parse)?
+        } else {
+            let mut text = src.to_owned();
+            for (key, value) in &table {
+                if !named.contains(key) {
+                    text.push_str(&format!("\n{key} = {value}\n"));
+                }
             }
-        }
-        let scene: Scene = toml::from_str(&text).map_err(parse)?;
+            toml::from_str(&text).map_err(parse)?
+        };
         scene.check().map_err(|e| match e {
             SceneError::Invalid { key, reason, .. } => SceneError::Invalid {
                 key,
@@ -423,6 +512,81 @@ impl Scene {
         if self.collisions == 0 {
             return bad("collisions", "must be at least 1".into());
         }
+        if let Some(species) = &self.species {
+            self.check_species(species)?;
+        }
+        Ok(())
+    }
+
+    fn check_species(&self, species: &[Species]) -> Result<(), SceneError> {
+        let bad = |key: &'static str, reason: String| {
+            Err(SceneError::Invalid {
+                key,
+                line: None,
+                reason,
+            })
+        };
+        if species.is_empty() {
+            return bad("species", "a mixture needs at least one species".into());
+        }
+        if self.shape != ShapeKind::Sphere {
+            return bad(
+                "shape",
+                "mixtures are of spheres for now: the scene's shape must be \"sphere\"".into(),
+            );
+        }
+        for (k, s) in species.iter().enumerate() {
+            let k = k + 1;
+            if s.shape != ShapeKind::Sphere {
+                return bad(
+                    "shape",
+                    format!(
+                        "species {k}: mixtures are of spheres for now, got {:?}",
+                        s.shape
+                    ),
+                );
+            }
+            if !(s.diameter.is_finite() && s.diameter > 0.0) {
+                return bad(
+                    "diameter",
+                    format!("species {k}: must be finite and > 0, got {}", s.diameter),
+                );
+            }
+            if !(s.fraction.is_finite() && s.fraction > 0.0 && s.fraction <= 1.0) {
+                return bad(
+                    "fraction",
+                    format!("species {k}: must lie in (0, 1], got {}", s.fraction),
+                );
+            }
+            if !(s.polydispersity.is_finite()
+                && (0.0..MAX_POLYDISPERSITY).contains(&s.polydispersity))
+            {
+                return bad(
+                    "polydispersity",
+                    format!(
+                        "species {k}: must lie in [0, {MAX_POLYDISPERSITY}), got {}",
+                        s.polydispersity
+                    ),
+                );
+            }
+        }
+        let sum: f64 = species.iter().map(|s| s.fraction).sum();
+        if (sum - 1.0).abs() > FRACTION_TOL {
+            return bad(
+                "fraction",
+                format!("the species' fractions must sum to 1 (within {FRACTION_TOL}), got {sum}"),
+            );
+        }
+        if let Some(k) = self.species_counts().iter().position(|&c| c == 0) {
+            return bad(
+                "fraction",
+                format!(
+                    "species {}: N = {} times its fraction rounds to no body",
+                    k + 1,
+                    self.n
+                ),
+            );
+        }
         Ok(())
     }
 }
@@ -531,5 +695,110 @@ mod tests {
             ),
             "{e}"
         );
+    }
+}
+
+#[cfg(test)]
+mod species_tests {
+    use super::*;
+
+    const BINARY: &str = "n = 1000\nphi = 0.45\n\
+        [[species]]\nshape = \"sphere\"\ndiameter = 1.0\nfraction = 0.5\n\
+        [[species]]\nshape = \"sphere\"\ndiameter = 1.4\nfraction = 0.5\npolydispersity = 0.08\n";
+
+    #[test]
+    fn a_binary_mixture_parses_with_the_shape_of_its_first_species() {
+        let s = Scene::from_toml_str(BINARY).unwrap();
+        assert_eq!(s.shape, ShapeKind::Sphere);
+        assert_eq!(s.neighbours, Neighbours::Nnl);
+        let sp = s.species.as_ref().unwrap();
+        assert_eq!(sp.len(), 2);
+        assert_eq!((sp[1].diameter, sp[1].polydispersity), (1.4, 0.08));
+        assert_eq!(sp[0].polydispersity, 0.0);
+        assert!(s.is_mixture());
+        assert_eq!(s.species_counts(), vec![500, 500]);
+    }
+
+    #[test]
+    fn counts_round_by_largest_remainders_and_sum_to_n() {
+        let mut s = Scene::new(ShapeKind::Sphere, 10, 0.3);
+        let sp = |x: f64| Species {
+            shape: ShapeKind::Sphere,
+            diameter: 1.0,
+            fraction: x,
+            polydispersity: 0.0,
+        };
+        // 10 × (1/3, 1/3, 1/3) = 3.33 each: the one left over goes to the first.
+        s.species = Some(vec![sp(1.0 / 3.0), sp(1.0 / 3.0), sp(1.0 / 3.0)]);
+        assert_eq!(s.species_counts(), vec![4, 3, 3]);
+        // 10 × (0.15, 0.25, 0.6) = 1.5, 2.5, 6: one left, to the first of the equal halves.
+        s.species = Some(vec![sp(0.15), sp(0.25), sp(0.6)]);
+        assert_eq!(s.species_counts(), vec![2, 2, 6]);
+        s.validate().unwrap();
+        for n in [2, 7, 999, 1001] {
+            s.n = n;
+            assert_eq!(s.species_counts().iter().sum::<usize>(), n);
+        }
+        // One species of one size is the one-species scene.
+        s.species = Some(vec![sp(1.0)]);
+        assert!(!s.is_mixture());
+        s.species = None;
+        assert_eq!(s.species_counts(), vec![s.n]);
+    }
+
+    #[test]
+    fn bad_species_name_their_key() {
+        let cases = [
+            ("fraction = 0.5", "fraction = 0.6", "fraction"),
+            ("diameter = 1.4", "diameter = -1.0", "diameter"),
+            (
+                "polydispersity = 0.08",
+                "polydispersity = 0.3",
+                "polydispersity",
+            ),
+            ("diameter = 1.4\n", "diameter = 1.4\nshape2 = 1\n", ""),
+        ];
+        for (from, to, key) in cases {
+            let text = BINARY.replacen(from, to, 1);
+            let text = if from == "fraction = 0.5" {
+                // The second species' fraction.
+                let k = BINARY.rfind(from).unwrap();
+                format!("{}{}{}", &BINARY[..k], to, &BINARY[k + from.len()..])
+            } else {
+                text
+            };
+            let e = Scene::from_toml_str(&text).unwrap_err();
+            match (&e, key) {
+                (SceneError::Parse(m), "") => assert!(m.contains("shape2"), "{m}"),
+                (SceneError::Invalid { key: k, .. }, _) => assert_eq!(*k, key, "{e}"),
+                _ => panic!("{e}"),
+            }
+        }
+        let e = Scene::from_toml_str(
+            &BINARY
+                .replace("n = 1000", "n = 2\nshape = \"sphere\"")
+                .replace("0.5\n", "0.2\n")
+                .replacen("fraction = 0.2", "fraction = 0.8", 1),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("rounds to no body"), "{e}");
+        let e =
+            Scene::from_toml_str(&BINARY.replace("n = 1000", "n = 1000\nshape = \"ellipsoid\""))
+                .unwrap_err();
+        assert!(matches!(e, SceneError::Invalid { key: "shape", .. }), "{e}");
+    }
+
+    /// A scene without species serialises without the key, so its point id is what it was.
+    #[test]
+    fn a_scene_without_species_serialises_as_before() {
+        let s = Scene::new(ShapeKind::Sphere, 256, 0.3);
+        let t = toml::to_string(&s).unwrap();
+        assert!(!t.contains("species"), "{t}");
+        let mixed = Scene::from_toml_str(BINARY).unwrap();
+        let t = toml::to_string(&mixed).unwrap();
+        assert!(t.contains("[[species]]"), "{t}");
+        // Polydispersity 0 is not written either.
+        assert_eq!(t.matches("polydispersity").count(), 1, "{t}");
+        assert_eq!(Scene::from_toml_str(&t).unwrap(), mixed);
     }
 }

@@ -40,14 +40,16 @@ pub fn contact_time_from(b: f64, c: f64, vv: f64) -> f64 {
 }
 
 /// A sphere's trajectory r + v (t − t0): one cache line, so that four neighbours' go into vector
-/// registers from a contiguous batch without a gather.
+/// registers from a contiguous batch without a gather. Its last word, which the line has room
+/// for anyway, holds the sphere's radius in a mixture ([`first_contact_mixed`]); spheres of one
+/// size leave it 0 and never read it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(64))]
 pub struct Trajectory {
     pub r: [f64; 3],
     pub t0: f64,
     pub v: [f64; 3],
-    pad: f64,
+    pub radius: f64,
 }
 
 impl Trajectory {
@@ -59,7 +61,7 @@ impl Trajectory {
             r: [r.x, r.y, r.z],
             t0: body.t,
             v: [body.v.x, body.v.y, body.v.z],
-            pad: 0.0,
+            radius: 0.0,
         }
     }
 }
@@ -70,8 +72,11 @@ pub struct Probe {
     pub r: V3,
     pub v: V3,
     pub now: f64,
-    /// σ², the squared contact distance.
+    /// σ², the squared contact distance (spheres of one size).
     pub sigma2: f64,
+    /// The probe's radius (mixtures, [`first_contact_mixed`]: the contact distance with a
+    /// neighbour is this plus the neighbour's [`Trajectory::radius`]); unread for one size.
+    pub radius: f64,
 }
 
 /// The earliest contact of `probe` with any of `neighbours` before `horizon` (time after `now`): the
@@ -83,23 +88,44 @@ pub fn first_contact(
     probe: &Probe,
     horizon: f64,
 ) -> Option<(usize, f64)> {
+    first_contact_sized::<false>(neighbours, probe, horizon)
+}
+
+/// [`first_contact`] in a mixture: the contact distance of each pair is the sum of the probe's
+/// radius and the neighbour's ([`Trajectory::radius`]), (σ_i + σ_j)/2. One more addition and
+/// multiplication per neighbour, in every lane; spheres of one size take [`first_contact`],
+/// compiled without them.
+pub fn first_contact_mixed(
+    neighbours: &[Trajectory],
+    probe: &Probe,
+    horizon: f64,
+) -> Option<(usize, f64)> {
+    first_contact_sized::<true>(neighbours, probe, horizon)
+}
+
+#[inline(always)]
+fn first_contact_sized<const MIXED: bool>(
+    neighbours: &[Trajectory],
+    probe: &Probe,
+    horizon: f64,
+) -> Option<(usize, f64)> {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: AVX2 is present.
-        return unsafe { avx2::first_contact(neighbours, probe, horizon) };
+        return unsafe { avx2::first_contact::<MIXED>(neighbours, probe, horizon) };
     }
-    first_contact_scalar(neighbours, probe, horizon)
+    first_contact_scalar::<MIXED>(neighbours, probe, horizon)
 }
 
 /// [`first_contact`] one neighbour at a time.
-fn first_contact_scalar(
+fn first_contact_scalar<const MIXED: bool>(
     neighbours: &[Trajectory],
     probe: &Probe,
     mut horizon: f64,
 ) -> Option<(usize, f64)> {
     let mut partner = usize::MAX;
     for (k, n) in neighbours.iter().enumerate() {
-        let tau = contact_time_with(n, probe);
+        let tau = contact_time_with::<MIXED>(n, probe);
         // A select, not a branch: which candidate wins is unpredictable.
         partner = if tau < horizon { k } else { partner };
         horizon = horizon.min(tau);
@@ -110,12 +136,18 @@ fn first_contact_scalar(
 /// The contact time of `probe` with one trajectory, +∞ for none: [`contact_time_from`] with the
 /// arithmetic spelled out, in the order the vector version follows.
 #[inline(always)]
-fn contact_time_with(n: &Trajectory, p: &Probe) -> f64 {
+fn contact_time_with<const MIXED: bool>(n: &Trajectory, p: &Probe) -> f64 {
     let dt = p.now - n.t0;
     let d = [0, 1, 2].map(|k| (n.r[k] + n.v[k] * dt) - p.r[k]);
     let w = [0, 1, 2].map(|k| n.v[k] - p.v[k]);
     let b = (d[0] * w[0] + d[1] * w[1]) + d[2] * w[2];
-    let c = ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) - p.sigma2;
+    let sigma2 = if MIXED {
+        let s = p.radius + n.radius;
+        s * s
+    } else {
+        p.sigma2
+    };
+    let c = ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) - sigma2;
     let vv = (w[0] * w[0] + w[1] * w[1]) + w[2] * w[2];
     contact_time_from(b, c, vv)
 }
@@ -143,7 +175,7 @@ mod tests {
             r: r.into(),
             t0,
             v: v.into(),
-            pad: 0.0,
+            radius: 0.0,
         }
     }
 
@@ -153,6 +185,7 @@ mod tests {
             v: V3::new(0.5, 0.25, -1.0),
             now: 2.0,
             sigma2: 1.0,
+            radius: 0.5,
         }
     }
 
@@ -168,11 +201,11 @@ mod tests {
         p: &Probe,
         horizon: f64,
     ) -> Option<(usize, f64)> {
-        let scalar = first_contact_scalar(neighbours, p, horizon);
+        let scalar = first_contact_scalar::<false>(neighbours, p, horizon);
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: AVX2 is present.
-            let simd = unsafe { avx2::first_contact(neighbours, p, horizon) };
+            let simd = unsafe { avx2::first_contact::<false>(neighbours, p, horizon) };
             assert_eq!(simd, scalar, "{} neighbours", neighbours.len());
         }
         assert_eq!(first_contact(neighbours, p, horizon), scalar);
@@ -235,10 +268,65 @@ mod tests {
                     let gap = (r + v * t).norm() - 1.0;
                     // At the contact, or overlapping already and approaching (time 0).
                     prop_assert!(gap.abs() < tol || (t == 0.0 && gap < 0.0 && r.dot(&v) < 0.0), "gap {gap} at {t}");
-                    prop_assert!(neighbours[..k].iter().all(|n| contact_time_with(n, &p) > t), "an earlier index has the same time");
+                    prop_assert!(neighbours[..k].iter().all(|n| contact_time_with::<false>(n, &p) > t), "an earlier index has the same time");
                 }
                 None => prop_assert!(earliest >= horizon - tol, "missed a contact at {earliest}"),
             }
+        }
+    }
+
+    proptest! {
+        /// Mixtures: each neighbour with its own radius, contact at the sum of the radii. The
+        /// SIMD path equals the scalar loop to the bit, and the time found is the earliest root
+        /// of |r + v t| = r_p + r_j by the closed form; with every radius equal to half the
+        /// one-size σ it is the one-size answer.
+        #[test]
+        fn mixed_first_contact_is_the_earliest_root_of_each_pairs_distance(
+            neighbours in neighbour_lists(),
+            radii in prop::collection::vec(0.25f64..1.0, 24),
+            probe_radius in 0.25f64..1.0,
+            horizon in 0.05f64..5.0,
+        ) {
+            let mut p = probe();
+            p.radius = probe_radius;
+            let sized: Vec<Trajectory> = neighbours
+                .iter()
+                .zip(&radii)
+                .map(|(n, &r)| Trajectory { radius: r, ..*n })
+                .collect();
+            let scalar = first_contact_scalar::<true>(&sized, &p, horizon);
+            #[cfg(target_arch = "x86_64")]
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: AVX2 is present.
+                let simd = unsafe { avx2::first_contact::<true>(&sized, &p, horizon) };
+                prop_assert_eq!(simd, scalar);
+            }
+            prop_assert_eq!(first_contact_mixed(&sized, &p, horizon), scalar);
+            let oracle = sized
+                .iter()
+                .map(|n| {
+                    let (r, v) = relative(n, &p);
+                    contact_time(&r, &v, p.radius + n.radius).unwrap_or(f64::INFINITY)
+                })
+                .fold(f64::INFINITY, f64::min);
+            match scalar {
+                Some((k, t)) => {
+                    prop_assert!(t <= oracle + 1e-9 && t < horizon);
+                    let (r, v) = relative(&sized[k], &p);
+                    let gap = (r + v * t).norm() - (p.radius + sized[k].radius);
+                    prop_assert!(gap.abs() < 1e-9 || (t == 0.0 && gap < 0.0), "gap {gap} at {t}");
+                }
+                None => prop_assert!(oracle >= horizon - 1e-9, "missed a contact at {oracle}"),
+            }
+            // Equal radii 1/2: the one-size search with σ = 1.
+            let halves: Vec<Trajectory> =
+                neighbours.iter().map(|n| Trajectory { radius: 0.5, ..*n }).collect();
+            let mut half = probe();
+            half.radius = 0.5;
+            prop_assert_eq!(
+                first_contact_mixed(&halves, &half, horizon),
+                first_contact(&neighbours, &probe(), horizon)
+            );
         }
     }
 
@@ -249,6 +337,7 @@ mod tests {
             v: V3::zeros(),
             now: 0.0,
             sigma2: 1.0,
+            radius: 0.5,
         };
         // Impact parameter exactly σ: b² − |v|² c = 2.25 − 2.25 = 0, contact at t = 1.5.
         let graze = trajectory(V3::new(1.5, 1.0, 0.0), V3::new(-1.0, 0.0, 0.0), 0.0);
@@ -281,6 +370,7 @@ mod tests {
             v: V3::zeros(),
             now: 1.0,
             sigma2: 1.0,
+            radius: 0.5,
         };
         let inside = V3::new(0.0, 0.0, 1.0 - 1e-12);
         let approaching = trajectory(inside, V3::new(0.0, 0.0, -1.0), 1.0);

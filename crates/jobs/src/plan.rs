@@ -603,8 +603,11 @@ fn expand_scenes(
             columns.push((key, values));
         }
     }
+    let has = |key: &str| columns.iter().any(|(k, _)| *k == key);
     for key in EDMD_REQUIRED {
-        if !columns.iter().any(|(k, _)| *k == key) {
+        // A mixture's shape is its species' (edmd::fill_shape_defaults).
+        let given = has(key) || (key == "shape" && has("species"));
+        if !given {
             return Err(Issue::new(
                 header,
                 Some(key),
@@ -691,6 +694,7 @@ fn check_scene_value(key: &str, value: &toml::Value) -> Result<(), String> {
 fn edmd_keys() -> Vec<(String, bool)> {
     let scene = edmd::Scene {
         from_state: Some(String::new()),
+        species: Some(Vec::new()),
         ..edmd::Scene::new(edmd::ShapeKind::Superquadric, 2, 0.1)
     };
     match toml::Table::try_from(&scene) {

@@ -219,8 +219,8 @@ impl<'a, 'i> Sweep<'a, 'i> {
         Ok(Some(out))
     }
 
-    /// An expandable key whose every value is itself a list of scalars (a scene's
-    /// `exponents = [n, m, p]`): a list of scalars is one value, a list of such lists is a sweep
+    /// An expandable key whose every value is itself a list of scalars or of tables of scalars
+    /// (a scene's `exponents = [n, m, p]`, its `[[edmd.species]]`): such a list is one value, a list of such lists is a sweep
     /// over them, each with the span it was written at. Ranges and deeper nesting are refused;
     /// the element types and the list's length are the defining crate's to check. `None` when
     /// the key is absent.
@@ -236,7 +236,9 @@ impl<'a, 'i> Sweep<'a, 'i> {
             let values = elements
                 .iter()
                 .map(|e| match e.get_ref() {
-                    DeValue::Array(_) | DeValue::Table(_) => Err(fail(
+                    // A list of tables (a scene's `[[edmd.species]]`): each table one element.
+                    DeValue::Table(t) => table_value(t, key),
+                    DeValue::Array(_) => Err(fail(
                         e.span(),
                         "a list of lists is a sweep; a list inside one of its lists is not allowed",
                     )),
@@ -422,6 +424,21 @@ fn toml_integer(value: &DeValue<'_>) -> Option<Result<i128, String>> {
 }
 
 /// One scalar as a TOML value, for keys whose types are checked elsewhere.
+/// A table of scalars (one element of a list of tables), its keys and types left to the defining
+/// crate to check.
+fn table_value(table: &DeTable<'_>, key: &str) -> Result<toml::Value, Issue> {
+    table
+        .iter()
+        .map(|(k, v)| {
+            Ok((
+                k.get_ref().to_string(),
+                scalar_value(v.get_ref(), v.span(), key)?,
+            ))
+        })
+        .collect::<Result<toml::Table, Issue>>()
+        .map(toml::Value::Table)
+}
+
 fn scalar_value(value: &DeValue<'_>, span: Range<usize>, key: &str) -> Result<toml::Value, Issue> {
     let fail = |message: String| Issue::new(span.clone(), Some(key), message);
     match (value, toml_integer(value)) {

@@ -970,3 +970,44 @@ fn visits_expand_visit_major_with_their_own_ids() {
     assert_eq!(ids(&three_plain).difference(&ids(&one)).count(), 128);
     assert!(three.jobs[64].canonical_json().contains(r#""visit":1"#));
 }
+
+/// `[[edmd.species]]` makes a mixture point; a list of species lists sweeps them; a plan without
+/// species keeps the id pinned above (the key is not serialised while unset).
+#[test]
+fn species_tables_make_mixture_points_and_leave_one_species_ids_alone() {
+    let binary = "[[edmd]]\nn = 1000\nphi = 0.45\n\
+        [[edmd.species]]\nshape = \"sphere\"\ndiameter = 1.0\nfraction = 0.5\n\
+        [[edmd.species]]\nshape = \"sphere\"\ndiameter = 1.4\nfraction = 0.5\n";
+    let plan = parse(binary);
+    assert_eq!(plan.jobs.len(), 1);
+    let JobSpec::Edmd(scene) = &plan.jobs[0] else {
+        panic!("not an edmd point")
+    };
+    assert_eq!(scene.shape, edmd::ShapeKind::Sphere);
+    let species = scene.species.as_ref().expect("species");
+    assert_eq!(species[1].diameter, 1.4);
+    assert!(plan.jobs[0].canonical_json().contains("species"));
+    // Two species lists: two points, and the first is the table form's point.
+    let swept = parse(
+        "[[edmd]]\nn = 1000\nphi = 0.45\nspecies = [\n\
+         [{shape = \"sphere\", diameter = 1.0, fraction = 0.5}, {shape = \"sphere\", diameter = 1.4, fraction = 0.5}],\n\
+         [{shape = \"sphere\", diameter = 1.0, fraction = 0.5}, {shape = \"sphere\", diameter = 2.0, fraction = 0.5}],\n]\n",
+    );
+    assert_eq!(swept.jobs.len(), 2);
+    assert!(ids(&swept).contains(&plan.jobs[0].id()));
+    // A bad fraction names its key.
+    let e = Plan::parse(
+        &binary.replacen("fraction = 0.5", "fraction = 0.4", 1),
+        "p.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("fraction"), "{e}");
+    // No species: the id pinned before the key existed.
+    let sphere = parse("[[edmd]]\nshape = \"sphere\"\nn = 256\nphi = 0.45\n");
+    assert_eq!(
+        sphere.jobs[0].id(),
+        "ce0e397ec2c0cf0bd3d274930430bc1ce8d9f041c9a650e2e2e6db5fe8a2bb6c"
+    );
+    assert!(!sphere.jobs[0].canonical_json().contains("species"));
+}

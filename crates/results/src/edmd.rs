@@ -69,7 +69,13 @@ fn row_of(job_id: &str, scene: &Scene) -> Result<EdmdRow> {
             .map_err(|_| corrupt("edmd", job_id, format!("`{key}` = {value} is out of range")))
     };
     Ok(EdmdRow {
-        shape: name_of(scene.shape),
+        // A mixture is not a point of its first species' one-size curves (nor of the peers'
+        // sphere comparison): its rows carry a shape of their own.
+        shape: if scene.is_mixture() {
+            "sphere-mixture".to_owned()
+        } else {
+            name_of(scene.shape)
+        },
         x0: scene.x0,
         exponents: scene.exponents,
         neighbours: name_of(scene.neighbours),

@@ -9,7 +9,7 @@ use super::{Probe, Trajectory};
 /// # Safety
 /// The CPU must support AVX2.
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn first_contact(
+pub(super) unsafe fn first_contact<const MIXED: bool>(
     neighbours: &[Trajectory],
     probe: &Probe,
     horizon: f64,
@@ -17,9 +17,10 @@ pub(super) unsafe fn first_contact(
     let splat = _mm256_set1_pd;
     let (rx, ry, rz) = (splat(probe.r.x), splat(probe.r.y), splat(probe.r.z));
     let (vx, vy, vz) = (splat(probe.v.x), splat(probe.v.y), splat(probe.v.z));
-    let (now, sigma2, zero, inf) = (
+    let (now, sigma2, radius, zero, inf) = (
         splat(probe.now),
         splat(probe.sigma2),
+        splat(probe.radius),
         _mm256_setzero_pd(),
         splat(f64::INFINITY),
     );
@@ -46,7 +47,7 @@ pub(super) unsafe fn first_contact(
             _mm256_set_epi64x(3, 2, 1, 0),
         );
         let c = &neighbours[start..start + 4];
-        // Two loads per neighbour, [r, t0] and [v, pad], transposed into one register per field.
+        // Two loads per neighbour, [r, t0] and [v, radius], transposed into one register per field.
         // SAFETY: a `Trajectory` is 8 consecutive f64 (repr(C)); each load stays inside one.
         let (lo, hi) = unsafe {
             let p = |k: usize| c[k].r.as_ptr();
@@ -56,7 +57,7 @@ pub(super) unsafe fn first_contact(
             )
         };
         let [x, y, z, t0] = transpose(lo);
-        let [wx, wy, wz, _] = transpose(hi);
+        let [wx, wy, wz, rj] = transpose(hi);
         let dt = _mm256_sub_pd(now, t0);
         let dx = _mm256_sub_pd(_mm256_add_pd(x, _mm256_mul_pd(wx, dt)), rx);
         let dy = _mm256_sub_pd(_mm256_add_pd(y, _mm256_mul_pd(wy, dt)), ry);
@@ -73,6 +74,12 @@ pub(super) unsafe fn first_contact(
             )
         };
         let b = dot([dx, dy, dz], [ux, uy, uz]);
+        let sigma2 = if MIXED {
+            let s = _mm256_add_pd(radius, rj);
+            _mm256_mul_pd(s, s)
+        } else {
+            sigma2
+        };
         let cc = _mm256_sub_pd(dot([dx, dy, dz], [dx, dy, dz]), sigma2);
         let vv = dot([ux, uy, uz], [ux, uy, uz]);
         let disc = _mm256_sub_pd(_mm256_mul_pd(b, b), _mm256_mul_pd(vv, cc));

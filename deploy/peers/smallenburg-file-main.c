@@ -1,0 +1,78 @@
+/* A main() for Smallenburg's hard-sphere EDMD ("Single" variant) started from a configuration
+ * file with radii (the peer's initialconfig = 0): polydisperse spheres and mixtures. Built by
+ * build-smallenburg.sh beside smallenburg-main.c, from the same patched copy of the peer.
+ *
+ * usage: md-single-file INIT.sph WARMUP TIME SEED
+ *   INIT.sph  the peer's format: N, then "Lx Ly Lz", then "a x y z radius" per sphere (the peer's
+ *             cells are 1.5 long, so the largest diameter must not exceed 1)
+ *   WARMUP    time run (with random velocities, kT = 1, unit masses) before measuring
+ *   TIME      time measured
+ *   SEED      the Mersenne Twister's seed
+ *
+ * Prints, as its last line, {"tau_c_us", "tau_c_wall_us", "collisions", "pressure", "z",
+ * "init_s", "run_s"} over the measured time, as smallenburg-main.c does.
+ */
+#define _GNU_SOURCE
+#include <time.h>
+
+int chdir(const char* path);
+char* realpath(const char* path, char* resolved);
+
+unsigned long sweep_seed = 1;
+
+#include "mdSingle-file.c"
+
+static double now_s(clockid_t clock)
+{
+    struct timespec t;
+    clock_gettime(clock, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+int main(int argc, char** argv)
+{
+    if (argc != 5)
+    {
+        fprintf(stderr, "usage: %s INIT.sph WARMUP TIME SEED\n", argv[0]);
+        return 2;
+    }
+    char resolved[4096];
+    if (!realpath(argv[1], resolved) || strlen(resolved) >= sizeof inputfilename)
+    {
+        fprintf(stderr, "%s: not found, or its absolute path is too long for the peer\n", argv[1]);
+        return 2;
+    }
+    strcpy(inputfilename, resolved);
+    double warmup = atof(argv[2]);
+    double measured = atof(argv[3]);
+    sweep_seed = strtoul(argv[4], NULL, 10);
+    initialconfig = 0;
+    maxtime = warmup + measured;
+
+    char dir[] = "/tmp/md-single.XXXXXX";
+    if (!mkdtemp(dir) || chdir(dir) != 0)
+    {
+        perror("temporary folder");
+        return 3;
+    }
+    double w0 = now_s(CLOCK_MONOTONIC);
+    init();
+    while (simtime <= warmup) step();
+    double w1 = now_s(CLOCK_MONOTONIC), c1 = now_s(CLOCK_PROCESS_CPUTIME_ID);
+    unsigned int before = colcounter;
+    double dvbefore = dvtot, tbefore = simtime;
+    while (simtime <= maxtime) step();
+    double w2 = now_s(CLOCK_MONOTONIC), c2 = now_s(CLOCK_PROCESS_CPUTIME_ID);
+    unsigned int ran = colcounter - before;
+
+    double volume = xsize * ysize * zsize;
+    double pressure = N / volume - (dvtot - dvbefore) / (3.0 * volume * (simtime - tbefore));
+    char command[64];
+    snprintf(command, sizeof command, "rm -rf %s", dir);
+    if (chdir("/") != 0 || system(command) != 0) fprintf(stderr, "could not remove %s\n", dir);
+    printf("{\"tau_c_us\": %.6f, \"tau_c_wall_us\": %.6f, \"collisions\": %u, \"pressure\": %.6f, "
+           "\"z\": %.6f, \"init_s\": %.6f, \"run_s\": %.6f}\n",
+           1e6 * (c2 - c1) / ran, 1e6 * (w2 - w1) / ran, ran, pressure, pressure / (N / volume),
+           w1 - w0, w2 - w1);
+    return 0;
+}
