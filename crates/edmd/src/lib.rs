@@ -148,10 +148,20 @@ pub enum EdmdError {
     Hook(String),
 }
 
+/// What failed, where the quantity does not say it: every distance solver, for a distance.
+fn why_unresolved(quantity: &str) -> &'static str {
+    if quantity.contains("distance") {
+        ": Newton–Raphson, steepest descent and the support-function fallback all failed"
+    } else {
+        ""
+    }
+}
+
 /// The pair and state of a contact search no solver could resolve.
 #[derive(Debug, Error)]
 #[error(
-    "unresolved {quantity} for bodies {a} and {b} at t = {t:.17e} (centres {ra:?} and {rb:?}, velocities {va:?} and {vb:?}): Newton–Raphson, steepest descent and the support-function fallback all failed"
+    "unresolved {quantity} for bodies {a} and {b} at t = {t:.17e} (centres {ra:?} and {rb:?}, velocities {va:?} and {vb:?}){}",
+    why_unresolved(.quantity)
 )]
 pub struct UnresolvedContact {
     pub quantity: &'static str,
@@ -162,4 +172,33 @@ pub struct UnresolvedContact {
     pub rb: [f64; 3],
     pub va: [f64; 3],
     pub vb: [f64; 3],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::UnresolvedContact;
+
+    fn unresolved(quantity: &'static str) -> String {
+        UnresolvedContact {
+            quantity,
+            a: 1,
+            b: 2,
+            t: 0.5,
+            ra: [0.0; 3],
+            rb: [1.0; 3],
+            va: [0.0; 3],
+            vb: [0.0; 3],
+        }
+        .to_string()
+    }
+
+    #[test]
+    fn only_a_distance_failure_is_blamed_on_the_distance_solvers() {
+        assert!(unresolved("distance").ends_with("the support-function fallback all failed"));
+        let stepping = unresolved("contact time (Eq. 39 stepping)");
+        assert!(
+            stepping.starts_with("unresolved contact time (Eq. 39 stepping) for bodies 1 and 2")
+        );
+        assert!(!stepping.contains("Newton"), "{stepping}");
+    }
 }
