@@ -195,7 +195,6 @@ pub fn initial_configuration(
     relax: &mut Relax,
 ) -> Result<Config, EdmdError> {
     let vp = std::f64::consts::PI / 6.0;
-    let l_target = (n as f64 * vp / phi).cbrt();
     let sites = fcc_sites(n);
     let rot: Vec<M3> = (0..n)
         .map(|_| {
@@ -206,11 +205,51 @@ pub fn initial_configuration(
             }
         })
         .collect();
+    let packing = compress(
+        &sites,
+        rot,
+        n as f64 * vp,
+        phi,
+        0.1,
+        &|pos, rot, l| Packing::new(pos, rot, l, *geom),
+        &|pos, rot, l, rng| thermal_bodies(pos, rot, l, geom, inertia, rng),
+        rng,
+        relax,
+    )?;
+    let Packing { pos, rot, l, .. } = packing;
+    Ok(Config {
+        l,
+        bodies: thermal_bodies(&pos, &rot, l, geom, inertia, rng),
+    })
+}
+
+/// Bodies placed (positions, orientations, box side) as the Monte Carlo sees them.
+type PackingOf<'a> = dyn Fn(Vec<V3>, Vec<M3>, f64) -> Packing + 'a;
+/// Bodies placed as the dynamics takes them, at temperature 1.
+type Thermal<'a> = dyn Fn(&[V3], &[M3], f64, &mut Rng) -> Vec<Body> + 'a;
+
+/// The compression of every initial state: the densest FCC lattice, in steps of 5 % from the
+/// target box, on which the bodies (`packing_of` places them) do not overlap, melted, then
+/// compressed to packing fraction `phi` (bodies' total volume `volume`) by Monte Carlo steps with
+/// Jodrey–Tory pushes, and the dynamics (`thermal` bodies relaxed) where they jam.
+#[allow(clippy::too_many_arguments)]
+fn compress(
+    sites: &[V3],
+    rot: Vec<M3>,
+    volume: f64,
+    phi: f64,
+    dth: f64,
+    packing_of: &PackingOf,
+    thermal: &Thermal,
+    rng: &mut Rng,
+    relax: &mut Relax,
+) -> Result<Packing, EdmdError> {
+    let l_target = (volume / phi).cbrt();
     // The densest FCC lattice, in steps of 5 % from the target box, on which the randomly
     // oriented bodies do not overlap: the less compression is left to the Monte Carlo, the better.
     let mut l = l_target;
     let mut packing = loop {
-        let packing = Packing::new(sites.iter().map(|s| s * l).collect(), rot.clone(), l, *geom);
+        let packing = packing_of(sites.iter().map(|s| s * l).collect(), rot.clone(), l);
         if packing.overlaps == 0 {
             break packing;
         }
@@ -219,13 +258,13 @@ pub fn initial_configuration(
     // The lattice is melted first, at a density where the fluid is stable and moves are cheap,
     // as in Sec. 4.1: compressed without melting, an FCC lattice stays a crystal above freezing
     // (at φ = 0.5 hard spheres then give the crystal's Z ≈ 9.5, not the fluid's 13).
-    let l_melt = (n as f64 * vp / phi.min(PHI_MELT)).cbrt();
+    let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
     if packing.l < l_melt {
         packing.scale(l_melt / packing.l);
     }
     let mut steps = Steps {
-        dr: 0.1 * geom.bounding_radius(),
-        dth: 0.1,
+        dr: 0.1 * packing.geom.bounding_radius(),
+        dth,
     };
     for _ in 0..MELT_SWEEPS {
         let acc = packing.sweep(&steps, rng);
@@ -248,35 +287,25 @@ pub fn initial_configuration(
             // Carlo opens gaps slowly in a dense fluid (of long or flat bodies above all): the
             // dynamics relaxes the last packing before the next, smaller step.
             let (pos, rot, l) = before;
-            let bodies = relax(
-                thermal_bodies(&pos, &rot, l, geom, inertia, rng),
-                l,
-                UNJAM_COLLISIONS,
-            )?;
-            packing = Packing::new(
+            let bodies = relax(thermal(&pos, &rot, l, rng), l, UNJAM_COLLISIONS)?;
+            packing = packing_of(
                 bodies
                     .iter()
                     .map(|b| b.r.map(|x| x.rem_euclid(l)))
                     .collect(),
                 bodies.iter().map(|b| b.rot).collect(),
                 l,
-                *geom,
             );
             step *= 0.5;
         }
         if step < MIN_STEP || sweeps > MAX_SWEEPS {
             return Err(EdmdError::Compression {
-                reached: n as f64 * vp / packing.l.powi(3),
+                reached: volume / packing.l.powi(3),
                 target: phi,
             });
         }
     }
-
-    let Packing { pos, rot, l, .. } = packing;
-    Ok(Config {
-        l,
-        bodies: thermal_bodies(&pos, &rot, l, geom, inertia, rng),
-    })
+    Ok(packing)
 }
 
 /// A sphere mixture of the given diameters (a body's index is its diameter's) at packing
@@ -295,56 +324,17 @@ pub fn initial_mixture(
         .iter()
         .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
         .sum();
-    let l_target = (volume / phi).cbrt();
-    let sites = fcc_sites(n);
-    let mut l = l_target;
-    let mut packing = loop {
-        let packing = Packing::of_spheres(sites.iter().map(|s| s * l).collect(), sizes, l);
-        if packing.overlaps == 0 {
-            break packing;
-        }
-        l *= 1.05;
-    };
-    let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
-    if packing.l < l_melt {
-        packing.scale(l_melt / packing.l);
-    }
-    let mut steps = Steps {
-        dr: 0.1 * packing.geom.bounding_radius(),
-        dth: 0.0,
-    };
-    for _ in 0..MELT_SWEEPS {
-        let acc = packing.sweep(&steps, rng);
-        steps.adapt(acc, packing.l);
-    }
-    let (mut step, mut sweeps) = (MAX_STEP, 0);
-    while packing.l > l_target {
-        let before = (packing.pos.clone(), packing.l);
-        packing.scale((l_target / packing.l).max(1.0 / (1.0 + step)));
-        for _ in 0..RELAX_SWEEPS {
-            let acc = packing.sweep(&steps, rng);
-            steps.adapt(acc, packing.l);
-        }
-        sweeps += RELAX_SWEEPS;
-        if packing.overlaps == 0 || packing.push_apart(1.0 + 0.5 * step.max(MIN_PUSH)) {
-            step = (step * 1.5).min(MAX_STEP);
-        } else {
-            let (pos, l) = before;
-            let bodies = relax(thermal_mixture(&pos, sizes, l, rng), l, UNJAM_COLLISIONS)?;
-            let pos = bodies
-                .iter()
-                .map(|b| b.r.map(|x| x.rem_euclid(l)))
-                .collect();
-            packing = Packing::of_spheres(pos, sizes, l);
-            step *= 0.5;
-        }
-        if step < MIN_STEP || sweeps > MAX_SWEEPS {
-            return Err(EdmdError::Compression {
-                reached: volume / packing.l.powi(3),
-                target: phi,
-            });
-        }
-    }
+    let packing = compress(
+        &fcc_sites(n),
+        vec![M3::identity(); n],
+        volume,
+        phi,
+        0.0,
+        &|pos, _, l| Packing::of_spheres(pos, sizes, l),
+        &|pos, _, l, rng| thermal_mixture(pos, sizes, l, rng),
+        rng,
+        relax,
+    )?;
     Ok(Config {
         l: packing.l,
         bodies: thermal_mixture(&packing.pos, sizes, packing.l, rng),
