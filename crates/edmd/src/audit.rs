@@ -14,24 +14,9 @@ use crate::support_distance::{Certified, certify, support_point_lab};
 /// diameter, so no other image can touch.)
 pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
     let reach = 2.0 * geom.bounding_radius();
-    let pos: Vec<V3> = bodies
-        .iter()
-        .map(|b| b.r.map(|x| x.rem_euclid(l)))
-        .collect();
-    let near = Near::new(&pos, l, reach);
-    let mut overlaps = 0;
-    for (i, a) in bodies.iter().enumerate() {
-        near.all_around(&pos[i], |j| {
-            if j > i {
-                let r = min_image(pos[j] - pos[i], l);
-                if r.norm() < reach && pair_overlaps(geom, &a.rot, &bodies[j].rot, &r, tol) {
-                    overlaps += 1;
-                }
-            }
-            true
-        });
-    }
-    overlaps
+    count_pairs(bodies, l, reach, |i, j, r| {
+        r.norm() < reach && pair_overlaps(geom, &bodies[i].rot, &bodies[j].rot, r, tol)
+    })
 }
 
 /// The overlap audit of a sphere mixture: a pair overlaps when |r| < (1 − `tol`)(σ_i + σ_j)/2,
@@ -39,24 +24,34 @@ pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
 /// engine's contact times (it reads positions and diameters alone).
 pub fn audit_spheres(bodies: &[Body], diameters: &[f64], l: f64, tol: f64) -> u64 {
     let reach = diameters.iter().fold(0.0, |m: f64, &d| m.max(d));
+    count_pairs(bodies, l, reach, |i, j, r| {
+        r.norm() < (1.0 - tol) * 0.5 * (diameters[i] + diameters[j])
+    })
+}
+
+/// The pairs i < j, at the nearest image `r` of j from i, whose centres lie within `reach` (and
+/// a few beyond: cells), for which `overlaps` holds.
+fn count_pairs(
+    bodies: &[Body],
+    l: f64,
+    reach: f64,
+    overlaps: impl Fn(usize, usize, &V3) -> bool,
+) -> u64 {
     let pos: Vec<V3> = bodies
         .iter()
         .map(|b| b.r.map(|x| x.rem_euclid(l)))
         .collect();
     let near = Near::new(&pos, l, reach);
-    let mut overlaps = 0;
+    let mut count = 0;
     for i in 0..bodies.len() {
         near.all_around(&pos[i], |j| {
-            if j > i {
-                let r = min_image(pos[j] - pos[i], l);
-                if r.norm() < (1.0 - tol) * 0.5 * (diameters[i] + diameters[j]) {
-                    overlaps += 1;
-                }
+            if j > i && overlaps(i, j, &min_image(pos[j] - pos[i], l)) {
+                count += 1;
             }
             true
         });
     }
-    overlaps
+    count
 }
 
 /// The audit's verdict: the bodies, both scaled by 1 − `tol` about their centres, overlap.
