@@ -12,22 +12,8 @@
  * Prints, as its last line, {"tau_c_us", "tau_c_wall_us", "collisions", "pressure", "z",
  * "init_s", "run_s"} over the measured time, as smallenburg-main.c does.
  */
-#define _GNU_SOURCE
-#include <time.h>
-
-int chdir(const char* path);
-char* realpath(const char* path, char* resolved);
-
-unsigned long sweep_seed = 1;
-
+#include "smallenburg-clock.h"
 #include "mdSingle-file.c"
-
-static double now_s(clockid_t clock)
-{
-    struct timespec t;
-    clock_gettime(clock, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
 
 int main(int argc, char** argv)
 {

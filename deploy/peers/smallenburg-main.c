@@ -17,22 +17,8 @@
  * init_s. The peer writes a pressure file every time unit: the run happens in a temporary
  * folder, removed at the end.
  */
-#define _GNU_SOURCE
-#include <time.h>
-
-/* From <unistd.h>, which cannot be included: it declares a write() of its own. */
-int chdir(const char* path);
-
-unsigned long sweep_seed = 1;
-
+#include "smallenburg-clock.h"
 #include "mdSingle.c"
-
-static double now_s(clockid_t clock)
-{
-    struct timespec t;
-    clock_gettime(clock, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
 
 int main(int argc, char** argv)
 {
