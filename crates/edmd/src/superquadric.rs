@@ -184,11 +184,35 @@ fn gamma(x: f64) -> f64 {
     (2.0 * std::f64::consts::PI).sqrt() * t.powf(x + 0.5) * (-t).exp() * acc
 }
 
+/// x^e, the ellipsoid's exponents (2, and 1 = 1/(e − 1)) as a product: the Hölder powers are
+/// where a superquadric's time goes, and p = 2 is the case that must cost what an ellipsoid does.
+#[inline]
+fn pow(x: f64, e: f64) -> f64 {
+    if e == 2.0 {
+        x * x
+    } else if e == 1.0 {
+        x
+    } else {
+        x.powf(e)
+    }
+}
+
 /// The t > 0 with Σ c_k t^(q_k) = 1 (c_k ≥ 0, not all 0, q_k > 0): Newton's method on the convex,
 /// increasing φ(σ) = ln Σ c_k e^(q_k σ), σ = ln t, started where φ ≥ 0 (every term alone reaches 1
 /// there), so it descends monotonically and never undershoots: the result errs on the side
 /// Σ ≥ 1, i.e. the point found lies on or just outside the surface.
 pub fn scale_root(c: &V3, q: &V3) -> f64 {
+    // One exponent (every ellipsoid-like superquadric, [p, p, p]): t = (Σ c_k)^(−1/q) in closed
+    // form, nudged outwards by a few ulps as the iteration errs.
+    let sum = c.sum();
+    if q.x == q.y && q.y == q.z && sum > 0.0 && sum.is_finite() {
+        let t = if q.x == 2.0 {
+            1.0 / sum.sqrt()
+        } else {
+            sum.powf(-1.0 / q.x)
+        };
+        return t * (1.0 + 4.0 * f64::EPSILON);
+    }
     let mut sigma = f64::NEG_INFINITY;
     for k in 0..3 {
         if c[k] > 0.0 {
@@ -225,7 +249,7 @@ impl Superquadric {
     /// of radius s_min). The smaller of the two, or the second alone if the first is not a number.
     fn multiplier_inverse(&self, v: &V3) -> f64 {
         let q = self.e.map(|e| e / (e - 1.0));
-        let c = V3::from_fn(|k, _| ((v[k] * self.s[k]).abs() / self.e[k]).powf(q[k]));
+        let c = V3::from_fn(|k, _| pow((v[k] * self.s[k]).abs() / self.e[k], q[k]));
         let global = self.e.max() / self.s.min();
         (scale_root(&c, &q) * (1.0 + 1e-12)).min(global)
     }
@@ -300,7 +324,7 @@ impl Surface for Superquadric {
         self.radius
     }
     fn ray_point(&self, dir: &V3) -> V3 {
-        let c = V3::from_fn(|k, _| (dir[k] / self.s[k]).abs().powf(self.e[k]));
+        let c = V3::from_fn(|k, _| pow((dir[k] / self.s[k]).abs(), self.e[k]));
         dir * scale_root(&c, &self.e)
     }
     /// n·(support point) plus 1e-13 of the largest semi-axis: the powers that map the root back
@@ -314,9 +338,9 @@ impl Surface for Superquadric {
     fn support_point(&self, n: &V3) -> V3 {
         let a = V3::from_fn(|k, _| (n[k] * self.s[k]).abs() / self.e[k]);
         let q = self.e.map(|e| e / (e - 1.0));
-        let c = V3::from_fn(|k, _| a[k].powf(q[k]));
+        let c = V3::from_fn(|k, _| pow(a[k], q[k]));
         let mu = scale_root(&c, &q);
-        V3::from_fn(|k, _| n[k].signum() * self.s[k] * (a[k] * mu).powf(1.0 / (self.e[k] - 1.0)))
+        V3::from_fn(|k, _| n[k].signum() * self.s[k] * pow(a[k] * mu, 1.0 / (self.e[k] - 1.0)))
     }
     fn support_modulus(&self, v: &V3) -> SupportModulus {
         match &self.modulus {
@@ -431,6 +455,22 @@ mod tests {
                     let x = q.ray_point(&(xu + off));
                     prop_assert!(u.dot(&x) <= tangent + allowed + slack);
                 }
+            }
+        }
+
+        /// The closed form for one exponent and the iteration for several solve the same
+        /// equation, both erring outwards (Σ c_k t^(q_k) ≥ 1) by no more than rounding.
+        #[test]
+        fn scale_root_solves_its_equation_from_outside(
+            c in prop::array::uniform3(1e-3f64..10.0),
+            q in 1.05f64..12.0,
+            dq in 0.0f64..3.0,
+        ) {
+            for qs in [V3::repeat(q), V3::new(q, q, q + dq)] {
+                let c = V3::from(c);
+                let t = scale_root(&c, &qs);
+                let sum: f64 = (0..3).map(|k| c[k] * t.powf(qs[k])).sum();
+                prop_assert!((1.0 - 1e-14..1.0 + 1e-12).contains(&sum), "{qs:?}: Σ = {sum}");
             }
         }
 
