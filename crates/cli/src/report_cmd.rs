@@ -271,16 +271,7 @@ fn edmd_report(args: &ReportArgs, format: Format) -> anyhow::Result<()> {
         }
     })?;
     // Fig. 11 draws the Δ*_NNL that searches found minimising the τ_c of the same clock.
-    let tau_field = match clock {
-        Clock::Cpu => "tau_c_cpu_us",
-        Clock::Wall => "tau_c_us",
-    };
-    let searched = tune::report::fig11_minima(&searches, tau_field, unit);
-    let other_clock = searches
-        .iter()
-        .filter(|s| s.knob == "delta_nnl")
-        .filter(|s| matches!(&s.goal, jobs::TuneGoal::Min(f) if f.starts_with("tau_c") && f != tau_field))
-        .count();
+    let (searched, other_clock) = tune::report::fig11_minima(&searches, clock, unit);
     if other_clock > 0 {
         eprintln!(
             "note: {other_clock} search(es) of delta_nnl minimised the other clock's τ_c: not drawn with --clock {}",

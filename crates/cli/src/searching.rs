@@ -24,18 +24,14 @@ pub async fn step(
     campaign: &NewCampaign,
     searches: &[TuneSearch],
 ) -> anyhow::Result<Issued> {
-    step_campaigns(
-        coordinator,
-        std::slice::from_ref(&(campaign.clone(), searches.to_vec())),
-    )
-    .await
+    step_campaigns(coordinator, &[(campaign, searches)]).await
 }
 
 /// [`step`] for the searches of several campaigns, each one's evaluations into its own: the
 /// EDMD jobs are read once for all of them.
 async fn step_campaigns(
     coordinator: &Coordinator,
-    campaigns: &[(NewCampaign, Vec<TuneSearch>)],
+    campaigns: &[(&NewCampaign, &[TuneSearch])],
 ) -> anyhow::Result<Issued> {
     let all: Vec<TuneSearch> = campaigns
         .iter()
@@ -48,7 +44,7 @@ async fn step_campaigns(
         new_jobs: 0,
         all_done: true,
     };
-    for (campaign, searches) in campaigns {
+    for &(campaign, searches) in campaigns {
         let mine: Vec<_> = steps.by_ref().take(searches.len()).collect();
         issued.all_done &= mine.iter().all(|s| matches!(s.step, tune::Step::Done(_)));
         let jobs: Vec<_> = mine
@@ -133,6 +129,8 @@ async fn step_all(coordinator: &Coordinator, stored: Vec<StoredSearch>) -> anyho
             )),
         }
     }
+    let campaigns: Vec<(&NewCampaign, &[TuneSearch])> =
+        campaigns.iter().map(|(c, s)| (c, s.as_slice())).collect();
     step_campaigns(coordinator, &campaigns).await?;
     Ok(())
 }

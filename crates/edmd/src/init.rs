@@ -377,6 +377,7 @@ fn thermal_mixture(pos: &[V3], sizes: &[f64], l: f64, rng: &mut Rng) -> Vec<Body
 /// The order [`sort_along_z_curve`] puts the bodies in: the index of the body that goes first,
 /// second, … (for a mixture, whose sizes must follow their bodies).
 pub fn z_curve_order(bodies: &[Body], l: f64) -> Vec<usize> {
+    // 21 bits per axis: cells of side σ up to a box of 2·10⁶ σ.
     let per_side = l.floor().clamp(1.0, f64::from((1u32 << 21) - 1));
     let cell = |x: f64| ((x.rem_euclid(l) / l * per_side) as u32).min(per_side as u32 - 1);
     let mut order: Vec<usize> = (0..bodies.len()).collect();
@@ -444,12 +445,11 @@ fn thermal_bodies(
 /// close in space are close in memory: a prediction's neighbours then share cache lines and
 /// pages, which keeps τ_c from growing with N once the bodies no longer fit in cache.
 pub fn sort_along_z_curve(bodies: &mut [Body], l: f64) {
-    // 21 bits per axis: cells of side σ up to a box of 2·10⁶ σ.
-    let per_side = l.floor().clamp(1.0, f64::from((1u32 << 21) - 1));
-    let cell = |x: f64| ((x.rem_euclid(l) / l * per_side) as u32).min(per_side as u32 - 1);
-    bodies.sort_by_cached_key(|b| {
-        spread(cell(b.r.x)) | spread(cell(b.r.y)) << 1 | spread(cell(b.r.z)) << 2
-    });
+    let sorted: Vec<Body> = z_curve_order(bodies, l)
+        .into_iter()
+        .map(|k| bodies[k])
+        .collect();
+    bodies.copy_from_slice(&sorted);
 }
 
 /// The low 21 bits of `x`, two zero bits after each.

@@ -184,11 +184,14 @@ fn gamma(x: f64) -> f64 {
     (2.0 * std::f64::consts::PI).sqrt() * t.powf(x + 0.5) * (-t).exp() * acc
 }
 
-/// x^e, the ellipsoid's exponents (2, and 1 = 1/(e − 1)) as a product: the Hölder powers are
-/// where a superquadric's time goes, and p = 2 is the case that must cost what an ellipsoid does.
+/// x^e, the ellipsoid's exponents (2, 1 = 1/(e − 1) and 0 = e − 2) without `powf`: the Hölder
+/// powers are where a superquadric's time goes, and p = 2 is the case that must cost what an
+/// ellipsoid does. (powf(0, 0) is 1 too.)
 #[inline]
 fn pow(x: f64, e: f64) -> f64 {
-    if e == 2.0 {
+    if e == 0.0 {
+        1.0
+    } else if e == 2.0 {
         x * x
     } else if e == 1.0 {
         x
@@ -259,8 +262,7 @@ impl Superquadric {
         std::array::from_fn(|k| {
             let u = (x[k] / self.s[k]).abs();
             let e = self.e[k];
-            // e = 2 exactly: powf(0, 0) would be 1 anyway, but avoid powf on the common path.
-            let pm2 = if e == 2.0 { 1.0 } else { u.powf(e - 2.0) };
+            let pm2 = pow(u, e - 2.0);
             (pm2, pm2 * u, pm2 * u * u)
         })
     }

@@ -73,6 +73,14 @@ pub fn goal_of(search: &TuneSearch) -> Result<(Range, Goal), DriveError> {
     Ok((range, goal))
 }
 
+/// The record field that holds τ_c by `clock`: what a search minimising that τ_c names.
+pub fn tau_c_field(clock: Clock) -> &'static str {
+    match clock {
+        Clock::Cpu => "tau_c_cpu_us",
+        Clock::Wall => "tau_c_us",
+    }
+}
+
 /// Where every search stands, from the jobs in the store.
 pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchStep>, DriveError> {
     if searches.is_empty() {
@@ -85,7 +93,7 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
     };
     // τ_c by the clock the goal names; every other field is the same by either clock.
     let wall = results::edmd_scenes(store, Clock::Wall).await?;
-    let cpu = if needs("tau_c_cpu_us") {
+    let cpu = if needs(tau_c_field(Clock::Cpu)) {
         results::edmd_scenes(store, Clock::Cpu).await?
     } else {
         Vec::new()
@@ -106,7 +114,7 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
         .map(|(i, search)| {
             let (range, goal) = goal_of(search)?;
             let runs = match &search.goal {
-                TuneGoal::Min(f) if f == "tau_c_cpu_us" => &cpu[i],
+                TuneGoal::Min(f) if f == tau_c_field(Clock::Cpu) => &cpu[i],
                 _ => &wall[i],
             };
             let (mut done, in_flight) = evaluations(search, runs, &failed[i], &pending[i]);

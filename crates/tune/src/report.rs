@@ -4,7 +4,7 @@ use jobs::{TuneGoal, TuneSearch};
 use serde::Serialize;
 use store::Store;
 
-use crate::drive::{DriveError, SearchStep, steps};
+use crate::drive::{DriveError, SearchStep, steps, tau_c_field};
 use crate::{Conclusion, Evaluation, Outcome, Step};
 
 /// One search as reported.
@@ -187,21 +187,26 @@ pub fn paths(rows: &[SearchRow]) -> Vec<report::SearchPath> {
         .collect()
 }
 
-/// The Δ*_NNL that ellipsoid searches minimising `field` (the τ_c of the figure's clock) have
-/// found, as Fig. 11 draws them beside the grids' minima. A search still running, or one that
-/// found nothing usable, has no minimum yet; one whose best run lies at an end of its range has
-/// only a bound (as a grid's edge).
+/// The Δ*_NNL that ellipsoid searches minimising the τ_c of `clock` have found, as Fig. 11
+/// draws them beside the grids' minima, and how many searches of Δ_NNL minimised the other
+/// clock's τ_c (not drawn). A search still running, or one that found nothing usable, has no
+/// minimum yet; one whose best run lies at an end of its range has only a bound (as a grid's
+/// edge).
 pub fn fig11_minima(
     rows: &[SearchRow],
-    field: &str,
+    clock: report::Clock,
     unit: report::LengthUnit,
-) -> Vec<report::LocatedMinimum> {
-    rows.iter()
-        .filter(|r| {
-            r.shape == "ellipsoid"
-                && r.knob == "delta_nnl"
-                && matches!(&r.goal, TuneGoal::Min(f) if f == field)
-        })
+) -> (Vec<report::LocatedMinimum>, usize) {
+    let minimises = |r: &SearchRow, clock| {
+        r.knob == "delta_nnl" && matches!(&r.goal, TuneGoal::Min(f) if f == tau_c_field(clock))
+    };
+    let other = match clock {
+        report::Clock::Cpu => report::Clock::Wall,
+        report::Clock::Wall => report::Clock::Cpu,
+    };
+    let minima = rows
+        .iter()
+        .filter(|r| r.shape == "ellipsoid" && minimises(r, clock))
         .filter_map(|r| {
             let c = r.conclusion.as_ref()?;
             let (best, [lo, hi], objective) = (c.best?, c.interval?, c.objective?);
@@ -221,5 +226,6 @@ pub fn fig11_minima(
                 update_share: None,
             })
         })
-        .collect()
+        .collect();
+    (minima, rows.iter().filter(|r| minimises(r, other)).count())
 }

@@ -2,7 +2,7 @@
 //! bound.
 
 use jobs::TuneGoal;
-use report::{LengthUnit, MinimumMethod};
+use report::{Clock, LengthUnit, MinimumMethod};
 use tune::report::{SearchRow, fig11_minima};
 use tune::{Conclusion, Objective, Stopped};
 
@@ -42,8 +42,9 @@ fn only_ellipsoid_searches_of_delta_nnl_minimising_the_clocks_tau_c_are_drawn() 
         row("ellipsoid", "eps_d", "tau_c_cpu_us", 2.0, 0.32),
         row("superquadric", "delta_nnl", "tau_c_cpu_us", 2.0, 0.32),
     ];
-    let found = fig11_minima(&rows, "tau_c_cpu_us", LengthUnit::Sigma);
+    let (found, other_clock) = fig11_minima(&rows, Clock::Cpu, LengthUnit::Sigma);
     assert_eq!(found.len(), 1, "{found:?}");
+    assert_eq!(other_clock, 1, "the wall-clock search of delta_nnl");
     let m = &found[0];
     assert_eq!(m.method, MinimumMethod::Search);
     assert!(m.bracketed);
@@ -54,13 +55,17 @@ fn only_ellipsoid_searches_of_delta_nnl_minimising_the_clocks_tau_c_are_drawn() 
 
     let mut running = row("ellipsoid", "delta_nnl", "tau_c_us", 2.0, 0.32);
     running.conclusion = None;
-    assert!(fig11_minima(&[running], "tau_c_us", LengthUnit::Sigma).is_empty());
+    assert!(
+        fig11_minima(&[running], Clock::Wall, LengthUnit::Sigma)
+            .0
+            .is_empty()
+    );
 }
 
 #[test]
 fn a_best_run_at_the_range_end_is_a_bound_and_lengths_follow_the_unit() {
     let at_end = row("ellipsoid", "delta_nnl", "tau_c_us", 2.0, 1.5);
-    let found = fig11_minima(&[at_end], "tau_c_us", LengthUnit::SemiAxis);
+    let (found, _) = fig11_minima(&[at_end], Clock::Wall, LengthUnit::SemiAxis);
     assert_eq!(found.len(), 1);
     assert!(!found[0].bracketed);
     // X0 = 2 at equal volume to a unit sphere: b = 0.5 / 2^(1/3), the smallest semi-axis.
