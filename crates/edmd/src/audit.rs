@@ -13,19 +13,17 @@ use crate::support_distance::{Certified, certify, support_point_lab};
 /// nearest image; pairs are found through cells, O(N). (The box exceeds twice the bounding
 /// diameter, so no other image can touch.)
 pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
-    let reach = 2.0 * geom.bounding_radius();
-    count_pairs(bodies, l, reach, |i, j, r| {
-        r.norm() < reach && pair_overlaps(geom, &bodies[i].rot, &bodies[j].rot, r, tol)
-    })
+    audit_each(bodies, l, &|_| *geom, tol)
 }
 
-/// The overlap audit of a sphere mixture: a pair overlaps when |r| < (1 − `tol`)(σ_i + σ_j)/2,
-/// every pair within the largest contact distance found through cells, O(N); independent of the
-/// engine's contact times (it reads positions and diameters alone).
-pub fn audit_spheres(bodies: &[Body], diameters: &[f64], l: f64, tol: f64) -> u64 {
-    let reach = diameters.iter().fold(0.0, |m: f64, &d| m.max(d));
-    count_pairs(bodies, l, reach, |i, j, r| {
-        r.norm() < (1.0 - tol) * 0.5 * (diameters[i] + diameters[j])
+/// [`audit`] of bodies of several shapes or sizes (body `i` is `geom_of(i)`): every pair within
+/// the sum of its bounding radii, found through cells sized for the largest, O(N).
+pub fn audit_each(bodies: &[Body], l: f64, geom_of: &dyn Fn(usize) -> Geom, tol: f64) -> u64 {
+    let largest = (0..bodies.len()).fold(0.0, |m: f64, i| m.max(geom_of(i).bounding_radius()));
+    count_pairs(bodies, l, 2.0 * largest, |i, j, r| {
+        let (a, b) = (geom_of(i), geom_of(j));
+        r.norm() < a.bounding_radius() + b.bounding_radius()
+            && pair_overlaps(&a, &b, &bodies[i].rot, &bodies[j].rot, r, tol)
     })
 }
 
@@ -54,14 +52,16 @@ fn count_pairs(
     count
 }
 
-/// The audit's verdict: the bodies, both scaled by 1 − `tol` about their centres, overlap.
+/// The audit's verdict: bodies `a` and `b`, both scaled by 1 − `tol` about their centres, overlap.
 /// Independent of the engine's Newton–Raphson solvers: Perram–Wertheim for ellipsoids,
 /// Gilbert's algorithm on support functions for superquadrics ([`overlap_certified`], which
 /// counts a pair it cannot decide as overlapping).
-pub fn pair_overlaps(geom: &Geom, rot_a: &M3, rot_b: &M3, r: &V3, tol: f64) -> bool {
-    match geom {
-        Geom::Superquadric(q) => overlap_certified(q, rot_a, q, rot_b, r, tol),
-        _ => geom.contact_scale(rot_a, rot_b, r) < 1.0 - tol,
+pub fn pair_overlaps(a: &Geom, b: &Geom, rot_a: &M3, rot_b: &M3, r: &V3, tol: f64) -> bool {
+    match (a, b) {
+        (Geom::Superquadric(qa), Geom::Superquadric(qb)) => {
+            overlap_certified(qa, rot_a, qb, rot_b, r, tol)
+        }
+        _ => a.contact_scale(b, rot_a, rot_b, r) < 1.0 - tol,
     }
 }
 
@@ -125,15 +125,17 @@ mod tests {
     use crate::superquadric::Superquadric;
 
     /// The audit through cells counts exactly the pairs the O(N²) loop over all pairs does, for
-    /// spheres and ellipsoids, dilute and dense, with bodies near box faces and unwrapped positions.
+    /// spheres and ellipsoids, dilute and dense, with bodies near box faces and unwrapped
+    /// positions; and a mixture of two ellipsoids (every other body), through [`audit_each`].
     #[test]
     fn audit_matches_all_pairs() {
-        let brute = |bodies: &[Body], l: f64, geom: &Geom, tol: f64| {
+        let brute = |bodies: &[Body], l: f64, geom_of: &dyn Fn(usize) -> Geom, tol: f64| {
             let mut overlaps = 0;
             for i in 0..bodies.len() {
                 for j in (i + 1)..bodies.len() {
                     let r = min_image(bodies[j].r - bodies[i].r, l);
-                    if pair_overlaps(geom, &bodies[i].rot, &bodies[j].rot, &r, tol) {
+                    let (a, b) = (geom_of(i), geom_of(j));
+                    if pair_overlaps(&a, &b, &bodies[i].rot, &bodies[j].rot, &r, tol) {
                         overlaps += 1;
                     }
                 }
@@ -141,11 +143,12 @@ mod tests {
             overlaps
         };
         let mut rng = Rng::new(9);
-        let geoms = [
-            Geom::Sphere { sigma: 1.0 },
-            Geom::Ellipsoid(Ellipsoid::new(0.8, 0.4, 0.4)),
-        ];
-        for geom in geoms {
+        let sphere = Geom::Sphere { sigma: 1.0 };
+        let prolate = Geom::Ellipsoid(Ellipsoid::new(0.8, 0.4, 0.4));
+        let oblate = Geom::Ellipsoid(Ellipsoid::new(0.3, 0.65, 0.65));
+        let cases: [&[Geom]; 3] = [&[sphere], &[prolate], &[prolate, oblate]];
+        for case in cases {
+            let geom_of = |i: usize| case[i % case.len()];
             for (n, l) in [(400, 12.0), (300, 7.0), (40, 3.5)] {
                 let bodies: Vec<Body> = (0..n)
                     .map(|_| Body {
@@ -161,13 +164,16 @@ mod tests {
                         w: V3::zeros(),
                     })
                     .collect();
-                let expected = brute(&bodies, l, &geom, 1e-8);
-                assert!(expected > 0, "{geom:?} n {n}: the test needs overlaps");
+                let expected = brute(&bodies, l, &geom_of, 1e-8);
+                assert!(expected > 0, "{case:?} n {n}: the test needs overlaps");
                 assert_eq!(
-                    audit(&bodies, l, &geom, 1e-8),
+                    audit_each(&bodies, l, &geom_of, 1e-8),
                     expected,
-                    "{geom:?} n {n} l {l}"
+                    "{case:?} n {n} l {l}"
                 );
+                if let [geom] = case {
+                    assert_eq!(audit(&bodies, l, geom, 1e-8), expected, "{geom:?} n {n}");
+                }
             }
         }
     }

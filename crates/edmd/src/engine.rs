@@ -6,9 +6,9 @@ use std::time::Instant;
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
 use crate::contact::bounding_sphere_window;
-use crate::geometry::{Surface, V3, image_offset};
+use crate::geometry::{V3, image_offset};
 use crate::lists::{Lists, Region};
-use crate::model::{MixedSphereModel, Model, RigidModel, SphereModel};
+use crate::model::{MixedSphereModel, Model, Rigid, SphereModel};
 use crate::rigid::Body;
 use crate::scene::{Neighbours, Scene};
 use crate::sequence::Fingerprint;
@@ -40,7 +40,6 @@ pub(crate) struct Engine<M: Model> {
     count: Vec<u32>,
     cal: Calendar<M::Extra>,
     pub(crate) t: f64,
-    inv_i: f64,
     nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
     /// Candidate partners: (estimate, lower bound, partner, image shift).
@@ -99,12 +98,11 @@ impl<M: FirstCollision> Engine<M> {
         m: M,
         l: f64,
         bodies: Vec<Body>,
-        inv_i: f64,
         scene: &Scene,
         t: f64,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
-        let lb = m.surface().bounding_radius();
+        let lb = m.bounding_radius();
         let nb = match scene.neighbours {
             Neighbours::Ll => {
                 let cells = Cells::new(l, 2.0 * lb).ok_or(EdmdError::BoxTooSmall {
@@ -120,10 +118,8 @@ impl<M: FirstCollision> Engine<M> {
                 }
             }
             Neighbours::Nnl => {
-                let surf = m.surface();
                 // Each body's region around its own shape (the same for all but mixtures).
                 let lists = Lists::<M::Region>::build_each(
-                    &surf,
                     |i| m.surface_of(i),
                     &bodies,
                     l,
@@ -132,7 +128,11 @@ impl<M: FirstCollision> Engine<M> {
                 let escape_at = bodies
                     .iter()
                     .enumerate()
-                    .map(|(i, b)| lists.region(i).escape_time(&surf, b, scene.eps_nnl))
+                    .map(|(i, b)| {
+                        lists
+                            .region(i)
+                            .escape_time(&m.surface_of(i), b, scene.eps_nnl)
+                    })
                     .collect();
                 Neighbourhood::Nnl {
                     lists,
@@ -153,7 +153,6 @@ impl<M: FirstCollision> Engine<M> {
             count: vec![0; n],
             cal: Calendar::new(n),
             t,
-            inv_i,
             nb,
             scratch: Vec::new(),
             order: Vec::new(),
@@ -196,12 +195,7 @@ impl<M: FirstCollision> Engine<M> {
     }
 
     /// The engine of a [`snapshot`](Self::snapshot), with the model `m` of the same scene.
-    pub(crate) fn restore(
-        mut m: M,
-        l: f64,
-        inv_i: f64,
-        s: EngineState<M::Extra, M::Region>,
-    ) -> Self {
+    pub(crate) fn restore(mut m: M, l: f64, s: EngineState<M::Extra, M::Region>) -> Self {
         m.set_stats(s.stats);
         Engine {
             m,
@@ -210,7 +204,6 @@ impl<M: FirstCollision> Engine<M> {
             count: s.count,
             cal: s.cal,
             t: s.t,
-            inv_i,
             nb: s.nb,
             scratch: Vec::new(),
             order: Vec::new(),
@@ -461,14 +454,7 @@ impl<M: FirstCollision> Engine<M> {
         self.bodies
             .iter()
             .enumerate()
-            .map(|(i, b)| {
-                self.m.kinetic(i, b)
-                    + if self.inv_i > 0.0 {
-                        0.5 * b.w.norm_squared() / self.inv_i
-                    } else {
-                        0.0
-                    }
-            })
+            .map(|(i, b)| self.m.kinetic(i, b) + self.m.spin_kinetic(i, b))
             .sum()
     }
 
@@ -544,7 +530,7 @@ impl Spheres for MixedSphereModel {
     }
 }
 
-impl<S: Surface + Copy> FirstCollision for RigidModel<S> {
+impl<M: Rigid> FirstCollision for M {
     fn first_collision(e: &mut Engine<Self>, i: usize, own: Event<(V3, V3)>) -> Event<(V3, V3)> {
         let a = e.bodies[i];
         e.first_rigid_collision(i, &a, own)
@@ -563,7 +549,7 @@ impl<M: Spheres> Engine<M> {
     /// compile these branches away.
     fn first_sphere_collision(&mut self, i: usize, own: Event<()>) -> Event<()> {
         let a = &self.bodies[i];
-        let sigma2 = (2.0 * self.m.surface().s.x).powi(2);
+        let sigma2 = (2.0 * self.m.bounding_radius()).powi(2);
         let ri = if M::MIXED { self.m.radius(i) } else { 0.0 };
         let mut horizon = own.t - self.t;
         let found = match &self.nb {
@@ -643,7 +629,7 @@ impl<M: Spheres> Engine<M> {
     }
 }
 
-impl<S: Surface + Copy> Engine<RigidModel<S>> {
+impl<M: Rigid> Engine<M> {
     /// Rigid bodies: partners are searched in the order in which their bounding spheres meet (or,
     /// where they already overlap, of a separating-axis estimate), so that the search stops as
     /// soon as a lower bound cannot beat the best event so far.
@@ -675,7 +661,7 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
                 cand.extend(lists.of(i).iter().map(|n| (n.j, n.shift())))
             }
         }
-        let lb = self.m.surface().bounding_radius();
+        let lb = self.m.bounding_radius_of(i);
         let mut order = std::mem::take(&mut self.order);
         order.clear();
         for &(j, shift) in &cand {
@@ -687,12 +673,13 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
             // the present only when its orientation matters.
             let bj = &self.bodies[ju];
             let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
-            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), 2.0 * lb) {
+            let reach = lb + self.m.bounding_radius_of(ju);
+            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), reach) {
                 // Bounding spheres already overlap: a separating axis bounds the contact time.
                 let (lower, estimate) = if t1 == 0.0 {
                     let mut b = self.bodies[ju].at(self.t);
                     b.r += image_offset(shift, self.l);
-                    self.m.quick_bound(a, &b)
+                    self.m.quick_bound([i, ju], a, &b)
                 } else {
                     (t1, t1)
                 };
@@ -708,12 +695,13 @@ impl<S: Surface + Copy> Engine<RigidModel<S>> {
             let ju = j as usize;
             let mut b = self.bodies[ju].at(self.t);
             b.r += image_offset(shift, self.l);
-            let failures = self.m.stats.failures;
-            let hit = self.m.predict(a, &b, best.t - self.t);
-            if self.m.stats.failures > failures && self.failure.is_none() {
+            let failures = self.m.solver_stats().failures;
+            let hit = self.m.predict([i, ju], a, &b, best.t - self.t);
+            let stats = self.m.solver_stats();
+            if stats.failures > failures && self.failure.is_none() {
                 let arr = |v: V3| [v.x, v.y, v.z];
                 self.failure = Some(EdmdError::Unresolved(Box::new(crate::UnresolvedContact {
-                    quantity: self.m.stats.failed.unwrap_or("contact time"),
+                    quantity: stats.failed.unwrap_or("contact time"),
                     a: i,
                     b: ju,
                     t: self.t,

@@ -39,15 +39,46 @@ impl Geom {
         }
     }
 
-    /// Factor by which both bodies must be scaled about their centres to touch (< 1: overlap).
-    /// For spheres |r|/σ; for ellipsoids the Perram–Wertheim function, independent of the NR
-    /// solver; for superquadrics [`scale::contact_scale`] on the engine's own distance, exact up
-    /// to 1 + [`scale::EXACT_BELOW`] and a lower bound above (all the Monte Carlo needs).
-    pub fn contact_scale(&self, rot_a: &M3, rot_b: &M3, r: &V3) -> f64 {
+    /// The body's volume.
+    pub fn volume(&self) -> f64 {
         match self {
-            Geom::Sphere { sigma } => r.norm() / sigma,
-            Geom::Ellipsoid(e) => contact_scale(e, rot_a, e, rot_b, r),
-            Geom::Superquadric(q) => scale::contact_scale(q, rot_a, q, rot_b, r),
+            Geom::Sphere { sigma } => std::f64::consts::PI / 6.0 * sigma * sigma * sigma,
+            Geom::Ellipsoid(e) => 4.0 / 3.0 * std::f64::consts::PI * e.s.product(),
+            Geom::Superquadric(q) => q.volume(),
+        }
+    }
+
+    /// The same body as a superquadric (a sphere or an ellipsoid is one, of exponents 2).
+    fn as_superquadric(&self) -> Superquadric {
+        let (s, e) = match self {
+            Geom::Sphere { sigma } => (V3::repeat(0.5 * sigma), V3::repeat(2.0)),
+            Geom::Ellipsoid(e) => (e.s, V3::repeat(2.0)),
+            Geom::Superquadric(q) => return *q,
+        };
+        Superquadric::new(s.into(), e.into())
+            .unwrap_or_else(|| unreachable!("a valid body's semi-axes are positive and finite"))
+    }
+
+    /// Factor by which this body (`rot_a`) and `other` (`rot_b`, at separation `r`) must both be
+    /// scaled about their centres to touch (< 1: overlap). For spheres |r|/((σ_a + σ_b)/2); for
+    /// ellipsoids the Perram–Wertheim function, independent of the NR solver; for superquadrics
+    /// [`scale::contact_scale`] on the engine's own distance, exact up to
+    /// 1 + [`scale::EXACT_BELOW`] and a lower bound above (all the Monte Carlo needs). A
+    /// mixture's bodies are all of one kind; two kinds meet as superquadrics.
+    pub fn contact_scale(&self, other: &Geom, rot_a: &M3, rot_b: &M3, r: &V3) -> f64 {
+        match (self, other) {
+            (Geom::Sphere { sigma: a }, Geom::Sphere { sigma: b }) => r.norm() / (0.5 * (a + b)),
+            (Geom::Ellipsoid(a), Geom::Ellipsoid(b)) => contact_scale(a, rot_a, b, rot_b, r),
+            (Geom::Superquadric(a), Geom::Superquadric(b)) => {
+                scale::contact_scale(a, rot_a, b, rot_b, r)
+            }
+            _ => scale::contact_scale(
+                &self.as_superquadric(),
+                rot_a,
+                &other.as_superquadric(),
+                rot_b,
+                r,
+            ),
         }
     }
 
@@ -55,39 +86,45 @@ impl Geom {
     /// (ellipsoids, [`crate::pw::contact_scale_unless_above`]).
     pub fn contact_scale_unless_above(
         &self,
+        other: &Geom,
         rot_a: &M3,
         rot_b: &M3,
         r: &V3,
         k: f64,
     ) -> Option<f64> {
-        match self {
-            Geom::Ellipsoid(e) => crate::pw::contact_scale_unless_above(e, rot_a, e, rot_b, r, k),
-            _ => Some(self.contact_scale(rot_a, rot_b, r)),
+        match (self, other) {
+            (Geom::Ellipsoid(a), Geom::Ellipsoid(b)) => {
+                crate::pw::contact_scale_unless_above(a, rot_a, b, rot_b, r, k)
+            }
+            _ => Some(self.contact_scale(other, rot_a, rot_b, r)),
         }
     }
 
-    /// Cheap certificate that the bodies, both scaled by `k` about their centres, do not touch:
-    /// their bounding spheres or their bounding boxes are disjoint.
-    pub fn surely_apart(&self, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
-        if r.norm_squared() >= (2.0 * self.bounding_radius() * k).powi(2) {
+    /// Cheap certificate that this body and `other`, both scaled by `k` about their centres, do
+    /// not touch: their bounding spheres or their bounding boxes are disjoint.
+    pub fn surely_apart(&self, other: &Geom, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
+        let reach = (self.bounding_radius() + other.bounding_radius()) * k;
+        if r.norm_squared() >= reach.powi(2) {
             return true;
         }
-        let semi_axes = match self {
-            Geom::Sphere { .. } => return false,
-            Geom::Ellipsoid(e) => e.s,
-            // |x_k| ≤ s_k on a superquadric too: its semi-axes bound it as tightly.
-            Geom::Superquadric(q) => q.s,
+        // |x_k| ≤ s_k on a superquadric too: its semi-axes bound it as tightly.
+        let semi_axes = |g: &Geom| match g {
+            Geom::Sphere { .. } => None,
+            Geom::Ellipsoid(e) => Some(e.s),
+            Geom::Superquadric(q) => Some(q.s),
         };
-        let half = semi_axes * k;
+        let (Some(sa), Some(sb)) = (semi_axes(self), semi_axes(other)) else {
+            return false;
+        };
         let a = Obp {
             c: V3::zeros(),
             rot: *rot_a,
-            half,
+            half: sa * k,
         };
         let b = Obp {
             c: *r,
             rot: *rot_b,
-            half,
+            half: sb * k,
         };
         !overlap(&a, &b, &V3::zeros())
     }
@@ -99,7 +136,7 @@ impl Geom {
     /// Whether the body is one of revolution about its axis 0 (the engine's uniaxial ellipsoids
     /// and superquadrics whose two other semi-axes and exponents are equal): smooth collisions
     /// then never change the spin about that axis, which is left at 0.
-    fn revolves_about_axis_0(&self) -> bool {
+    pub fn revolves_about_axis_0(&self) -> bool {
         match self {
             Geom::Sphere { .. } => true,
             Geom::Ellipsoid(e) => e.s.y == e.s.z,
@@ -205,22 +242,37 @@ pub fn initial_configuration(
             }
         })
         .collect();
+    let inertial = Inertial {
+        mass: 1.0 / inertia.inv_m,
+        inv_i: inertia.inv_i,
+        spins_about_axis_0: !geom.revolves_about_axis_0(),
+    };
     let packing = compress(
         &sites,
         rot,
         n as f64 * vp,
         phi,
-        0.1,
         &|pos, rot, l| Packing::new(pos, rot, l, *geom),
-        &|pos, rot, l, rng| thermal_bodies(pos, rot, l, geom, inertia, rng),
+        &|pos, rot, l, rng| thermal(pos, rot, l, &|_| inertial, rng),
         rng,
         relax,
     )?;
     let Packing { pos, rot, l, .. } = packing;
     Ok(Config {
         l,
-        bodies: thermal_bodies(&pos, &rot, l, geom, inertia, rng),
+        bodies: thermal(&pos, &rot, l, &|_| inertial, rng),
     })
+}
+
+/// What a body's thermal velocities depend on.
+#[derive(Clone, Copy, Debug)]
+pub struct Inertial {
+    pub mass: f64,
+    /// 0: the body's rotation is not simulated.
+    pub inv_i: f64,
+    /// Whether collisions change the spin about the body's axis 0 (see
+    /// [`Geom::revolves_about_axis_0`]).
+    pub spins_about_axis_0: bool,
 }
 
 /// Bodies placed (positions, orientations, box side) as the Monte Carlo sees them.
@@ -238,7 +290,6 @@ fn compress(
     rot: Vec<M3>,
     volume: f64,
     phi: f64,
-    dth: f64,
     packing_of: &PackingOf,
     thermal: &Thermal,
     rng: &mut Rng,
@@ -264,7 +315,7 @@ fn compress(
     }
     let mut steps = Steps {
         dr: 0.1 * packing.geom.bounding_radius(),
-        dth,
+        dth: 0.1,
     };
     for _ in 0..MELT_SWEEPS {
         let acc = packing.sweep(&steps, rng);
@@ -308,70 +359,45 @@ fn compress(
     Ok(packing)
 }
 
-/// A sphere mixture of the given diameters (a body's index is its diameter's) at packing
-/// fraction φ = Σ π σ_i³ / 6 / V without overlaps, at temperature 1 with masses σ_i³: the
-/// compression of [`initial_configuration`] (lattice of the largest sphere, melting, Monte Carlo
-/// steps with Jodrey–Tory pushes, the dynamics where they jam) with each pair's contact at
-/// (σ_i + σ_j)/2. The diameters are placed on the lattice in the order given: shuffle them first.
+/// A mixture of the given bodies (`shapes`, all of one kind: spheres, ellipsoids or
+/// superquadrics; a body's index is its shape's and its `inertial`'s) at packing fraction
+/// φ = Σ v_i / V without overlaps, at temperature 1: the compression of
+/// [`initial_configuration`] (lattice of the largest body, melting, Monte Carlo steps with
+/// Jodrey–Tory pushes, the dynamics where they jam) with each pair's own contact scale. The
+/// bodies are placed on the lattice in the order given: shuffle them first.
 pub fn initial_mixture(
-    sizes: &[f64],
+    shapes: &[Geom],
+    inertial: &[Inertial],
     phi: f64,
     rng: &mut Rng,
     relax: &mut Relax,
 ) -> Result<Config, EdmdError> {
-    let n = sizes.len();
-    let volume: f64 = sizes
-        .iter()
-        .map(|d| std::f64::consts::PI / 6.0 * d * d * d)
-        .sum();
+    let n = shapes.len();
+    let volume: f64 = shapes.iter().map(Geom::volume).sum();
+    let rotates = shapes.first().is_some_and(Geom::rotates);
+    let rot: Vec<M3> = (0..n)
+        .map(|_| {
+            if rotates {
+                random_rotation(rng)
+            } else {
+                M3::identity()
+            }
+        })
+        .collect();
     let packing = compress(
         &fcc_sites(n),
-        vec![M3::identity(); n],
+        rot,
         volume,
         phi,
-        0.0,
-        &|pos, _, l| Packing::of_spheres(pos, sizes, l),
-        &|pos, _, l, rng| thermal_mixture(pos, sizes, l, rng),
+        &|pos, rot, l| Packing::of_each(pos, rot, l, shapes),
+        &|pos, rot, l, rng| thermal(pos, rot, l, &|i| inertial[i], rng),
         rng,
         relax,
     )?;
     Ok(Config {
         l: packing.l,
-        bodies: thermal_mixture(&packing.pos, sizes, packing.l, rng),
+        bodies: thermal(&packing.pos, &packing.rot, packing.l, &|i| inertial[i], rng),
     })
-}
-
-/// Spheres of diameters σ_i (masses σ_i³) at the given places with Maxwell–Boltzmann velocities
-/// at k_B T = 1 (each component of variance 1/m_i), no net momentum Σ m_i v_i.
-fn thermal_mixture(pos: &[V3], sizes: &[f64], l: f64, rng: &mut Rng) -> Vec<Body> {
-    let mass: Vec<f64> = sizes.iter().map(|d| d * d * d).collect();
-    let mut bodies: Vec<Body> = pos
-        .iter()
-        .zip(&mass)
-        .map(|(r, m)| Body {
-            r: r.map(|x| x.rem_euclid(l)),
-            v: V3::new(rng.normal(), rng.normal(), rng.normal()) / m.sqrt(),
-            rot: M3::identity(),
-            w: V3::zeros(),
-            t: 0.0,
-        })
-        .collect();
-    let total: f64 = mass.iter().sum();
-    let mean = bodies
-        .iter()
-        .zip(&mass)
-        .fold(V3::zeros(), |p, (b, m)| p + b.v * *m)
-        / total;
-    let ke: f64 = bodies
-        .iter()
-        .zip(&mass)
-        .map(|(b, m)| 0.5 * m * (b.v - mean).norm_squared())
-        .sum();
-    let scale = (1.5 * pos.len() as f64 / ke).sqrt();
-    for b in bodies.iter_mut() {
-        b.v = (b.v - mean) * scale;
-    }
-    bodies
 }
 
 /// The order [`sort_along_z_curve`] puts the bodies in: the index of the body that goes first,
@@ -388,31 +414,33 @@ pub fn z_curve_order(bodies: &[Body], l: f64) -> Vec<usize> {
     order
 }
 
-/// Bodies at the given places with Maxwell–Boltzmann velocities at k_B T = 1, no net momentum.
-fn thermal_bodies(
+/// Bodies at the given places with Maxwell–Boltzmann velocities at k_B T = 1 (body `i`'s
+/// inertia `of(i)`: each velocity component of variance 1/m_i, each spin component 1/I_i), no
+/// net momentum Σ m_i v_i.
+fn thermal(
     pos: &[V3],
     rot: &[M3],
     l: f64,
-    geom: &Geom,
-    inertia: Inertia,
+    of: &dyn Fn(usize) -> Inertial,
     rng: &mut Rng,
 ) -> Vec<Body> {
-    let spin_about_axis_0 = !geom.revolves_about_axis_0();
-    let n = pos.len();
-    let kt = 1.0;
+    let mut mass = Vec::with_capacity(pos.len());
     let mut bodies: Vec<Body> = pos
         .iter()
         .zip(rot)
-        .map(|(r, rot)| {
-            let v = V3::new(rng.normal(), rng.normal(), rng.normal()) * (kt * inertia.inv_m).sqrt();
-            let w = if inertia.inv_i > 0.0 {
+        .enumerate()
+        .map(|(i, (r, rot))| {
+            let body = of(i);
+            mass.push(body.mass);
+            let v = V3::new(rng.normal(), rng.normal(), rng.normal()) / body.mass.sqrt();
+            let w = if body.inv_i > 0.0 {
                 // Equipartition over the axes that collisions couple to the rest: not the axis of
                 // a body of revolution (a superquadric [2, 2, p > 2] is none, and left without that
                 // spin it equilibrates slowly: T = 0.80 after 1.2e5 collisions at p = 4, φ 0.667).
-                let s = (kt * inertia.inv_i).sqrt();
+                let s = body.inv_i.sqrt();
                 let mut w =
                     rot.row(1).transpose() * rng.normal() + rot.row(2).transpose() * rng.normal();
-                if spin_about_axis_0 {
+                if body.spins_about_axis_0 {
                     w += rot.row(0).transpose() * rng.normal();
                 }
                 w * s
@@ -428,13 +456,18 @@ fn thermal_bodies(
             }
         })
         .collect();
-    let mean = bodies.iter().fold(V3::zeros(), |a, b| a + b.v) / n as f64;
+    let total: f64 = mass.iter().sum();
+    let mean = bodies
+        .iter()
+        .zip(&mass)
+        .fold(V3::zeros(), |p, (b, m)| p + b.v * *m)
+        / total;
     let ke: f64 = bodies
         .iter()
-        .map(|b| 0.5 * (b.v - mean).norm_squared())
-        .sum::<f64>()
-        / inertia.inv_m;
-    let scale = (1.5 * n as f64 * kt / ke).sqrt();
+        .zip(&mass)
+        .map(|(b, m)| 0.5 * m * (b.v - mean).norm_squared())
+        .sum();
+    let scale = (1.5 * pos.len() as f64 / ke).sqrt();
     for b in bodies.iter_mut() {
         b.v = (b.v - mean) * scale;
     }
@@ -507,9 +540,9 @@ struct Packing {
     overlaps: usize,
     /// Scratch: the bodies one body touches, with their contact scales, at two places.
     partners: [Vec<(usize, f64)>; 2],
-    /// Per-body diameters of a sphere mixture ([`initial_mixture`]), whose `geom` is then the
-    /// largest sphere; `None`: every body is `geom`.
-    sizes: Option<Vec<f64>>,
+    /// Per-body shapes of a mixture ([`initial_mixture`]), whose `geom` is then the one of the
+    /// largest bounding sphere; `None`: every body is `geom`.
+    shapes: Option<Vec<Geom>>,
 }
 
 impl Packing {
@@ -524,45 +557,54 @@ impl Packing {
             touching: vec![0; n],
             overlaps: 0,
             partners: [Vec::new(), Vec::new()],
-            sizes: None,
+            shapes: None,
         };
         p.count_overlaps();
         p
     }
 
-    /// Spheres of the given diameters at `pos` in a box of side `l`.
-    fn of_spheres(pos: Vec<V3>, sizes: &[f64], l: f64) -> Self {
-        let n = pos.len();
-        let d_max = sizes.iter().fold(0.0, |m: f64, &d| m.max(d));
-        let mut p = Packing::new(
-            pos,
-            vec![M3::identity(); n],
-            l,
-            Geom::Sphere { sigma: d_max },
-        );
-        p.sizes = Some(sizes.to_vec());
+    /// Bodies of the given shapes (body `i` is `shapes[i]`) at `pos` in a box of side `l`.
+    fn of_each(pos: Vec<V3>, rot: Vec<M3>, l: f64, shapes: &[Geom]) -> Self {
+        let largest = shapes
+            .iter()
+            .copied()
+            .max_by(|a, b| a.bounding_radius().total_cmp(&b.bounding_radius()))
+            .unwrap_or(Geom::Sphere { sigma: 1.0 });
+        let mut p = Packing::new(pos, rot, l, largest);
+        p.shapes = Some(shapes.to_vec());
         p.count_overlaps();
         p
     }
 
-    /// The contact scale of bodies `i` (orientation `q`) and `j` at separation `r`: for a sphere
-    /// mixture |r| / ((σ_i + σ_j)/2).
+    #[inline]
+    fn geom_of(&self, i: usize) -> &Geom {
+        match &self.shapes {
+            Some(shapes) => &shapes[i],
+            None => &self.geom,
+        }
+    }
+
+    /// The contact scale of bodies `i` (orientation `q`) and `j` at separation `r`.
     #[inline]
     fn pair_scale(&self, i: usize, j: usize, q: &M3, r: &V3) -> f64 {
-        match &self.sizes {
-            Some(d) => r.norm() / (0.5 * (d[i] + d[j])),
-            None => self.geom.contact_scale(q, &self.rot[j], r),
-        }
+        self.geom_of(i)
+            .contact_scale(self.geom_of(j), q, &self.rot[j], r)
     }
 
     /// [`Packing::pair_scale`], or `None` where it is proved above `k` without being computed
     /// ([`Geom::contact_scale_unless_above`]).
     #[inline]
     fn pair_scale_unless_above(&self, i: usize, j: usize, q: &M3, r: &V3, k: f64) -> Option<f64> {
-        match &self.sizes {
-            Some(_) => Some(self.pair_scale(i, j, q, r)),
-            None => self.geom.contact_scale_unless_above(q, &self.rot[j], r, k),
-        }
+        self.geom_of(i)
+            .contact_scale_unless_above(self.geom_of(j), q, &self.rot[j], r, k)
+    }
+
+    /// Whether bodies `i` (orientation `q`) and `j` at separation `r` surely do not touch
+    /// ([`Geom::surely_apart`]).
+    #[inline]
+    fn surely_apart(&self, i: usize, j: usize, q: &M3, r: &V3) -> bool {
+        self.geom_of(i)
+            .surely_apart(self.geom_of(j), q, &self.rot[j], r, 1.0)
     }
 
     fn count_overlaps(&mut self) {
@@ -592,7 +634,7 @@ impl Packing {
         self.near.all_around(p, |j| {
             let r = min_image(self.pos[j] - p, self.l);
             if j != i
-                && !self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
+                && !self.surely_apart(i, j, q, &r)
                 && let Some(mu) = self.pair_scale_unless_above(i, j, q, &r, 1.0 + GAP)
                 && mu <= 1.0 + GAP
             {
@@ -607,7 +649,7 @@ impl Packing {
         !self.near.all_around(p, |j| {
             let r = min_image(self.pos[j] - p, self.l);
             j == i
-                || self.geom.surely_apart(q, &self.rot[j], &r, 1.0)
+                || self.surely_apart(i, j, q, &r)
                 || self
                     .pair_scale_unless_above(i, j, q, &r, 1.0 + GAP)
                     .is_none_or(|mu| mu > 1.0 + GAP)
@@ -738,7 +780,12 @@ mod tests {
             (Geom::Superquadric(spheroid), false),
             (Geom::Ellipsoid(ellipsoid), false),
         ] {
-            let bodies = thermal_bodies(&pos, &rot, 10.0, &geom, inertia, &mut rng);
+            let inertial = Inertial {
+                mass: 1.0 / inertia.inv_m,
+                inv_i: inertia.inv_i,
+                spins_about_axis_0: !geom.revolves_about_axis_0(),
+            };
+            let bodies = thermal(&pos, &rot, 10.0, &|_| inertial, &mut rng);
             let mean_square = |axis: usize| {
                 bodies
                     .iter()

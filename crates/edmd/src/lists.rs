@@ -110,22 +110,26 @@ impl<R: Region> Lists<R> {
         Self::from_regions(regions, R::reach(s, delta), l, delta)
     }
 
-    /// [`build`](Self::build) with a surface per body (bodies of several sizes): body `i`'s
-    /// region is around `of(i)`, and `largest`, which no body exceeds, sets the reach. Rebuild
-    /// each body with its own surface too.
+    /// [`build`](Self::build) with a surface per body (bodies of several shapes or sizes): body
+    /// `i`'s region is around `of(i)`, and the largest reach of any body's sets the reach.
+    /// Rebuild each body with its own surface too.
     pub fn build_each<S: Surface>(
-        largest: &S,
         of: impl Fn(usize) -> S,
         bodies: &[Body],
         l: f64,
         delta: f64,
     ) -> Result<Self, ListLimit> {
+        let mut reach: f64 = 0.0;
         let regions: Vec<R> = bodies
             .iter()
             .enumerate()
-            .map(|(i, b)| R::around(&of(i), b, delta))
+            .map(|(i, b)| {
+                let s = of(i);
+                reach = reach.max(R::reach(&s, delta));
+                R::around(&s, b, delta)
+            })
             .collect();
-        Self::from_regions(regions, R::reach(largest, delta), l, delta)
+        Self::from_regions(regions, reach, l, delta)
     }
 
     fn from_regions(regions: Vec<R>, reach: f64, l: f64, delta: f64) -> Result<Self, ListLimit> {
@@ -695,7 +699,6 @@ mod tests {
         let delta = 0.2;
         let radius = |i: usize| if i.is_multiple_of(2) { 0.5 } else { 1.0 };
         let sphere = |i: usize| Ellipsoid::new(radius(i), radius(i), radius(i));
-        let largest = sphere(1);
         let within = |k: f64| {
             move |a: &SizedBall, b: &SizedBall, shift: &V3| {
                 (b.c + shift - a.c).norm() <= k * (a.radius + b.radius + 2.0 * delta)
@@ -703,8 +706,7 @@ mod tests {
         };
         for (n, l) in [(300, 9.0), (40, 4.0)] {
             let mut b = bodies(n, l, 5);
-            let mut lists =
-                Lists::<SizedBall>::build_each(&largest, sphere, &b, l, delta).expect("limits");
+            let mut lists = Lists::<SizedBall>::build_each(sphere, &b, l, delta).expect("limits");
             let (must, may) = (within(1.0 - 1e-12), within(1.0 + 1e-12));
             same(&lists, must, may, "after the build");
             let mut rng = crate::rng::Rng::new(11);

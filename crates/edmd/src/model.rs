@@ -8,6 +8,7 @@ use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{Surface, V3};
 use crate::lists::Region;
 use crate::nnl::Obp;
+use crate::report::{PairReport, SpeciesReport};
 use crate::rigid::{Body, Inertia, collide};
 use crate::sphere::Trajectory;
 
@@ -23,13 +24,11 @@ pub(crate) trait Model {
     /// never reads their orientation in the event loop (the cache lines past position, velocity
     /// and time).
     const ROTATES: bool;
-    fn surface(&self) -> Self::Shape;
-    /// Body `i`'s own shape, which its neighbour-list region is built around: [`surface`]
-    /// (Self::surface) unless bodies differ in size.
-    #[inline(always)]
-    fn surface_of(&self, _i: usize) -> Self::Shape {
-        self.surface()
-    }
+    /// The largest body's bounding radius: what linked cells are sized for.
+    fn bounding_radius(&self) -> f64;
+    /// Body `i`'s own shape, which its neighbour-list region is built around (one shape for
+    /// every body unless they differ).
+    fn surface_of(&self, i: usize) -> Self::Shape;
     /// Applies the collision of `a` with the image of `b` displaced by `offset`; returns the
     /// impulse given to `b`, or `None` if the bodies separate. `pair` holds their indices, which
     /// only a model with per-body sizes reads.
@@ -56,6 +55,10 @@ pub(crate) trait Model {
     #[inline(always)]
     fn momentum(&self, _i: usize, b: &Body) -> V3 {
         b.v
+    }
+    /// The rotational kinetic energy of body `i`: none where rotation is not simulated.
+    fn spin_kinetic(&self, _i: usize, _b: &Body) -> f64 {
+        0.0
     }
     /// Starts the model's own sums afresh (a mixture's per-pair counts), with the measured run.
     fn reset_sums(&mut self) {}
@@ -87,7 +90,10 @@ impl Model for SphereModel {
     type Region = Ball;
     type Shape = Ellipsoid;
     const ROTATES: bool = false;
-    fn surface(&self) -> Ellipsoid {
+    fn bounding_radius(&self) -> f64 {
+        0.5 * self.sigma
+    }
+    fn surface_of(&self, _: usize) -> Ellipsoid {
         let r = 0.5 * self.sigma;
         Ellipsoid::new(r, r, r)
     }
@@ -115,6 +121,107 @@ impl Model for SphereModel {
     fn set_stats(&mut self, _: SolverStats) {}
 }
 
+/// The sums a mixture keeps per species and pair of species: each body's species, and per
+/// unordered pair of species the collisions and the collision virial Σ r·Δp (Z per pair).
+pub(crate) struct SpeciesSums {
+    /// Per body, in the engine's order.
+    species: Vec<u16>,
+    /// Per body: the diameter of the sphere of equal volume.
+    diameter: Vec<f64>,
+    kinds: usize,
+    /// Per unordered pair of species, index [`pair_index`](Self::pair_index).
+    collisions: Vec<u64>,
+    virial: Vec<f64>,
+    /// Distance evaluations of the pairs' contact searches (rigid bodies only).
+    distance_calls: Option<Vec<u64>>,
+}
+
+impl SpeciesSums {
+    pub(crate) fn new(species: Vec<u16>, diameter: Vec<f64>, kinds: usize) -> Self {
+        let pairs = kinds * (kinds + 1) / 2;
+        SpeciesSums {
+            species,
+            diameter,
+            kinds,
+            collisions: vec![0; pairs],
+            virial: vec![0.0; pairs],
+            distance_calls: None,
+        }
+    }
+
+    /// Also counts the distance evaluations of each pair's contact searches.
+    pub(crate) fn counting_distance_calls(mut self) -> Self {
+        self.distance_calls = Some(vec![0; self.collisions.len()]);
+        self
+    }
+
+    /// `calls` distance evaluations in a contact search of bodies `i` and `j`.
+    #[inline]
+    fn searched(&mut self, [i, j]: [usize; 2], calls: u64) {
+        let k = self.pair_index(self.species[i], self.species[j]);
+        if let Some(c) = &mut self.distance_calls {
+            c[k] += calls;
+        }
+    }
+
+    /// The index of the unordered pair of species (a, b) among the S(S+1)/2 pairs, row by row:
+    /// (0,0), (0,1), …, (0,S−1), (1,1), …
+    fn pair_index(&self, a: u16, b: u16) -> usize {
+        let (a, b) = (a.min(b) as usize, a.max(b) as usize);
+        a * self.kinds - a * a.saturating_sub(1) / 2 + (b - a)
+    }
+
+    /// A collision of bodies `i` and `j` at separation `r` (from i to j) with impulse `dp` on j.
+    #[inline]
+    fn record(&mut self, [i, j]: [usize; 2], r: &V3, dp: &V3) {
+        let k = self.pair_index(self.species[i], self.species[j]);
+        self.collisions[k] += 1;
+        self.virial[k] += r.dot(dp);
+    }
+
+    fn reset(&mut self) {
+        self.collisions.fill(0);
+        self.virial.fill(0.0);
+        if let Some(c) = &mut self.distance_calls {
+            c.fill(0);
+        }
+    }
+
+    /// Bodies and mean diameter per species, and per pair of species its collisions and its
+    /// part of Z (`ke_int`: ∫ KE dt of the measured run).
+    pub(crate) fn report(&self, ke_int: f64) -> SpeciesReport {
+        let mut count = vec![0usize; self.kinds];
+        let mut sum = vec![0.0; self.kinds];
+        for (&k, d) in self.species.iter().zip(&self.diameter) {
+            count[k as usize] += 1;
+            sum[k as usize] += d;
+        }
+        let total: u64 = self.collisions.iter().sum();
+        let mut pairs = Vec::new();
+        for a in 0..self.kinds as u16 {
+            for b in a..self.kinds as u16 {
+                let k = self.pair_index(a, b);
+                pairs.push(PairReport {
+                    species: [a as usize + 1, b as usize + 1],
+                    collisions: self.collisions[k],
+                    collision_fraction: self.collisions[k] as f64 / total.max(1) as f64,
+                    pressure_z_part: self.virial[k] / (2.0 * ke_int),
+                    distance_calls: self.distance_calls.as_ref().map(|c| c[k]),
+                });
+            }
+        }
+        SpeciesReport {
+            mean_diameter: sum
+                .iter()
+                .zip(&count)
+                .map(|(d, &c)| d / c.max(1) as f64)
+                .collect(),
+            count,
+            pairs,
+        }
+    }
+}
+
 /// Hard spheres of several sizes: a binary (or any) mixture, or size-polydisperse spheres. Each
 /// body has its own radius and mass (m ∝ σ³); contact at (σ_i + σ_j)/2, the collision rule of
 /// Eq. (41) with m_i ≠ m_j. A model of its own, so that [`SphereModel`], one σ for every pair, is
@@ -129,46 +236,26 @@ pub(crate) struct MixedSphereModel {
     /// Per body, in the engine's order.
     pub(crate) radius: Vec<f64>,
     mass: Vec<f64>,
-    pub(crate) species: Vec<u16>,
-    species_count: usize,
     /// The largest radius: cells are sized for the largest pair.
     r_max: f64,
-    /// Collisions and collision virial Σ r·Δp per unordered pair of species (index
-    /// [`pair_index`](Self::pair_index)).
-    pub(crate) pair_collisions: Vec<u64>,
-    pub(crate) pair_virial: Vec<f64>,
+    pub(crate) sums: SpeciesSums,
     /// As in [`SphereModel`], with each neighbour's radius in [`Trajectory::radius`].
     pub(crate) gathered: Vec<Trajectory>,
 }
 
 impl MixedSphereModel {
-    /// Bodies of the given diameters and species (masses σ³, the first species' diameter 1
-    /// being the unit).
-    pub(crate) fn new(diameter: &[f64], species: Vec<u16>, species_count: usize) -> Self {
+    /// Bodies of the given diameters (masses σ³, the first species' diameter 1 being the unit),
+    /// of the species in `sums`.
+    pub(crate) fn new(diameter: &[f64], sums: SpeciesSums) -> Self {
         let radius: Vec<f64> = diameter.iter().map(|d| 0.5 * d).collect();
         let r_max = radius.iter().fold(0.0, |m: f64, &r| m.max(r));
-        let pairs = species_count * (species_count + 1) / 2;
         MixedSphereModel {
             mass: diameter.iter().map(|d| d * d * d).collect(),
             radius,
-            species,
-            species_count,
             r_max,
-            pair_collisions: vec![0; pairs],
-            pair_virial: vec![0.0; pairs],
+            sums,
             gathered: Vec::new(),
         }
-    }
-
-    /// The index of the unordered pair of species (a, b) among the S(S+1)/2 pairs, row by row:
-    /// (0,0), (0,1), …, (0,S−1), (1,1), …
-    pub(crate) fn pair_index(&self, a: u16, b: u16) -> usize {
-        let (a, b) = (a.min(b) as usize, a.max(b) as usize);
-        a * self.species_count - a * a.saturating_sub(1) / 2 + (b - a)
-    }
-
-    pub(crate) fn species_count(&self) -> usize {
-        self.species_count
     }
 }
 
@@ -177,9 +264,8 @@ impl Model for MixedSphereModel {
     type Region = SizedBall;
     type Shape = Ellipsoid;
     const ROTATES: bool = false;
-    /// The largest sphere: what cells and the neighbour-list grid are sized for.
-    fn surface(&self) -> Ellipsoid {
-        Ellipsoid::new(self.r_max, self.r_max, self.r_max)
+    fn bounding_radius(&self) -> f64 {
+        self.r_max
     }
     fn surface_of(&self, i: usize) -> Ellipsoid {
         let r = self.radius[i];
@@ -205,9 +291,7 @@ impl Model for MixedSphereModel {
         let dp = n * (2.0 * ma * mb / (ma + mb) * un);
         a.v -= dp / ma;
         b.v += dp / mb;
-        let k = self.pair_index(self.species[i], self.species[j]);
-        self.pair_collisions[k] += 1;
-        self.pair_virial[k] += r.dot(&dp);
+        self.sums.record([i, j], &r, &dp);
         Some(dp)
     }
     #[inline(always)]
@@ -223,13 +307,63 @@ impl Model for MixedSphereModel {
         b.v * self.mass[i]
     }
     fn reset_sums(&mut self) {
-        self.pair_collisions.fill(0);
-        self.pair_virial.fill(0.0);
+        self.sums.reset();
     }
     fn stats(&self) -> SolverStats {
         SolverStats::default()
     }
     fn set_stats(&mut self, _: SolverStats) {}
+}
+
+/// What the engine's search for a rigid body's first collision asks of a rigid model, for a
+/// pair of bodies by index: one shape for every body ([`RigidModel`]) or one per body
+/// ([`MixedRigidModel`]).
+pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp> {
+    /// The radius of body `i`'s bounding sphere.
+    fn bounding_radius_of(&self, i: usize) -> f64;
+    /// The first contact of bodies `pair` = [i, j] (`a`, `b`, at the present time) before
+    /// `horizon`.
+    fn predict(
+        &mut self,
+        pair: [usize; 2],
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+    ) -> Option<(f64, (V3, V3))>;
+    /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
+    /// overlap, and an estimate of it to order the searches by.
+    fn quick_bound(&self, pair: [usize; 2], a: &Body, b: &Body) -> (f64, f64);
+    fn solver_stats(&self) -> &SolverStats;
+}
+
+/// The rotational kinetic energy ½ I w² of a body of the given inertia.
+fn spin_energy(inertia: &Inertia, b: &Body) -> f64 {
+    if inertia.inv_i > 0.0 {
+        0.5 * b.w.norm_squared() / inertia.inv_i
+    } else {
+        0.0
+    }
+}
+
+/// The first contact of `a` (shape `sa`) and `b` (`sb`) before `horizon`.
+#[allow(clippy::too_many_arguments)]
+fn predict_pair<S: Surface>(
+    sa: &S,
+    a: &Body,
+    sb: &S,
+    b: &Body,
+    horizon: f64,
+    params: &ContactParams,
+    stats: &mut SolverStats,
+) -> Option<(f64, (V3, V3))> {
+    predict(sa, a, sb, b, horizon, params, stats).map(|h| (h.t, (h.xc, h.n)))
+}
+
+/// [`Rigid::quick_bound`] of `a` (shape `sa`) and `b` (`sb`).
+fn quick_bound_pair<S: Surface>(sa: &S, a: &Body, sb: &S, b: &Body) -> (f64, f64) {
+    let gap = separating_axis(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
+    let lower = gap.safe_time(sa, a, sb, b);
+    (lower, gap.closing_estimate(a, b).max(lower))
 }
 
 /// Hard rigid bodies of any [`Surface`] through the general algorithm of Sec. 2: ellipsoids (any
@@ -246,7 +380,11 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
     type Region = Obp;
     type Shape = S;
     const ROTATES: bool = true;
-    fn surface(&self) -> S {
+    fn bounding_radius(&self) -> f64 {
+        self.e.bounding_radius()
+    }
+    #[inline(always)]
+    fn surface_of(&self, _: usize) -> S {
         self.e
     }
     fn collide(
@@ -263,6 +401,9 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
         b.v = image.v;
         b.w = image.w;
         impulse
+    }
+    fn spin_kinetic(&self, _: usize, b: &Body) -> f64 {
+        spin_energy(&self.inertia, b)
     }
     fn stats(&self) -> SolverStats {
         self.stats
@@ -281,10 +422,21 @@ impl<S: Surface + Copy> RigidModel<S> {
             stats: SolverStats::default(),
         }
     }
+}
 
-    /// The first contact before `horizon`.
-    pub(crate) fn predict(&mut self, a: &Body, b: &Body, horizon: f64) -> Option<(f64, (V3, V3))> {
-        predict(
+impl<S: Surface + Copy> Rigid for RigidModel<S> {
+    #[inline(always)]
+    fn bounding_radius_of(&self, _: usize) -> f64 {
+        self.e.bounding_radius()
+    }
+    fn predict(
+        &mut self,
+        _: [usize; 2],
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+    ) -> Option<(f64, (V3, V3))> {
+        predict_pair(
             &self.e,
             a,
             &self.e,
@@ -293,13 +445,139 @@ impl<S: Surface + Copy> RigidModel<S> {
             &self.params,
             &mut self.stats,
         )
-        .map(|h| (h.t, (h.xc, h.n)))
     }
-    /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
-    /// overlap, and an estimate of it to order the searches by.
-    pub(crate) fn quick_bound(&self, a: &Body, b: &Body) -> (f64, f64) {
-        let gap = separating_axis(&self.e, &a.pose_after(0.0), &self.e, &b.pose_after(0.0));
-        let lower = gap.safe_time(&self.e, a, &self.e, b);
-        (lower, gap.closing_estimate(a, b).max(lower))
+    fn quick_bound(&self, _: [usize; 2], a: &Body, b: &Body) -> (f64, f64) {
+        quick_bound_pair(&self.e, a, &self.e, b)
+    }
+    fn solver_stats(&self) -> &SolverStats {
+        &self.stats
+    }
+}
+
+/// Rigid bodies of several shapes and sizes: mixtures of ellipsoids (spheres among them as
+/// ellipsoids of X0 = 1) or of superquadrics, and size-polydisperse ones. Each body has its own
+/// shape, mass (∝ volume) and moment of inertia; contact searches take the pair's two shapes
+/// (Sec. 2 never assumes them equal), the collision rule of Eq. (41) the pair's two inertias.
+/// A model of its own, as [`MixedSphereModel`] is, so that [`RigidModel`], one shape for every
+/// pair, never looks a body's shape up. Cells (and the list grid) are sized for the largest
+/// bounding sphere; each body's parallelepiped is built around its own shape, and the bounding
+/// spheres that order the candidates are the pair's own.
+pub(crate) struct MixedRigidModel<S> {
+    /// Per body, in the engine's order.
+    shapes: Vec<S>,
+    inertia: Vec<Inertia>,
+    r_max: f64,
+    params: ContactParams,
+    pub(crate) sums: SpeciesSums,
+    pub(crate) stats: SolverStats,
+}
+
+impl<S: Surface + Copy> MixedRigidModel<S> {
+    /// Bodies of the given shapes and inertias, of the given species.
+    pub(crate) fn new(
+        shapes: Vec<S>,
+        inertia: Vec<Inertia>,
+        sums: SpeciesSums,
+        params: ContactParams,
+    ) -> Self {
+        let r_max = shapes
+            .iter()
+            .fold(0.0, |m: f64, s| m.max(s.bounding_radius()));
+        MixedRigidModel {
+            shapes,
+            inertia,
+            r_max,
+            params,
+            sums,
+            stats: SolverStats::default(),
+        }
+    }
+
+    /// Body `i`'s shape.
+    pub(crate) fn shape(&self, i: usize) -> &S {
+        &self.shapes[i]
+    }
+}
+
+impl<S: Surface + Copy> Model for MixedRigidModel<S> {
+    type Extra = (V3, V3);
+    type Region = Obp;
+    type Shape = S;
+    const ROTATES: bool = true;
+    fn bounding_radius(&self) -> f64 {
+        self.r_max
+    }
+    #[inline(always)]
+    fn surface_of(&self, i: usize) -> S {
+        self.shapes[i]
+    }
+    fn collide(
+        &mut self,
+        [i, j]: [usize; 2],
+        a: &mut Body,
+        b: &mut Body,
+        offset: &V3,
+        x: &(V3, V3),
+    ) -> Option<V3> {
+        let mut image = *b;
+        image.r += offset;
+        let impulse = collide(a, &mut image, &x.0, &x.1, self.inertia[i], self.inertia[j]);
+        b.v = image.v;
+        b.w = image.w;
+        if let Some(dp) = &impulse {
+            self.sums.record([i, j], &(image.r - a.r), dp);
+        }
+        impulse
+    }
+    #[inline(always)]
+    fn pair_kinetic(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> f64 {
+        self.kinetic(i, a) + self.kinetic(j, b)
+    }
+    #[inline(always)]
+    fn kinetic(&self, i: usize, b: &Body) -> f64 {
+        0.5 * b.v.norm_squared() / self.inertia[i].inv_m
+    }
+    #[inline(always)]
+    fn momentum(&self, i: usize, b: &Body) -> V3 {
+        b.v / self.inertia[i].inv_m
+    }
+    fn spin_kinetic(&self, i: usize, b: &Body) -> f64 {
+        spin_energy(&self.inertia[i], b)
+    }
+    fn reset_sums(&mut self) {
+        self.sums.reset();
+    }
+    fn stats(&self) -> SolverStats {
+        self.stats
+    }
+    fn set_stats(&mut self, stats: SolverStats) {
+        self.stats = stats;
+    }
+}
+
+impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
+    #[inline(always)]
+    fn bounding_radius_of(&self, i: usize) -> f64 {
+        self.shapes[i].bounding_radius()
+    }
+    fn predict(
+        &mut self,
+        [i, j]: [usize; 2],
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+    ) -> Option<(f64, (V3, V3))> {
+        let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
+        let calls = self.stats.distance_calls;
+        let hit = predict_pair(sa, a, sb, b, horizon, &self.params, &mut self.stats);
+        self.sums
+            .searched([i, j], self.stats.distance_calls - calls);
+        hit
+    }
+    fn quick_bound(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> (f64, f64) {
+        quick_bound_pair(&self.shapes[i], a, &self.shapes[j], b)
+    }
+    fn solver_stats(&self) -> &SolverStats {
+        &self.stats
     }
 }

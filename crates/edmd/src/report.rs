@@ -98,6 +98,11 @@ pub struct PairReport {
     pub collision_fraction: f64,
     /// Their part of Z − 1: the pair's collision virial over 2 K (the parts sum to Z − 1).
     pub pressure_z_part: f64,
+    /// Rigid bodies: the distance evaluations of the contact searches between the two species
+    /// (what their pairs cost, the same on every machine; a search is made for a pair whether
+    /// or not it collides). Absent for spheres, whose contact times take no solver.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distance_calls: Option<u64>,
 }
 
 /// The final configuration, as `sweep edmd --dump` writes it (README).
@@ -122,24 +127,36 @@ pub struct ParticleDump {
 }
 
 pub(crate) fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
-    let (shape, semi, exponents) = match geom {
-        Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
-        Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z], [2.0; 3]),
-        Geom::Superquadric(q) => ("superquadric", q.s.into(), q.e.into()),
-    };
+    final_state_each(bodies, l, &|_| *geom)
+}
+
+/// [`final_state`] of bodies of several shapes or sizes (body `i` is `geom_of(i)`).
+pub(crate) fn final_state_each(
+    bodies: &[Body],
+    l: f64,
+    geom_of: &dyn Fn(usize) -> Geom,
+) -> FinalState {
     let arr = |v: V3| [v.x, v.y, v.z];
     FinalState {
         box_: [l; 3],
         particles: bodies
             .iter()
-            .map(|b| ParticleDump {
-                shape,
-                semi_axes: semi,
-                exponents,
-                position: arr(b.r.map(|x| x.rem_euclid(l))),
-                orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
-                velocity: arr(b.v),
-                angular_velocity: arr(b.w),
+            .enumerate()
+            .map(|(i, b)| {
+                let (shape, semi_axes, exponents) = match geom_of(i) {
+                    Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
+                    Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z], [2.0; 3]),
+                    Geom::Superquadric(q) => ("superquadric", q.s.into(), q.e.into()),
+                };
+                ParticleDump {
+                    shape,
+                    semi_axes,
+                    exponents,
+                    position: arr(b.r.map(|x| x.rem_euclid(l))),
+                    orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
+                    velocity: arr(b.v),
+                    angular_velocity: arr(b.w),
+                }
             })
             .collect(),
     }

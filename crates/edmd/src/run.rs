@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use crate::EdmdError;
-use crate::audit::{audit, audit_spheres};
+use crate::audit::{audit, audit_each};
 use crate::ball::{Ball, SizedBall};
 use crate::contact::ContactParams;
 use crate::distance::{SolverStats, Tolerances};
@@ -13,11 +13,11 @@ use crate::engine::EngineState;
 use crate::engine::{Accounting, Engine, FirstCollision};
 use crate::geometry::{Surface, V3};
 use crate::init::{
-    Geom, initial_configuration, initial_mixture, sort_along_z_curve, z_curve_order,
+    Geom, Inertial, initial_configuration, initial_mixture, sort_along_z_curve, z_curve_order,
 };
-use crate::model::{MixedSphereModel, RigidModel, SphereModel};
+use crate::model::{MixedRigidModel, MixedSphereModel, RigidModel, SpeciesSums, SphereModel};
 use crate::nnl::Obp;
-use crate::report::{FinalState, PairReport, RunReport, SpeciesReport, final_state};
+use crate::report::{FinalState, RunReport, SpeciesReport, final_state, final_state_each};
 use crate::rigid::{Body, Inertia};
 use crate::rng::Rng;
 use crate::scene::{Scene, ShapeKind};
@@ -98,8 +98,9 @@ pub fn run_with_hooks(
     hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
     scene.validate()?;
+    let params = contact_params(scene);
     if scene.is_mixture() {
-        return simulate_mixture(scene, progress, hooks);
+        return simulate_mixture(scene, params, progress, hooks);
     }
     let [a, b, c] = scene.semi_axes();
     // Isotropic inertia of the inscribed sphere, I = (2/5) m r², r = min(a, b), as in Sec. 4 (and,
@@ -124,17 +125,6 @@ pub fn run_with_hooks(
             why: "the box must exceed twice the bounding-sphere diameter",
         });
     }
-    let params = ContactParams {
-        eps_d: scene.eps_d,
-        brent_tol: scene.brent_tol,
-        tol: Tolerances {
-            nr_tol: scene.nr_tol,
-            nr_max_iter: scene.nr_max_iter,
-            nr_relax: scene.nr_relax,
-            sd_max_iter: scene.sd_max_iter,
-            sd_tol: scene.sd_tol,
-        },
-    };
     match (scene.shape, quadric) {
         (ShapeKind::Sphere, _) => simulate(
             SphereModel::new(1.0),
@@ -186,7 +176,7 @@ fn simulate<M: Saves>(
 ) -> Result<(RunReport, FinalState), EdmdError> {
     let init = Instant::now();
     if let Some(saved) = hooks.from.take() {
-        let (eng, origin) = restored(model, saved, scene, inertia.inv_i)?;
+        let (eng, origin) = restored(model, saved, scene)?;
         return measure(eng, scene, geom, init, progress, origin, hooks);
     }
     let mut rng = Rng::new(scene.seed);
@@ -199,7 +189,7 @@ fn simulate<M: Saves>(
             unreachable!("the model is put back after every relaxation")
         };
         let n = bodies.len() as u64;
-        let mut eng = Engine::new(m, l, bodies, inertia.inv_i, scene, 0.0)?;
+        let mut eng = Engine::new(m, l, bodies, scene, 0.0)?;
         eng.sequence = std::mem::take(&mut sequence);
         eng.advance(per_particle * n, |_| {})?;
         eng.sync_all();
@@ -218,17 +208,35 @@ fn simulate<M: Saves>(
     let Some(m) = slot else {
         unreachable!("the model is put back after every relaxation")
     };
-    let mut eng = Engine::new(m, cfg.l, cfg.bodies, inertia.inv_i, scene, 0.0)?;
+    let mut eng = Engine::new(m, cfg.l, cfg.bodies, scene, 0.0)?;
     eng.sequence = sequence;
     measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
 }
 
-/// A sphere mixture ([`MixedSphereModel`]): the bodies' diameters drawn from the species
-/// ([`mixture_sizes`]), the initial state of [`initial_mixture`], then the measured run as for
-/// one species. State files, checkpoints and trajectories are not written for mixtures yet: a
-/// run that asks for them is refused before anything is simulated.
+/// The contact search's knobs of a scene.
+fn contact_params(scene: &Scene) -> ContactParams {
+    ContactParams {
+        eps_d: scene.eps_d,
+        brent_tol: scene.brent_tol,
+        tol: Tolerances {
+            nr_tol: scene.nr_tol,
+            nr_max_iter: scene.nr_max_iter,
+            nr_relax: scene.nr_relax,
+            sd_max_iter: scene.sd_max_iter,
+            sd_tol: scene.sd_tol,
+        },
+    }
+}
+
+/// A mixture: the bodies' sizes and species drawn ([`mixture_sizes`]), each body its species'
+/// shape scaled by its size (spheres among rigid species are ellipsoids of X0 = 1, ellipsoids
+/// among superquadrics superquadrics of exponents 2), the initial state of [`initial_mixture`],
+/// then the measured run as for one species: spheres alone with [`MixedSphereModel`], rigid
+/// bodies with [`MixedRigidModel`]. State files, checkpoints and trajectories are not written
+/// for mixtures yet: a run that asks for them is refused before anything is simulated.
 fn simulate_mixture(
     scene: &Scene,
+    params: ContactParams,
     progress: &mut dyn FnMut(u64),
     hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
@@ -248,36 +256,183 @@ fn simulate_mixture(
     let mut rng = Rng::new(scene.seed);
     let (sizes, species) = mixture_sizes(scene, &mut rng);
     let kinds = scene.species.as_ref().map_or(1, Vec::len);
-    let mut sequence = Fingerprint::default();
-    let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
-        let m = MixedSphereModel::new(&sizes, species.clone(), kinds);
-        let n = bodies.len() as u64;
-        let mut eng = Engine::new(m, l, bodies, 0.0, scene, 0.0)?;
-        eng.sequence = std::mem::take(&mut sequence);
-        eng.advance(per_particle * n, |_| {})?;
-        eng.sync_all();
-        sequence = std::mem::take(&mut eng.sequence);
-        Ok(eng.bodies)
+    let bodies = MixtureBodies::new(scene, sizes, species)?;
+    let start = Beginning {
+        scene,
+        init,
+        rng,
+        progress,
+        hooks,
     };
-    let cfg = initial_mixture(&sizes, scene.phi, &mut rng, &mut relax)?;
-    // Bodies close in space close in memory, as for one species; their sizes follow them.
-    let order = z_curve_order(&cfg.bodies, cfg.l);
-    let bodies: Vec<Body> = order.iter().map(|&k| cfg.bodies[k]).collect();
-    let sizes: Vec<f64> = order.iter().map(|&k| sizes[k]).collect();
-    let species: Vec<u16> = order.iter().map(|&k| species[k]).collect();
-    let d_max = sizes.iter().fold(0.0, |m: f64, &d| m.max(d));
-    if cfg.l <= 4.0 * 0.5 * d_max {
-        return Err(EdmdError::BoxTooSmall {
-            l: cfg.l,
-            needed: 2.0 * d_max,
-            why: "the box must exceed twice the largest diameter",
-        });
+    let sums = |order: &[usize]| {
+        SpeciesSums::new(
+            order.iter().map(|&k| bodies.species[k]).collect(),
+            order.iter().map(|&k| bodies.sizes[k]).collect(),
+            kinds,
+        )
+    };
+    let rigid_sums = |order: &[usize]| sums(order).counting_distance_calls();
+    let inertia =
+        |order: &[usize]| -> Vec<Inertia> { order.iter().map(|&k| bodies.inertia[k]).collect() };
+    match scene.shape {
+        ShapeKind::Sphere => bodies.simulate(start, |order| {
+            let sizes: Vec<f64> = order.iter().map(|&k| bodies.sizes[k]).collect();
+            MixedSphereModel::new(&sizes, sums(order))
+        }),
+        ShapeKind::Ellipsoid => bodies.simulate(start, |order| {
+            let shapes = order
+                .iter()
+                .map(|&k| match bodies.shapes[k] {
+                    Geom::Ellipsoid(e) => e,
+                    _ => unreachable!("the bodies of an ellipsoid mixture are ellipsoids"),
+                })
+                .collect();
+            MixedRigidModel::new(shapes, inertia(order), rigid_sums(order), params)
+        }),
+        ShapeKind::Superquadric => bodies.simulate(start, |order| {
+            let shapes = order
+                .iter()
+                .map(|&k| match bodies.shapes[k] {
+                    Geom::Superquadric(q) => q,
+                    _ => unreachable!("the bodies of a superquadric mixture are superquadrics"),
+                })
+                .collect();
+            MixedRigidModel::new(shapes, inertia(order), rigid_sums(order), params)
+        }),
     }
-    let m = MixedSphereModel::new(&sizes, species, kinds);
-    let mut eng = Engine::new(m, cfg.l, bodies, 0.0, scene, 0.0)?;
-    eng.sequence = sequence;
-    let geom = Geom::Sphere { sigma: d_max };
-    measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+}
+
+/// What a run starts from besides its model: the scene, the clock and the random stream of the
+/// initial state, and what it reports to.
+struct Beginning<'s, 'h> {
+    scene: &'s Scene,
+    init: Instant,
+    rng: Rng,
+    progress: &'s mut dyn FnMut(u64),
+    hooks: Hooks<'h>,
+}
+
+/// The bodies of a mixture, in the order drawn: size (equal-volume diameter), species, shape
+/// and inertia of each.
+struct MixtureBodies {
+    sizes: Vec<f64>,
+    species: Vec<u16>,
+    shapes: Vec<Geom>,
+    inertia: Vec<Inertia>,
+    inertial: Vec<Inertial>,
+}
+
+impl MixtureBodies {
+    /// Masses ∝ volume (the first species' unit-diameter body has mass 1); a rigid body's moment
+    /// of inertia is a one-species scene's, (2/5) m r², r its smallest semi-axis (run_with_hooks).
+    fn new(scene: &Scene, sizes: Vec<f64>, species: Vec<u16>) -> Result<Self, EdmdError> {
+        let kinds = scene.species.as_deref().unwrap_or_default();
+        let mut shapes = Vec::with_capacity(sizes.len());
+        let mut inertia = Vec::with_capacity(sizes.len());
+        let mut inertial = Vec::with_capacity(sizes.len());
+        for (&d, &k) in sizes.iter().zip(&species) {
+            let kind = &kinds[k as usize];
+            let s = V3::from(kind.semi_axes()) * d;
+            let mass = d * d * d;
+            let shape = match scene.shape {
+                ShapeKind::Sphere => Geom::Sphere { sigma: d },
+                ShapeKind::Ellipsoid => Geom::Ellipsoid(Ellipsoid::new(s.x, s.y, s.z)),
+                ShapeKind::Superquadric => {
+                    let e = kind.exponents.unwrap_or([2.0; 3]);
+                    Geom::Superquadric(Superquadric::new(s.into(), e).ok_or_else(|| {
+                        EdmdError::Scene(crate::SceneError::Invalid {
+                            key: "species",
+                            line: None,
+                            reason: format!(
+                                "species {}: no superquadric of semi-axes {s:?}",
+                                k + 1
+                            ),
+                        })
+                    })?)
+                }
+            };
+            let rmin = s.x.min(s.y);
+            let inv_i = match scene.shape {
+                ShapeKind::Sphere => 0.0,
+                _ => 1.0 / (0.4 * mass * rmin * rmin),
+            };
+            inertia.push(Inertia {
+                inv_m: 1.0 / mass,
+                inv_i,
+            });
+            inertial.push(Inertial {
+                mass,
+                inv_i,
+                spins_about_axis_0: !shape.revolves_about_axis_0(),
+            });
+            shapes.push(shape);
+        }
+        Ok(MixtureBodies {
+            sizes,
+            species,
+            shapes,
+            inertia,
+            inertial,
+        })
+    }
+
+    /// The initial state, relaxed by the model `model_of` gives for the bodies in an order
+    /// (first as drawn, then along a Z curve), and the measured run.
+    fn simulate<M: Saves>(
+        &self,
+        start: Beginning<'_, '_>,
+        model_of: impl Fn(&[usize]) -> M,
+    ) -> Result<(RunReport, FinalState), EdmdError> {
+        let Beginning {
+            scene,
+            init,
+            mut rng,
+            progress,
+            hooks,
+        } = start;
+        let drawn: Vec<usize> = (0..self.sizes.len()).collect();
+        let mut sequence = Fingerprint::default();
+        let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
+            let n = bodies.len() as u64;
+            let mut eng = Engine::new(model_of(&drawn), l, bodies, scene, 0.0)?;
+            eng.sequence = std::mem::take(&mut sequence);
+            eng.advance(per_particle * n, |_| {})?;
+            eng.sync_all();
+            sequence = std::mem::take(&mut eng.sequence);
+            Ok(eng.bodies)
+        };
+        let cfg = initial_mixture(
+            &self.shapes,
+            &self.inertial,
+            scene.phi,
+            &mut rng,
+            &mut relax,
+        )?;
+        // Bodies close in space close in memory, as for one species; their shapes follow them.
+        let order = z_curve_order(&cfg.bodies, cfg.l);
+        let bodies: Vec<Body> = order.iter().map(|&k| cfg.bodies[k]).collect();
+        let bound = self
+            .shapes
+            .iter()
+            .fold(0.0, |m: f64, g| m.max(g.bounding_radius()));
+        if cfg.l <= 4.0 * bound {
+            return Err(EdmdError::BoxTooSmall {
+                l: cfg.l,
+                needed: 4.0 * bound,
+                why: "the box must exceed twice the largest bounding-sphere diameter",
+            });
+        }
+        let mut eng = Engine::new(model_of(&order), cfg.l, bodies, scene, 0.0)?;
+        eng.sequence = sequence;
+        // The largest body: what the final state's records fall back to (see Saves::final_state).
+        let geom = self
+            .shapes
+            .iter()
+            .copied()
+            .max_by(|a, b| a.bounding_radius().total_cmp(&b.bounding_radius()))
+            .unwrap_or(Geom::Sphere { sigma: 1.0 });
+        measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+    }
 }
 
 /// Each body's diameter and species, in a random order: N x_k bodies of species k
@@ -328,13 +483,12 @@ fn restored<M: Saves>(
     m: M,
     saved: SavedState,
     scene: &Scene,
-    inv_i: f64,
 ) -> Result<(Engine<M>, Origin), EdmdError> {
     let l = (scene.n as f64 * std::f64::consts::PI / 6.0 / scene.phi).cbrt();
     match saved.start_for(scene)? {
         Start::Rebuild => {
             let bodies = saved.bodies_now();
-            let eng = Engine::new(m, saved.box_length, bodies, inv_i, scene, saved.time())?;
+            let eng = Engine::new(m, saved.box_length, bodies, scene, saved.time())?;
             Ok((eng, Origin::Rebuilt))
         }
         Start::Continue => {
@@ -350,7 +504,7 @@ fn restored<M: Saves>(
                 .ok_or_else(|| {
                     StateError::Inconsistent("the saved engine is not of the scene's model".into())
                 })?;
-            Ok((Engine::restore(m, l, inv_i, state), Origin::Continued))
+            Ok((Engine::restore(m, l, state), Origin::Continued))
         }
     }
 }
@@ -381,50 +535,46 @@ impl Saves for MixedSphereModel {
         None
     }
     fn audit(eng: &Engine<Self>, _: &Geom, tol: f64) -> u64 {
-        let diameters: Vec<f64> = eng.m.radius.iter().map(|r| 2.0 * r).collect();
-        audit_spheres(&eng.bodies, &diameters, eng.l, tol)
+        audit_each(&eng.bodies, eng.l, &|i| sphere_of(&eng.m, i), tol)
     }
     fn final_state(eng: &Engine<Self>, _: &Geom) -> FinalState {
-        let mut state = final_state(&eng.bodies, eng.l, &Geom::Sphere { sigma: 1.0 });
-        for (p, r) in state.particles.iter_mut().zip(&eng.m.radius) {
-            p.semi_axes = [*r; 3];
-        }
-        state
+        final_state_each(&eng.bodies, eng.l, &|i| sphere_of(&eng.m, i))
     }
     fn species_report(eng: &Engine<Self>, ke_int: f64) -> Option<SpeciesReport> {
-        let m = &eng.m;
-        let kinds = m.species_count();
-        let mut count = vec![0usize; kinds];
-        let mut diameter = vec![0.0; kinds];
-        for (&k, r) in m.species.iter().zip(&m.radius) {
-            count[k as usize] += 1;
-            diameter[k as usize] += 2.0 * r;
-        }
-        let total: u64 = m.pair_collisions.iter().sum();
-        let mut pairs = Vec::new();
-        for a in 0..kinds as u16 {
-            for b in a..kinds as u16 {
-                let k = m.pair_index(a, b);
-                pairs.push(PairReport {
-                    species: [a as usize + 1, b as usize + 1],
-                    collisions: m.pair_collisions[k],
-                    collision_fraction: m.pair_collisions[k] as f64 / total.max(1) as f64,
-                    pressure_z_part: m.pair_virial[k] / (2.0 * ke_int),
-                });
-            }
-        }
-        let mean_diameter = diameter
-            .iter()
-            .zip(&count)
-            .map(|(d, &c)| d / c.max(1) as f64)
-            .collect();
-        Some(SpeciesReport {
-            count,
-            mean_diameter,
-            pairs,
-        })
+        Some(eng.m.sums.report(ke_int))
     }
 }
+
+fn sphere_of(m: &MixedSphereModel, i: usize) -> Geom {
+    Geom::Sphere {
+        sigma: 2.0 * m.radius[i],
+    }
+}
+
+/// A rigid mixture's model, saved, audited and reported as its bodies' shapes say.
+macro_rules! mixed_rigid_saves {
+    ($shape:ty, $geom:path) => {
+        impl Saves for MixedRigidModel<$shape> {
+            fn wrap(_: EngineState<(V3, V3), Obp>) -> Option<SavedEngine> {
+                None
+            }
+            fn unwrap(_: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
+                None
+            }
+            fn audit(eng: &Engine<Self>, _: &Geom, tol: f64) -> u64 {
+                audit_each(&eng.bodies, eng.l, &|i| $geom(*eng.m.shape(i)), tol)
+            }
+            fn final_state(eng: &Engine<Self>, _: &Geom) -> FinalState {
+                final_state_each(&eng.bodies, eng.l, &|i| $geom(*eng.m.shape(i)))
+            }
+            fn species_report(eng: &Engine<Self>, ke_int: f64) -> Option<SpeciesReport> {
+                Some(eng.m.sums.report(ke_int))
+            }
+        }
+    };
+}
+mixed_rigid_saves!(Ellipsoid, Geom::Ellipsoid);
+mixed_rigid_saves!(Superquadric, Geom::Superquadric);
 
 impl Saves for SphereModel {
     fn wrap(s: EngineState<(), Ball>) -> Option<SavedEngine> {

@@ -92,24 +92,30 @@ mod tests {
     proptest! {
         /// For p = 2 the superquadric is an ellipsoid: μ matches Perram–Wertheim near contact
         /// (0.95 ≤ μ ≤ 1 + EXACT_BELOW, where the Monte Carlo compares and pushes) and stays
-        /// below it elsewhere (deep overlaps, where the distance solver is not asked to be exact).
+        /// below it elsewhere (deep overlaps, where the distance solver is not asked to be exact),
+        /// for two ellipsoids of any aspect ratios and sizes (a mixture's pairs).
         #[test]
         fn matches_perram_wertheim_for_ellipsoids(
             x0 in 0.3f64..3.0,
+            x0b in 0.3f64..3.0,
+            size in 0.5f64..2.0,
             r in prop::array::uniform3(-1.5f64..1.5),
             wa in prop::array::uniform3(-3.0f64..3.0),
             wb in prop::array::uniform3(-3.0f64..3.0),
             scale in 0.5f64..1.0,
         ) {
             let q = Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0; 3]).unwrap();
+            let unit = Superquadric::with_unit_volume([x0b, 1.0, 1.0], [2.0; 3]).unwrap();
+            let qb = Superquadric::new((unit.s * size).into(), [2.0; 3]).unwrap();
             let e = Ellipsoid::new(q.s.x, q.s.y, q.s.z);
+            let eb = Ellipsoid::new(qb.s.x, qb.s.y, qb.s.z);
             let (ra, rb) = (rotate(&M3::identity(), &V3::from(wa), 1.0), rotate(&M3::identity(), &V3::from(wb), 1.0));
             let r = V3::from(r);
             prop_assume!(r.norm() > 0.1);
             // Put the pair at a chosen scale near contact, where the Monte Carlo needs μ exactly.
-            let r = r * (scale / pw::contact_scale(&e, &ra, &e, &rb, &r)) * 1.1;
-            let oracle = pw::contact_scale(&e, &ra, &e, &rb, &r);
-            let mu = contact_scale(&q, &ra, &q, &rb, &r);
+            let r = r * (scale / pw::contact_scale(&e, &ra, &eb, &rb, &r)) * 1.1;
+            let oracle = pw::contact_scale(&e, &ra, &eb, &rb, &r);
+            let mu = contact_scale(&q, &ra, &qb, &rb, &r);
             if (0.95..=1.0 + EXACT_BELOW).contains(&oracle) {
                 prop_assert!((mu - oracle).abs() <= 1e-8 * oracle, "{mu} vs {oracle}");
             } else {

@@ -15,7 +15,9 @@ pub const PHI_MAX_ELLIPSOID: f64 = 0.7707;
 /// Newton systems lose their digits; the hard-case suite runs up to p = 10 (the paper stopped at 8).
 pub const MAX_EXPONENT: f64 = 20.0;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// Ordered from the most particular to the most general: a sphere is an ellipsoid, an ellipsoid a
+/// superquadric (a mixture is simulated as its most general species).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ShapeKind {
     Sphere,
@@ -117,22 +119,32 @@ pub struct Scene {
     pub species: Option<Vec<Species>>,
 }
 
-/// One species of a mixture. Spheres only for now (`shape = "sphere"`).
+/// One species of a mixture, with the shape keys of a one-species scene (`shape`, `x0`,
+/// `exponents`).
 ///
-/// - `diameter`: relative to the first species' (the first is the unit of length whatever it
-///   writes: every diameter is divided by the first one).
+/// - `diameter`: the diameter of the sphere of equal volume (a rigid species is its one-species
+///   shape scaled by it), relative to the first species' (the first is the unit of length
+///   whatever it writes: every diameter is divided by the first one).
 /// - `fraction`: the number fraction x_i; the fractions sum to 1 within [`FRACTION_TOL`]. The
 ///   counts are N·x_i rounded by largest remainders ([`Scene::species_counts`]).
 /// - `polydispersity`: δ, the relative standard deviation of the diameter within the species:
 ///   each diameter is σ_i (1 + δ g) with g a standard normal truncated to |g| ≤ 3 (redrawn
 ///   outside), δ in [0, [`MAX_POLYDISPERSITY`]) so that every diameter is positive. The
 ///   truncation makes the realised spread 0.986 δ.
-/// - Masses are proportional to the volume, m = (σ/σ_1)³ m_1 (equal mass density); spheres of
-///   one size and no polydispersity are the one-species scene.
+/// - Masses are proportional to the volume, m = (σ/σ_1)³ m_1 (equal mass density); the moment
+///   of inertia of a rigid body is that of a one-species scene's (the inscribed sphere's, see
+///   `run`), I = (2/5) m r_min². Spheres of one size and no polydispersity are the one-species
+///   scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Species {
     pub shape: ShapeKind,
+    /// As a one-species scene's `x0`; unset (1) it is not serialised.
+    #[serde(default = "d_x0", skip_serializing_if = "is_one")]
+    pub x0: f64,
+    /// As a one-species scene's `exponents` (superquadrics only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exponents: Option<[f64; 3]>,
     #[serde(default = "d_diameter")]
     pub diameter: f64,
     pub fraction: f64,
@@ -151,6 +163,9 @@ fn d_diameter() -> f64 {
 }
 fn is_zero(x: &f64) -> bool {
     *x == 0.0
+}
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
 }
 
 fn d_x0() -> f64 {
@@ -195,14 +210,18 @@ pub fn default_delta_nnl(shape: ShapeKind, neighbours: Neighbours) -> f64 {
 /// Adds `neighbours` and `delta_nnl` at their defaults for the table's `shape` (and method) where
 /// the table names none; a table without a valid shape is left for deserialising to report.
 pub fn fill_shape_defaults(table: &mut toml::Table) {
-    // A mixture that names no shape has its first species' shape.
+    // A mixture that names no shape has its most general species' shape (the one it is
+    // simulated as).
     if !table.contains_key("shape")
         && let Some(shape) = table
             .get("species")
             .and_then(|s| s.as_array())
-            .and_then(|s| s.first())
-            .and_then(|s| s.get("shape"))
-            .cloned()
+            .and_then(|s| {
+                s.iter()
+                    .filter_map(|s| ShapeKind::deserialize(s.get("shape")?.clone()).ok())
+                    .max()
+            })
+            .and_then(|shape| toml::Value::try_from(shape).ok())
     {
         table.insert("shape".into(), shape);
     }
@@ -369,22 +388,30 @@ impl Scene {
     /// Semi-axes (a, b, c) with a along the symmetry axis and the volume π/6 (a·b·c = 1/8 for
     /// an ellipsoid).
     pub fn semi_axes(&self) -> [f64; 3] {
-        match self.superquadric() {
-            Some(q) => [q.s.x, q.s.y, q.s.z],
-            None => {
-                let b = 0.5 / self.x0.cbrt();
-                [self.x0 * b, b, b]
-            }
-        }
+        unit_semi_axes(self.shape, self.x0, self.exponents)
     }
 
     /// The superquadric of a `shape = "superquadric"` scene whose `x0` and `exponents` are valid.
     pub fn superquadric(&self) -> Option<Superquadric> {
-        match (self.shape, self.exponents) {
-            (ShapeKind::Superquadric, Some(e)) => {
-                Superquadric::with_unit_volume([self.x0, 1.0, 1.0], e)
+        unit_superquadric(self.shape, self.x0, self.exponents)
+    }
+
+    /// The smallest semi-axis of any body: of the one shape, or of a mixture's smallest body
+    /// (its diameter 3 standard deviations below its species').
+    fn smallest_semi_axis(&self) -> f64 {
+        let smallest = |s: [f64; 3]| s.into_iter().fold(f64::INFINITY, f64::min);
+        match &self.species {
+            Some(species) => {
+                let unit = species[0].diameter;
+                species
+                    .iter()
+                    .map(|s| {
+                        let d = s.diameter / unit * (1.0 - 3.0 * s.polydispersity);
+                        smallest(s.semi_axes()) * d
+                    })
+                    .fold(f64::INFINITY, f64::min)
             }
-            _ => None,
+            None => smallest(self.semi_axes()),
         }
     }
 
@@ -413,43 +440,17 @@ impl Scene {
                 return bad(key, format!("must be finite, got {v}"));
             }
         }
-        match (self.shape, self.exponents) {
-            (ShapeKind::Superquadric, None) => {
-                return bad(
-                    "exponents",
-                    "a superquadric needs `exponents = [n, m, p]` (Eq. 77)".into(),
-                );
-            }
-            (ShapeKind::Superquadric, Some(e)) => {
-                if let Some(x) = e
-                    .iter()
-                    .find(|x| !(x.is_finite() && (2.0..=MAX_EXPONENT).contains(*x)))
-                {
-                    return bad(
-                        "exponents",
-                        format!("each exponent must lie in [2, {MAX_EXPONENT}], got {x}"),
-                    );
-                }
-            }
-            (_, Some(_)) => {
-                return bad(
-                    "exponents",
-                    "only a superquadric has exponents (shape = \"superquadric\")".into(),
-                );
-            }
-            (_, None) => {}
+        // A mixture's shape keys are its species'.
+        if self.species.is_none()
+            && let Some((key, reason)) = shape_keys_error(self.shape, self.x0, self.exponents)
+        {
+            return bad(key, reason);
         }
         if self.n < 2 {
             return bad("n", format!("need at least 2 particles, got {}", self.n));
         }
         if self.n > u32::MAX as usize / 2 {
             return bad("n", format!("too many particles: {}", self.n));
-        }
-        if self.x0 <= 0.0 {
-            return bad("x0", format!("aspect ratio must be > 0, got {}", self.x0));
-        }
-        if self.shape == ShapeKind::Sphere && self.x0 != 1.0 {
-            return bad("x0", format!("a sphere has x0 = 1, got {}", self.x0));
         }
         let phi_max = match self.shape {
             ShapeKind::Sphere => PHI_MAX_SPHERE,
@@ -478,7 +479,10 @@ impl Scene {
                 return bad(key, format!("must be > 0, got {v}"));
             }
         }
-        let b = self.semi_axes().into_iter().fold(f64::INFINITY, f64::min);
+        if let Some(species) = &self.species {
+            self.check_species(species)?;
+        }
+        let b = self.smallest_semi_axis();
         if self.eps_d >= b {
             return bad(
                 "eps_d",
@@ -512,9 +516,6 @@ impl Scene {
         if self.collisions == 0 {
             return bad("collisions", "must be at least 1".into());
         }
-        if let Some(species) = &self.species {
-            self.check_species(species)?;
-        }
         Ok(())
     }
 
@@ -529,22 +530,18 @@ impl Scene {
         if species.is_empty() {
             return bad("species", "a mixture needs at least one species".into());
         }
-        if self.shape != ShapeKind::Sphere {
+        if self.x0 != 1.0 || self.exponents.is_some() {
             return bad(
-                "shape",
-                "mixtures are of spheres for now: the scene's shape must be \"sphere\"".into(),
+                if self.x0 != 1.0 { "x0" } else { "exponents" },
+                "a mixture's shapes are its species': give `x0` and `exponents` in each \
+                 [[species]]"
+                    .into(),
             );
         }
         for (k, s) in species.iter().enumerate() {
             let k = k + 1;
-            if s.shape != ShapeKind::Sphere {
-                return bad(
-                    "shape",
-                    format!(
-                        "species {k}: mixtures are of spheres for now, got {:?}",
-                        s.shape
-                    ),
-                );
+            if let Some((key, reason)) = shape_keys_error(s.shape, s.x0, s.exponents) {
+                return bad(key, format!("species {k}: {reason}"));
             }
             if !(s.diameter.is_finite() && s.diameter > 0.0) {
                 return bad(
@@ -570,6 +567,18 @@ impl Scene {
                 );
             }
         }
+        // The scene is simulated as its most general species (a sphere among ellipsoids is an
+        // ellipsoid of X0 = 1), which is the scene's shape.
+        let general = species.iter().map(|s| s.shape).max().unwrap_or(self.shape);
+        if self.shape != general {
+            return bad(
+                "shape",
+                format!(
+                    "a mixture's shape is its most general species' ({general:?}), got {:?}",
+                    self.shape
+                ),
+            );
+        }
         let sum: f64 = species.iter().map(|s| s.fraction).sum();
         if (sum - 1.0).abs() > FRACTION_TOL {
             return bad(
@@ -588,6 +597,99 @@ impl Scene {
             );
         }
         Ok(())
+    }
+}
+
+/// A sphere of diameter 1 making up the whole scene (`..Default::default()` fills the keys a
+/// species leaves unset).
+impl Default for Species {
+    fn default() -> Self {
+        Species {
+            shape: ShapeKind::Sphere,
+            x0: d_x0(),
+            exponents: None,
+            diameter: d_diameter(),
+            fraction: 1.0,
+            polydispersity: 0.0,
+        }
+    }
+}
+
+impl Species {
+    /// The species' semi-axes at the equal-volume diameter 1 (before `diameter` scales them).
+    pub fn semi_axes(&self) -> [f64; 3] {
+        unit_semi_axes(self.shape, self.x0, self.exponents)
+    }
+
+    /// The species' superquadric at the equal-volume diameter 1, if it is one.
+    pub fn superquadric(&self) -> Option<Superquadric> {
+        unit_superquadric(self.shape, self.x0, self.exponents)
+    }
+}
+
+/// What is wrong with a shape's keys, if anything: the key and why.
+fn shape_keys_error(
+    shape: ShapeKind,
+    x0: f64,
+    exponents: Option<[f64; 3]>,
+) -> Option<(&'static str, String)> {
+    match (shape, exponents) {
+        (ShapeKind::Superquadric, None) => {
+            return Some((
+                "exponents",
+                "a superquadric needs `exponents = [n, m, p]` (Eq. 77)".into(),
+            ));
+        }
+        (ShapeKind::Superquadric, Some(e)) => {
+            if let Some(x) = e
+                .iter()
+                .find(|x| !(x.is_finite() && (2.0..=MAX_EXPONENT).contains(*x)))
+            {
+                return Some((
+                    "exponents",
+                    format!("each exponent must lie in [2, {MAX_EXPONENT}], got {x}"),
+                ));
+            }
+        }
+        (_, Some(_)) => {
+            return Some((
+                "exponents",
+                "only a superquadric has exponents (shape = \"superquadric\")".into(),
+            ));
+        }
+        (_, None) => {}
+    }
+    if !(x0.is_finite() && x0 > 0.0) {
+        return Some((
+            "x0",
+            format!("aspect ratio must be finite and > 0, got {x0}"),
+        ));
+    }
+    if shape == ShapeKind::Sphere && x0 != 1.0 {
+        return Some(("x0", format!("a sphere has x0 = 1, got {x0}")));
+    }
+    None
+}
+
+/// Semi-axes (a, b, c) of a shape of volume π/6 with a along the symmetry axis.
+fn unit_semi_axes(shape: ShapeKind, x0: f64, exponents: Option<[f64; 3]>) -> [f64; 3] {
+    match unit_superquadric(shape, x0, exponents) {
+        Some(q) => [q.s.x, q.s.y, q.s.z],
+        None => {
+            let b = 0.5 / x0.cbrt();
+            [x0 * b, b, b]
+        }
+    }
+}
+
+fn unit_superquadric(
+    shape: ShapeKind,
+    x0: f64,
+    exponents: Option<[f64; 3]>,
+) -> Option<Superquadric> {
+    match (shape, exponents) {
+        (ShapeKind::Superquadric, Some(e)) => Superquadric::with_unit_volume([x0, 1.0, 1.0], e),
+        _ => None,
     }
 }
 
@@ -727,6 +829,7 @@ mod species_tests {
             diameter: 1.0,
             fraction: x,
             polydispersity: 0.0,
+            ..Default::default()
         };
         // 10 × (1/3, 1/3, 1/3) = 3.33 each: the one left over goes to the first.
         s.species = Some(vec![sp(1.0 / 3.0), sp(1.0 / 3.0), sp(1.0 / 3.0)]);
@@ -786,6 +889,75 @@ mod species_tests {
             Scene::from_toml_str(&BINARY.replace("n = 1000", "n = 1000\nshape = \"ellipsoid\""))
                 .unwrap_err();
         assert!(matches!(e, SceneError::Invalid { key: "shape", .. }), "{e}");
+    }
+
+    const RIGID: &str = "n = 1000\nphi = 0.4\n\
+        [[species]]\nshape = \"sphere\"\nfraction = 0.5\n\
+        [[species]]\nshape = \"ellipsoid\"\nx0 = 2.0\ndiameter = 1.2\nfraction = 0.5\n";
+
+    /// Rigid species take the shape keys of a one-species scene; the scene is its most general
+    /// species (its shape, and the defaults of that shape); bad shape keys name their key.
+    #[test]
+    fn rigid_species_take_the_shape_keys_of_a_scene() {
+        let s = Scene::from_toml_str(RIGID).unwrap();
+        assert_eq!(s.shape, ShapeKind::Ellipsoid);
+        assert_eq!(s.neighbours, default_neighbours(ShapeKind::Ellipsoid));
+        assert!(s.is_mixture());
+        let sp = s.species.as_ref().unwrap();
+        let [a, b, c] = sp[1].semi_axes();
+        assert!((a / b - 2.0).abs() < 1e-15 && b == c && (a * b * c - 0.125).abs() < 1e-15);
+        let quadric = RIGID.replace(
+            "x0 = 2.0",
+            "x0 = 2.0\nexponents = [2.0, 2.0, 4.0]\nshape = \"superquadric\"",
+        );
+        let quadric = quadric.replacen("shape = \"ellipsoid\"\n", "", 1);
+        let q = Scene::from_toml_str(&quadric).unwrap();
+        assert_eq!(q.shape, ShapeKind::Superquadric);
+        assert!(q.species.as_ref().unwrap()[1].superquadric().is_some());
+        let key_of = |text: &str| match Scene::from_toml_str(text) {
+            Err(SceneError::Invalid { key, .. }) => key,
+            other => panic!("{other:?}"),
+        };
+        // A sphere species with an aspect ratio; a superquadric without exponents; exponents
+        // on an ellipsoid; x0 or exponents for the whole mixture; a shape that is not the most
+        // general species'; ε_d beyond the smallest body's smallest semi-axis.
+        assert_eq!(
+            key_of(&RIGID.replacen("fraction = 0.5", "x0 = 2.0\nfraction = 0.5", 1)),
+            "x0"
+        );
+        assert_eq!(
+            key_of(&RIGID.replace("\"ellipsoid\"", "\"superquadric\"")),
+            "exponents"
+        );
+        assert_eq!(
+            key_of(&RIGID.replace("x0 = 2.0", "x0 = 2.0\nexponents = [2.0, 2.0, 2.0]")),
+            "exponents"
+        );
+        assert_eq!(
+            key_of(&RIGID.replace("phi = 0.4", "phi = 0.4\nx0 = 2.0")),
+            "x0"
+        );
+        assert_eq!(
+            key_of(&RIGID.replace("phi = 0.4", "phi = 0.4\nshape = \"sphere\"")),
+            "shape"
+        );
+        // X0 = 0.02 at diameter 1.2: a half-thickness of 0.044.
+        let flat = RIGID.replace("x0 = 2.0", "x0 = 0.02");
+        assert!(Scene::from_toml_str(&format!("eps_d = 0.04\n{flat}")).is_ok());
+        assert_eq!(key_of(&format!("eps_d = 0.05\n{flat}")), "eps_d");
+    }
+
+    /// A sphere species writes no `x0` and no `exponents`: the ids of sphere mixtures stay what
+    /// they were before rigid species existed; a rigid species writes them.
+    #[test]
+    fn shape_keys_are_serialised_only_where_set() {
+        let species_part = |t: String| t[t.find("[[species]]").unwrap_or(0)..].to_owned();
+        let t = species_part(toml::to_string(&Scene::from_toml_str(BINARY).unwrap()).unwrap());
+        assert!(!t.contains("x0") && !t.contains("exponents"), "{t}");
+        let rigid = Scene::from_toml_str(RIGID).unwrap();
+        let t = toml::to_string(&rigid).unwrap();
+        assert_eq!(species_part(t.clone()).matches("x0").count(), 1, "{t}");
+        assert_eq!(Scene::from_toml_str(&t).unwrap(), rigid);
     }
 
     /// A scene without species serialises without the key, so its point id is what it was.

@@ -220,7 +220,8 @@ impl<'a, 'i> Sweep<'a, 'i> {
     }
 
     /// An expandable key whose every value is itself a list of scalars or of tables of scalars
-    /// (a scene's `exponents = [n, m, p]`, its `[[edmd.species]]`): such a list is one value, a list of such lists is a sweep
+    /// and lists of scalars (a scene's `exponents = [n, m, p]`, its `[[edmd.species]]`): such a
+    /// list is one value, a list of such lists is a sweep
     /// over them, each with the span it was written at. Ranges and deeper nesting are refused;
     /// the element types and the list's length are the defining crate's to check. `None` when
     /// the key is absent.
@@ -426,14 +427,21 @@ fn toml_integer(value: &DeValue<'_>) -> Option<Result<i128, String>> {
 /// One scalar as a TOML value, for keys whose types are checked elsewhere.
 /// A table of scalars (one element of a list of tables), its keys and types left to the defining
 /// crate to check.
+/// A table of scalars and lists of scalars (a species' `exponents = [n, m, p]`).
 fn table_value(table: &DeTable<'_>, key: &str) -> Result<toml::Value, Issue> {
     table
         .iter()
         .map(|(k, v)| {
-            Ok((
-                k.get_ref().to_string(),
-                scalar_value(v.get_ref(), v.span(), key)?,
-            ))
+            let value = match v.get_ref() {
+                DeValue::Array(items) => toml::Value::Array(
+                    items
+                        .iter()
+                        .map(|e| scalar_value(e.get_ref(), e.span(), key))
+                        .collect::<Result<_, _>>()?,
+                ),
+                scalar => scalar_value(scalar, v.span(), key)?,
+            };
+            Ok((k.get_ref().to_string(), value))
         })
         .collect::<Result<toml::Table, Issue>>()
         .map(toml::Value::Table)

@@ -1011,3 +1011,37 @@ fn species_tables_make_mixture_points_and_leave_one_species_ids_alone() {
     );
     assert!(!sphere.jobs[0].canonical_json().contains("species"));
 }
+
+/// Rigid species: an ellipsoid mixture and a superquadric species (its `exponents` a list inside
+/// the species table) make points of the most general species' shape; the sphere mixture's id
+/// does not move when its species are written with the shape keys' defaults.
+#[test]
+fn rigid_species_make_points_of_their_most_general_shape() {
+    let rigid = "[[edmd]]\nn = 256\nphi = 0.4\n\
+        [[edmd.species]]\nshape = \"sphere\"\nfraction = 0.5\n\
+        [[edmd.species]]\nshape = \"superquadric\"\nx0 = 2.0\nexponents = [2.0, 2.0, 4.0]\nfraction = 0.5\n";
+    let plan = parse(rigid);
+    let JobSpec::Edmd(scene) = &plan.jobs[0] else {
+        panic!("not an edmd point")
+    };
+    assert_eq!(scene.shape, edmd::ShapeKind::Superquadric);
+    let species = scene.species.as_ref().expect("species");
+    assert_eq!(species[1].exponents, Some([2.0, 2.0, 4.0]));
+    assert_eq!(species[1].x0, 2.0);
+    // A sphere species with an aspect ratio names the key.
+    let e = Plan::parse(
+        &rigid.replacen("shape = \"sphere\"", "shape = \"sphere\"\nx0 = 3.0", 1),
+        "p.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("x0"), "{e}");
+    let binary = "[[edmd]]\nn = 1000\nphi = 0.45\n\
+        [[edmd.species]]\nshape = \"sphere\"\ndiameter = 1.0\nfraction = 0.5\n\
+        [[edmd.species]]\nshape = \"sphere\"\ndiameter = 1.4\nfraction = 0.5\n";
+    let with_defaults = binary.replace("diameter = 1.4", "diameter = 1.4\nx0 = 1.0");
+    assert_eq!(
+        parse(binary).jobs[0].id(),
+        parse(&with_defaults).jobs[0].id()
+    );
+}

@@ -72,7 +72,7 @@ fn row_of(job_id: &str, scene: &Scene) -> Result<EdmdRow> {
         // A mixture is not a point of its first species' one-size curves (nor of the peers'
         // sphere comparison): its rows carry a shape of their own.
         shape: if scene.is_mixture() {
-            "sphere-mixture".to_owned()
+            format!("{}-mixture", name_of(scene.shape))
         } else {
             name_of(scene.shape)
         },

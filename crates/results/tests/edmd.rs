@@ -199,3 +199,35 @@ async fn a_failed_job_reads_with_the_parameters_a_done_one_has() {
         "{message}"
     );
 }
+
+/// A mixture's rows carry a shape of their own, named after its most general species, so that
+/// they are never points of a one-shape curve: `sphere-mixture`, `ellipsoid-mixture`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mixture_reads_back_as_a_shape_of_its_own() {
+    let (_dir, _path, store) = temp_store().await;
+    let species = "[[species]]\nshape = \"sphere\"\nfraction = 0.5\n[[species]]\n";
+    let specs = [
+        format!("{species}shape = \"sphere\"\ndiameter = 1.4\nfraction = 0.5\n"),
+        format!("{species}shape = \"ellipsoid\"\nx0 = 2.0\nfraction = 0.5\n"),
+    ]
+    .map(|tail| {
+        JobSpec::Edmd(scene(&format!(
+            "n = 64\nphi = 0.3\nneighbours = \"nnl\"\ncollisions = 500\nequilibrate = 50\n{tail}"
+        )))
+    });
+    complete_all(&store, "c", &specs, |spec| {
+        let records = jobs::run(spec, 1).map_err(|e| e.to_string())?;
+        Ok(vec![
+            serde_json::Value::Object(records[0].clone()).to_string(),
+        ])
+    })
+    .await;
+    let mut shapes: Vec<String> = results::edmd_runs(&store, Clock::Cpu)
+        .await
+        .unwrap()
+        .into_iter()
+        .map(|r| r.shape)
+        .collect();
+    shapes.sort();
+    assert_eq!(shapes, ["ellipsoid-mixture", "sphere-mixture"]);
+}
