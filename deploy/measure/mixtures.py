@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Issue 30's measurements of sphere mixtures (MEASUREMENTS.md, "Sphere mixtures").
+"""Issue 30's measurements of mixtures (MEASUREMENTS.md, "Sphere mixtures").
 
 usage: mixtures.py physics SCENE_BIN            Z of binary mixtures and polydisperse spheres
        mixtures.py cost SCENE_BIN [OLD_BIN]     tau_c of one size, the mixture path, ratio 2
        mixtures.py peer SWEEP_BIN PEER_BIN      polydisperse spheres against Smallenburg's EDMD
+       mixtures.py rigid SCENE_BIN              rigid mixtures against their pure systems
 
 SCENE_BIN is `cargo build --release -p edmd --example scene`'s binary (target/release/examples/
 scene); OLD_BIN the same example built before species existed, run interleaved with it.
@@ -104,6 +105,35 @@ def cost(binary, old):
             print(f"| {nb} | {name} | {wall} | {cpu:.3f} | {z:.3f} | {rebuilds:.3f} | {overlaps} |", flush=True)
 
 
+def rigid(binary, rounds=3, n=1000, coll=100_000):
+    """Ellipsoid X0 0.5 + 2 and sphere + ellipsoid X0 2 mixtures beside their pure systems,
+    alternated rounds; per pair of species the distance calls per collision."""
+    base = [f"n={n}", "phi=0.4", 'neighbours="nnl"', "delta_nnl=0.15", f"collisions={coll}",
+            f"equilibrate={coll // 5}", "seed=1"]
+    ell = lambda x0: f'{{shape="ellipsoid", x0={x0}, fraction=0.5}}'
+    cases = [
+        ("spheres (sphere path)", ['shape="sphere"']),
+        ("spheres as rigid ellipsoids of X0 = 1", ['shape="ellipsoid"', "x0=1.0"]),
+        ("ellipsoids X0 = 0.5", ['shape="ellipsoid"', "x0=0.5"]),
+        ("ellipsoids X0 = 2", ['shape="ellipsoid"', "x0=2.0"]),
+        ("X0 = 0.5 and 2, x = 0.5", [f"species=[{ell(0.5)}, {ell(2.0)}]"]),
+        ("spheres and X0 = 2, x = 0.5", [f'species=[{{shape="sphere", fraction=0.5}}, {ell(2.0)}]']),
+    ]
+    runs = {name: [] for name, _ in cases}
+    for _ in range(rounds):
+        for name, keys in cases:
+            runs[name].append(run(binary, base + keys))
+    for name, rs in runs.items():
+        r = rs[0]
+        cpu = ", ".join(f"{x['tau_c_cpu_us']:.2f}" for x in rs)
+        pairs = " / ".join(f"{p['distance_calls'] / max(p['collisions'], 1):.2f}"
+                           for p in (r.get("species") or {}).get("pairs", []))
+        print(f"| {name} | {cpu} | {r['pressure_z']:.3f} | {r['pressure_z_err']:.3f} | "
+              f"{max(x['energy_drift_rel'] for x in rs):.1e} | {sum(x['overlaps'] for x in rs)} | "
+              f"{sum(x['solver_failures'] for x in rs)} | {r['distance_calls_per_collision']:.2f} | {pairs} |",
+              flush=True)
+
+
 def peer(sweep, md, phi=0.45):
     import os
     import tempfile
@@ -154,5 +184,7 @@ if __name__ == "__main__":
         physics(binary)
     elif what == "peer":
         peer(binary, sys.argv[3])
+    elif what == "rigid":
+        rigid(binary)
     else:
         cost(binary, sys.argv[3] if len(sys.argv) > 3 else None)

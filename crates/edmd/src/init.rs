@@ -129,6 +129,21 @@ impl Geom {
         !overlap(&a, &b, &V3::zeros())
     }
 
+    /// Whether the body is a sphere, whatever kind of shape carries it.
+    pub fn is_sphere(&self) -> bool {
+        let s = match self {
+            Geom::Sphere { .. } => return true,
+            Geom::Ellipsoid(e) => e.s,
+            Geom::Superquadric(q) => {
+                if q.e != V3::repeat(2.0) {
+                    return false;
+                }
+                q.s
+            }
+        };
+        s.x == s.y && s.y == s.z
+    }
+
     fn rotates(&self) -> bool {
         !matches!(self, Geom::Sphere { .. })
     }

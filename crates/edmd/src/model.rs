@@ -10,7 +10,7 @@ use crate::lists::Region;
 use crate::nnl::Obp;
 use crate::report::{PairReport, SpeciesReport};
 use crate::rigid::{Body, Inertia, collide};
-use crate::sphere::Trajectory;
+use crate::sphere::{self, Trajectory};
 
 /// What one particle kind costs to simulate: the analytic sphere, or the general rigid body.
 pub(crate) trait Model {
@@ -457,7 +457,8 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
 /// Rigid bodies of several shapes and sizes: mixtures of ellipsoids (spheres among them as
 /// ellipsoids of X0 = 1) or of superquadrics, and size-polydisperse ones. Each body has its own
 /// shape, mass (∝ volume) and moment of inertia; contact searches take the pair's two shapes
-/// (Sec. 2 never assumes them equal), the collision rule of Eq. (41) the pair's two inertias.
+/// (Sec. 2 never assumes them equal), the collision rule of Eq. (41) the pair's two inertias;
+/// two spheres meet at the root of the sphere path's quadratic, without a solver.
 /// A model of its own, as [`MixedSphereModel`] is, so that [`RigidModel`], one shape for every
 /// pair, never looks a body's shape up. Cells (and the list grid) are sized for the largest
 /// bounding sphere; each body's parallelepiped is built around its own shape, and the bounding
@@ -465,6 +466,9 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
 pub(crate) struct MixedRigidModel<S> {
     /// Per body, in the engine's order.
     shapes: Vec<S>,
+    /// Per body: whether it is a sphere. Two spheres meet at the root of a quadratic, as on the
+    /// sphere path: a sphere among rigid bodies pays the general search only against them.
+    round: Vec<bool>,
     inertia: Vec<Inertia>,
     r_max: f64,
     params: ContactParams,
@@ -473,9 +477,11 @@ pub(crate) struct MixedRigidModel<S> {
 }
 
 impl<S: Surface + Copy> MixedRigidModel<S> {
-    /// Bodies of the given shapes and inertias, of the given species.
+    /// Bodies of the given shapes (`round`: which are spheres) and inertias, of the given
+    /// species.
     pub(crate) fn new(
         shapes: Vec<S>,
+        round: Vec<bool>,
         inertia: Vec<Inertia>,
         sums: SpeciesSums,
         params: ContactParams,
@@ -485,6 +491,7 @@ impl<S: Surface + Copy> MixedRigidModel<S> {
             .fold(0.0, |m: f64, s| m.max(s.bounding_radius()));
         MixedRigidModel {
             shapes,
+            round,
             inertia,
             r_max,
             params,
@@ -496,6 +503,12 @@ impl<S: Surface + Copy> MixedRigidModel<S> {
     /// Body `i`'s shape.
     pub(crate) fn shape(&self, i: usize) -> &S {
         &self.shapes[i]
+    }
+
+    /// When spheres `i` (`a`) and `j` (`b`) meet, after the bodies' time; +∞ if never.
+    fn sphere_contact(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> f64 {
+        let sigma = self.shapes[i].bounding_radius() + self.shapes[j].bounding_radius();
+        sphere::contact_time_or_inf(&(b.r - a.r), &(b.v - a.v), sigma * sigma)
     }
 }
 
@@ -567,6 +580,13 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         b: &Body,
         horizon: f64,
     ) -> Option<(f64, (V3, V3))> {
+        if self.round[i] && self.round[j] {
+            self.stats.searches += 1;
+            let tau = self.sphere_contact([i, j], a, b);
+            let ra = self.shapes[i].bounding_radius();
+            let n = ((b.r + b.v * tau) - (a.r + a.v * tau)).normalize();
+            return (tau < horizon).then(|| (tau, (a.r + a.v * tau + n * ra, n)));
+        }
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
         let calls = self.stats.distance_calls;
         let hit = predict_pair(sa, a, sb, b, horizon, &self.params, &mut self.stats);
@@ -575,6 +595,10 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         hit
     }
     fn quick_bound(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> (f64, f64) {
+        if self.round[i] && self.round[j] {
+            let tau = self.sphere_contact([i, j], a, b);
+            return (tau, tau);
+        }
         quick_bound_pair(&self.shapes[i], a, &self.shapes[j], b)
     }
     fn solver_stats(&self) -> &SolverStats {

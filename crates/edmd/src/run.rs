@@ -272,6 +272,12 @@ fn simulate_mixture(
         )
     };
     let rigid_sums = |order: &[usize]| sums(order).counting_distance_calls();
+    let round = |order: &[usize]| -> Vec<bool> {
+        order
+            .iter()
+            .map(|&k| bodies.shapes[k].is_sphere())
+            .collect()
+    };
     let inertia =
         |order: &[usize]| -> Vec<Inertia> { order.iter().map(|&k| bodies.inertia[k]).collect() };
     match scene.shape {
@@ -287,7 +293,13 @@ fn simulate_mixture(
                     _ => unreachable!("the bodies of an ellipsoid mixture are ellipsoids"),
                 })
                 .collect();
-            MixedRigidModel::new(shapes, inertia(order), rigid_sums(order), params)
+            MixedRigidModel::new(
+                shapes,
+                round(order),
+                inertia(order),
+                rigid_sums(order),
+                params,
+            )
         }),
         ShapeKind::Superquadric => bodies.simulate(start, |order| {
             let shapes = order
@@ -297,7 +309,13 @@ fn simulate_mixture(
                     _ => unreachable!("the bodies of a superquadric mixture are superquadrics"),
                 })
                 .collect();
-            MixedRigidModel::new(shapes, inertia(order), rigid_sums(order), params)
+            MixedRigidModel::new(
+                shapes,
+                round(order),
+                inertia(order),
+                rigid_sums(order),
+                params,
+            )
         }),
     }
 }

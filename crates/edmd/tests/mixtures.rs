@@ -241,34 +241,39 @@ fn ellipsoid(x0: f64, diameter: f64, fraction: f64) -> Species {
     }
 }
 
-/// Spheres simulated as rigid bodies (ellipsoid species of X0 = 1, σ2/σ1 = 1.4, x = 0.5): the
-/// rigid mixture's own path (a shape, a mass and an inertia per body, two shapes in every
-/// contact search, Eq. 41 with unequal masses) gives the same BMCSL equation of state as the
-/// sphere path, with the bounds of [`binary_mixtures_follow_bmcsl`].
+/// Spheres simulated as rigid bodies, σ2/σ1 = 1.4, x = 0.5: ellipsoid species of X0 = 1 (the
+/// rigid mixture's model — a shape, a mass and an inertia per body, Eq. 41 with unequal masses
+/// — with the analytic contact time of two spheres) and of X0 = 1.001 (the general contact
+/// search between two shapes of different sizes) give the BMCSL equation of state, with the
+/// bounds of [`binary_mixtures_follow_bmcsl`].
 #[test]
 fn spheres_as_rigid_bodies_follow_bmcsl() {
-    let s = mixture(
-        256,
-        0.4,
-        vec![ellipsoid(1.0, 1.0, 0.5), ellipsoid(1.0, 1.4, 0.5)],
-        60_000,
-    );
-    let r = go(&s);
     let z = bmcsl(0.4, moments([0.5, 0.5], [1.0, 1.4]));
-    eprintln!(
-        "rigid spheres 1.4: Z {:.4} ± {:.4} BMCSL {z:.4} tau_c {:.2} us",
-        r.pressure_z, r.pressure_z_err, r.tau_c_us
-    );
-    assert_eq!(r.solver_failures, 0);
-    assert!(
-        (r.pressure_z - z).abs() < 4.0 * r.pressure_z_err + 0.006 * z,
-        "Z {} ± {} vs BMCSL {z}",
-        r.pressure_z,
-        r.pressure_z_err
-    );
-    let sp = r.species.expect("species");
-    assert!((sp.mean_diameter[1] - 1.4).abs() < 1e-12);
-    assert!(sp.pairs[2].collisions > sp.pairs[0].collisions, "{sp:?}");
+    for x0 in [1.0, 1.001] {
+        let s = mixture(
+            256,
+            0.4,
+            vec![ellipsoid(x0, 1.0, 0.5), ellipsoid(x0, 1.4, 0.5)],
+            60_000,
+        );
+        let r = go(&s);
+        eprintln!(
+            "rigid spheres 1.4, X0 {x0}: Z {:.4} ± {:.4} BMCSL {z:.4} tau_c {:.2} us calls {:.2}",
+            r.pressure_z, r.pressure_z_err, r.tau_c_us, r.distance_calls_per_collision
+        );
+        assert_eq!(r.solver_failures, 0);
+        assert!(
+            (r.pressure_z - z).abs() < 4.0 * r.pressure_z_err + 0.006 * z,
+            "X0 {x0}: Z {} ± {} vs BMCSL {z}",
+            r.pressure_z,
+            r.pressure_z_err
+        );
+        // Spheres take no solver; the others do.
+        assert_eq!(r.distance_calls_per_collision == 0.0, x0 == 1.0);
+        let sp = r.species.expect("species");
+        assert!((sp.mean_diameter[1] - 1.4).abs() < 1e-12);
+        assert!(sp.pairs[2].collisions > sp.pairs[0].collisions, "{sp:?}");
+    }
 }
 
 /// Two species of one ellipsoid are the one-species scene under another name: the mixture path
@@ -297,7 +302,7 @@ fn two_species_of_one_ellipsoid_give_the_pure_systems_z() {
 }
 
 /// Rigid mixtures — prolate with oblate ellipsoids (X0 = 2 and 0.5), spheres with ellipsoids,
-/// spheres with superquadrics — run without an overlap in the independent audit, without a solver
+/// spheres with superquadrics, size-polydisperse ellipsoids — run without an overlap in the independent audit, without a solver
 /// failure, with energy and momentum conserved; every body keeps its species' shape and size,
 /// and the parts of Z per pair sum to Z − 1.
 #[test]
@@ -322,6 +327,14 @@ fn rigid_mixtures_conserve_and_never_overlap() {
         ),
         (vec![sphere(1.0), ellipsoid(2.0, 1.3, 0.5)], 256, 20_000),
         (vec![sphere(1.2), cube], 128, 4_000),
+        (
+            vec![Species {
+                polydispersity: 0.1,
+                ..ellipsoid(2.0, 1.0, 1.0)
+            }],
+            128,
+            5_000,
+        ),
     ] {
         let s = mixture(n, 0.4, species.clone(), collisions);
         let (r, state) = edmd::run_with_state(&s, &mut |_| {}).expect("run");
@@ -339,7 +352,8 @@ fn rigid_mixtures_conserve_and_never_overlap() {
         assert!(r.energy_drift_rel <= 1e-9, "drift {}", r.energy_drift_rel);
         assert!(r.momentum_drift < 1e-9, "momentum {}", r.momentum_drift);
         let sp = r.species.as_ref().expect("species");
-        assert_eq!(sp.count, vec![n / 2, n / 2]);
+        let kinds = species.len();
+        assert_eq!(sp.count, vec![n / kinds; kinds]);
         assert_eq!(
             sp.pairs.iter().map(|p| p.collisions).sum::<u64>(),
             r.collisions
@@ -350,8 +364,17 @@ fn rigid_mixtures_conserve_and_never_overlap() {
         let calls: u64 = sp.pairs.iter().filter_map(|p| p.distance_calls).sum();
         let total = r.distance_calls_per_collision * r.collisions as f64;
         assert!((calls as f64 - total).abs() < 0.5, "{calls} vs {total}");
-        assert!(
-            sp.pairs.iter().all(|p| p.distance_calls > Some(0)),
+        // Two spheres meet without a solver: their pair alone takes no distance.
+        let spheres = species
+            .iter()
+            .filter(|s| s.shape == ShapeKind::Sphere)
+            .count();
+        assert_eq!(
+            sp.pairs
+                .iter()
+                .filter(|p| p.distance_calls == Some(0))
+                .count(),
+            spheres,
             "{sp:?}"
         );
         // Each body is its species' shape at its size: the volumes add up to φ V.
