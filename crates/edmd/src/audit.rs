@@ -2,27 +2,27 @@
 //! decided by a test independent of the engine's Newton–Raphson solvers (|r|/σ for spheres,
 //! Perram–Wertheim for ellipsoids, a certified separating axis for superquadrics).
 
+use crate::body::Moving;
 use crate::cells::Near;
 use crate::distance::{SolverStats, Tolerances, distance};
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
 use crate::init::{Geom, min_image};
-use crate::rigid::Body;
 use crate::support_distance::{Certified, certify, support_point_lab};
 
 /// Overlap audit of every pair with the independent test of [`pair_overlaps`], at the
 /// nearest image; pairs are found through cells, O(N). (The box exceeds twice the bounding
 /// diameter, so no other image can touch.)
-pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
+pub fn audit<B: Moving>(bodies: &[B], l: f64, geom: &Geom, tol: f64) -> u64 {
     let reach = 2.0 * geom.bounding_radius();
     count_pairs(bodies, l, reach, |i, j, r| {
-        r.norm() < reach && pair_overlaps(geom, &bodies[i].rot, &bodies[j].rot, r, tol)
+        r.norm() < reach && pair_overlaps(geom, &bodies[i].rot(), &bodies[j].rot(), r, tol)
     })
 }
 
 /// The overlap audit of a sphere mixture: a pair overlaps when |r| < (1 − `tol`)(σ_i + σ_j)/2,
 /// every pair within the largest contact distance found through cells, O(N); independent of the
 /// engine's contact times (it reads positions and diameters alone).
-pub fn audit_spheres(bodies: &[Body], diameters: &[f64], l: f64, tol: f64) -> u64 {
+pub fn audit_spheres<B: Moving>(bodies: &[B], diameters: &[f64], l: f64, tol: f64) -> u64 {
     let reach = diameters.iter().fold(0.0, |m: f64, &d| m.max(d));
     count_pairs(bodies, l, reach, |i, j, r| {
         r.norm() < (1.0 - tol) * 0.5 * (diameters[i] + diameters[j])
@@ -31,15 +31,15 @@ pub fn audit_spheres(bodies: &[Body], diameters: &[f64], l: f64, tol: f64) -> u6
 
 /// The pairs i < j, at the nearest image `r` of j from i, whose centres lie within `reach` (and
 /// a few beyond: cells), for which `overlaps` holds.
-fn count_pairs(
-    bodies: &[Body],
+fn count_pairs<B: Moving>(
+    bodies: &[B],
     l: f64,
     reach: f64,
     overlaps: impl Fn(usize, usize, &V3) -> bool,
 ) -> u64 {
     let pos: Vec<V3> = bodies
         .iter()
-        .map(|b| b.r.map(|x| x.rem_euclid(l)))
+        .map(|b| b.r().map(|x| x.rem_euclid(l)))
         .collect();
     let near = Near::new(&pos, l, reach);
     let mut count = 0;
@@ -120,7 +120,7 @@ fn separated_along_newton_normal<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pos
 mod tests {
     use super::*;
     use crate::ellipsoid::Ellipsoid;
-    use crate::rigid::rotate;
+    use crate::rigid::{Body, rotate};
     use crate::rng::Rng;
     use crate::superquadric::Superquadric;
 

@@ -3,9 +3,9 @@
 
 use serde::Serialize;
 
+use crate::body::Moving;
 use crate::geometry::V3;
 use crate::init::Geom;
-use crate::rigid::Body;
 use crate::sequence::Fingerprint;
 
 /// The measured figures of one run (the JSON of `sweep edmd`).
@@ -121,7 +121,7 @@ pub struct ParticleDump {
     pub angular_velocity: [f64; 3],
 }
 
-pub(crate) fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
+pub(crate) fn final_state<B: Moving>(bodies: &[B], l: f64, geom: &Geom) -> FinalState {
     let (shape, semi, exponents) = match geom {
         Geom::Sphere { sigma } => ("sphere", [0.5 * sigma; 3], [2.0; 3]),
         Geom::Ellipsoid(e) => ("ellipsoid", [e.s.x, e.s.y, e.s.z], [2.0; 3]),
@@ -136,10 +136,10 @@ pub(crate) fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
                 shape,
                 semi_axes: semi,
                 exponents,
-                position: arr(b.r.map(|x| x.rem_euclid(l))),
-                orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
-                velocity: arr(b.v),
-                angular_velocity: arr(b.w),
+                position: arr(b.r().map(|x| x.rem_euclid(l))),
+                orientation: [0, 1, 2].map(|k| arr(b.rot().row(k).transpose())),
+                velocity: arr(b.v()),
+                angular_velocity: arr(b.w()),
             })
             .collect(),
     }
