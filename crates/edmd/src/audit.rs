@@ -2,42 +2,47 @@
 //! decided by a test independent of the engine's Newton–Raphson solvers (|r|/σ for spheres,
 //! Perram–Wertheim for ellipsoids, a certified separating axis for superquadrics).
 
+use crate::body::Moving;
 use crate::cells::Near;
 use crate::distance::{SolverStats, Tolerances, distance};
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
 use crate::init::{Geom, min_image};
-use crate::rigid::Body;
 use crate::support_distance::{Certified, certify, support_point_lab};
 
 /// Overlap audit of every pair with the independent test of [`pair_overlaps`], at the
 /// nearest image; pairs are found through cells, O(N). (The box exceeds twice the bounding
 /// diameter, so no other image can touch.)
-pub fn audit(bodies: &[Body], l: f64, geom: &Geom, tol: f64) -> u64 {
+pub fn audit<B: Moving>(bodies: &[B], l: f64, geom: &Geom, tol: f64) -> u64 {
     audit_each(bodies, l, &|_| *geom, tol)
 }
 
 /// [`audit`] of bodies of several shapes or sizes (body `i` is `geom_of(i)`): every pair within
 /// the sum of its bounding radii, found through cells sized for the largest, O(N).
-pub fn audit_each(bodies: &[Body], l: f64, geom_of: &dyn Fn(usize) -> Geom, tol: f64) -> u64 {
+pub fn audit_each<B: Moving>(
+    bodies: &[B],
+    l: f64,
+    geom_of: &dyn Fn(usize) -> Geom,
+    tol: f64,
+) -> u64 {
     let largest = (0..bodies.len()).fold(0.0, |m: f64, i| m.max(geom_of(i).bounding_radius()));
     count_pairs(bodies, l, 2.0 * largest, |i, j, r| {
         let (a, b) = (geom_of(i), geom_of(j));
         r.norm() < a.bounding_radius() + b.bounding_radius()
-            && pair_overlaps(&a, &b, &bodies[i].rot, &bodies[j].rot, r, tol)
+            && pair_overlaps(&a, &b, &bodies[i].rot(), &bodies[j].rot(), r, tol)
     })
 }
 
 /// The pairs i < j, at the nearest image `r` of j from i, whose centres lie within `reach` (and
 /// a few beyond: cells), for which `overlaps` holds.
-fn count_pairs(
-    bodies: &[Body],
+fn count_pairs<B: Moving>(
+    bodies: &[B],
     l: f64,
     reach: f64,
     overlaps: impl Fn(usize, usize, &V3) -> bool,
 ) -> u64 {
     let pos: Vec<V3> = bodies
         .iter()
-        .map(|b| b.r.map(|x| x.rem_euclid(l)))
+        .map(|b| b.r().map(|x| x.rem_euclid(l)))
         .collect();
     let near = Near::new(&pos, l, reach);
     let mut count = 0;
@@ -120,7 +125,7 @@ fn separated_along_newton_normal<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pos
 mod tests {
     use super::*;
     use crate::ellipsoid::Ellipsoid;
-    use crate::rigid::rotate;
+    use crate::rigid::{Body, rotate};
     use crate::rng::Rng;
     use crate::superquadric::Superquadric;
 

@@ -4,9 +4,9 @@
 //! Valid for any shape; for a sphere, which does not rotate, it is the tightest region there is,
 //! and its escape time is exact.
 
+use crate::body::SphereBody;
 use crate::geometry::{Surface, V3};
 use crate::lists::Region;
-use crate::rigid::Body;
 
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ball {
@@ -17,7 +17,8 @@ pub struct Ball {
 }
 
 impl Region for Ball {
-    fn around<S: Surface>(_: &S, body: &Body, delta: f64) -> Self {
+    type Body = SphereBody;
+    fn around<S: Surface>(_: &S, body: &SphereBody, delta: f64) -> Self {
         Ball { c: body.r, delta }
     }
 
@@ -34,7 +35,7 @@ impl Region for Ball {
         true
     }
 
-    fn escape_time<S: Surface>(&self, _: &S, body: &Body, _: f64) -> f64 {
+    fn escape_time<S: Surface>(&self, _: &S, body: &SphereBody, _: f64) -> f64 {
         leaves_ball(&(body.r - self.c), &body.v, self.delta)
     }
 }
@@ -53,8 +54,9 @@ pub struct SizedBall {
 }
 
 impl Region for SizedBall {
+    type Body = SphereBody;
     /// `s` is the body's own surface.
-    fn around<S: Surface>(s: &S, body: &Body, delta: f64) -> Self {
+    fn around<S: Surface>(s: &S, body: &SphereBody, delta: f64) -> Self {
         SizedBall {
             c: body.r,
             delta,
@@ -76,7 +78,7 @@ impl Region for SizedBall {
         (other.c + shift - self.c).norm_squared() <= reach * reach
     }
 
-    fn escape_time<S: Surface>(&self, _: &S, body: &Body, _: f64) -> f64 {
+    fn escape_time<S: Surface>(&self, _: &S, body: &SphereBody, _: f64) -> f64 {
         leaves_ball(&(body.r - self.c), &body.v, self.delta)
     }
 }

@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use crate::body::{Moving, SphereBody};
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
 use crate::contact::bounding_sphere_window;
@@ -15,6 +16,8 @@ use crate::sequence::Fingerprint;
 use crate::sphere::{self, Probe, Trajectory};
 use crate::{EdmdError, prefetch};
 
+// One per engine: the size of its variants costs nothing, a box would cost an indirection.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub(crate) enum Neighbourhood<R: Region> {
     Ll {
@@ -36,7 +39,7 @@ pub(crate) enum Neighbourhood<R: Region> {
 pub(crate) struct Engine<M: Model> {
     pub(crate) m: M,
     pub(crate) l: f64,
-    pub(crate) bodies: Vec<Body>,
+    pub(crate) bodies: Vec<M::Body>,
     count: Vec<u32>,
     cal: Calendar<M::Extra>,
     pub(crate) t: f64,
@@ -56,6 +59,8 @@ pub(crate) struct Engine<M: Model> {
 }
 
 /// What [`Engine::snapshot`] saves; its layout is part of the state file (see [`crate::state`]).
+/// Bodies are saved whole whatever the model stores ([`Moving::to_body`]): a sphere's state file
+/// is the same as before spheres were stored compactly.
 #[derive(serde::Serialize, serde::Deserialize)]
 pub(crate) struct EngineState<X, R: Region> {
     pub(crate) bodies: Vec<Body>,
@@ -97,7 +102,7 @@ impl<M: FirstCollision> Engine<M> {
     pub(crate) fn new(
         m: M,
         l: f64,
-        bodies: Vec<Body>,
+        bodies: Vec<M::Body>,
         scene: &Scene,
         t: f64,
     ) -> Result<Self, EdmdError> {
@@ -166,7 +171,7 @@ impl<M: FirstCollision> Engine<M> {
         };
         if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
             for (i, b) in e.bodies.iter().enumerate() {
-                let c = cells.index(cells.coords_of(&b.r));
+                let c = cells.index(cells.coords_of(&b.r()));
                 cell_of[i] = c;
                 cells.insert(c, i as u32);
             }
@@ -183,7 +188,7 @@ impl<M: FirstCollision> Engine<M> {
     /// build state, the sums and the solver counters. Scratch buffers are left out.
     pub(crate) fn snapshot(&self) -> EngineState<M::Extra, M::Region> {
         EngineState {
-            bodies: self.bodies.clone(),
+            bodies: self.bodies.iter().map(Moving::to_body).collect(),
             count: self.count.clone(),
             cal: self.cal.clone(),
             t: self.t,
@@ -200,7 +205,7 @@ impl<M: FirstCollision> Engine<M> {
         Engine {
             m,
             l,
-            bodies: s.bodies,
+            bodies: s.bodies.iter().map(M::Body::from_body).collect(),
             count: s.count,
             cal: s.cal,
             t: s.t,
@@ -212,6 +217,11 @@ impl<M: FirstCollision> Engine<M> {
             last_parting: None,
             sequence: s.sequence,
         }
+    }
+
+    /// The model and the bodies; the rest (lists, calendar, cells) is freed.
+    pub(crate) fn into_parts(self) -> (M, Vec<M::Body>) {
+        (self.m, self.bodies)
     }
 
     /// Stops the event loop after the present event with `e` (an observer's failure).
@@ -229,7 +239,7 @@ impl<M: FirstCollision> Engine<M> {
     /// (NNL) is the horizon of every contact search.
     fn predict_for(&mut self, i: usize) {
         self.advance_body(i);
-        let (r, v) = (self.bodies[i].r, self.bodies[i].v);
+        let (r, v) = (self.bodies[i].r(), self.bodies[i].v());
         let mut own = Event {
             t: f64::INFINITY,
             a: i as u32,
@@ -358,7 +368,7 @@ impl<M: FirstCollision> Engine<M> {
         let ke_before = self.m.pair_kinetic([a, b], ba, bb);
         let imp = self.m.collide([a, b], ba, bb, &offset, &ev.extra);
         let ke_after = self.m.pair_kinetic([a, b], ba, bb);
-        let separation = (bb.r + offset) - ba.r;
+        let separation = (bb.r() + offset) - ba.r();
         self.count[a] = self.count[a].wrapping_add(1);
         self.count[b] = self.count[b].wrapping_add(1);
         let happened = if let Some(j) = imp {
@@ -381,10 +391,10 @@ impl<M: FirstCollision> Engine<M> {
                     a,
                     b,
                     t: self.t,
-                    ra: arr(ba.r),
-                    rb: arr(bb.r + offset),
-                    va: arr(ba.v),
-                    vb: arr(bb.v),
+                    ra: arr(ba.r()),
+                    rb: arr(bb.r() + offset),
+                    va: arr(ba.v()),
+                    vb: arr(bb.v()),
                 })));
             }
             self.last_parting = Some(pair);
@@ -427,20 +437,11 @@ impl<M: FirstCollision> Engine<M> {
         self.predict_for(i);
     }
 
-    /// Body `i` at the present time; positions alone where bodies do not rotate.
+    /// Body `i` at the present time (a sphere's position alone).
     #[inline]
     fn advance_body(&mut self, i: usize) {
-        let (t, b) = (self.t, &mut self.bodies[i]);
-        if M::ROTATES {
-            b.advance_to(t);
-        } else {
-            // Body::advance_to without reading the angular velocity, which lies in another line.
-            let tau = t - b.t;
-            if tau != 0.0 {
-                b.r += b.v * tau;
-                b.t = t;
-            }
-        }
+        let t = self.t;
+        self.bodies[i].advance_to(t);
     }
 
     pub(crate) fn sync_all(&mut self) {
@@ -498,7 +499,9 @@ impl FirstCollision for MixedSphereModel {
 /// [`MIXED`](Self::MIXED) is a constant, so that spheres of one size compute one σ² per prediction
 /// and never read a size, while a mixture reads each partner's radius (a second array beside the
 /// bodies with cells; the spare word of each gathered [`Trajectory`] with lists).
-pub(crate) trait Spheres: Model<Extra = (), Shape = crate::ellipsoid::Ellipsoid> {
+pub(crate) trait Spheres:
+    Model<Extra = (), Shape = crate::ellipsoid::Ellipsoid, Body = SphereBody>
+{
     const MIXED: bool;
     /// The radius of body `i` (read only where [`MIXED`](Self::MIXED)).
     fn radius(&self, i: usize) -> f64;

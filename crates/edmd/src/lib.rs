@@ -9,6 +9,8 @@
 //!   shape per file; the rigid-body model of [`model`] is generic over the [`geometry::Surface`]
 //!   trait.
 //! - [`rigid`]: free motion (Eqs. 3–6), ḋ_max (Eq. 32), the elastic collision (Eqs. 40–41).
+//!   [`body`]: what the event loop reads of a body ([`body::Moving`]), stored as a rigid body or
+//!   as a sphere's position, velocity and time alone ([`body::SphereBody`], one cache line).
 //! - [`distance`]: Newton–Raphson on Eqs. (23) with the relaxed step (26–29), the guess of
 //!   Sec. 3.2 and steepest descent (Sec. 2.3.2); negative distances for slight overlaps.
 //!   [`support_distance`]: the globally convergent fallback when all of those fail (Gilbert's
@@ -50,8 +52,8 @@
 //!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4. Spheres,
 //!   which do not rotate, get a ball instead of a box (the centre may wander Δ_NNL), with an exact
 //!   escape time and no 15-axis test. Lists hold indices; a sphere prediction gathers the list's
-//!   trajectories (the first cache line of each neighbour's [`rigid::Body`]: position, velocity,
-//!   time) into a contiguous batch and takes four neighbours at a time on AVX2
+//!   trajectories (each neighbour's [`body::SphereBody`]: position, velocity, time, one cache
+//!   line) into a contiguous batch and takes four neighbours at a time on AVX2
 //!   ([`sphere::first_contact`]).
 //! - Lower bounds on contact times go beyond ḋ_max (Eq. 32): the support gap along a fixed
 //!   direction bounds the distance from below at all times and changes at a rate and acceleration
@@ -73,6 +75,7 @@
 
 pub mod audit;
 pub mod ball;
+pub mod body;
 pub mod calendar;
 pub mod cells;
 pub mod clock;

@@ -2,6 +2,7 @@
 //! from its shape to its collision rule and the contact-time search of one pair.
 
 use crate::ball::{Ball, SizedBall};
+use crate::body::{Moving, SphereBody};
 use crate::contact::{ContactParams, predict, separating_axis};
 use crate::distance::SolverStats;
 use crate::ellipsoid::Ellipsoid;
@@ -16,14 +17,13 @@ use crate::sphere::{self, Trajectory};
 pub(crate) trait Model {
     /// Stored with a predicted collision (contact point and normal for rigid bodies).
     type Extra: Copy + Default;
+    /// How a body is stored: a rigid body, or a sphere's position, velocity and time alone
+    /// (one cache line, and a third of the memory: nothing of it is read for nothing).
+    type Body: Moving;
     /// The region a body's neighbour list is built for.
-    type Region: Region;
+    type Region: Region<Body = Self::Body>;
     /// The shape every body has.
     type Shape: Surface + Copy;
-    /// Whether bodies rotate; a model whose bodies never do advances their positions alone and
-    /// never reads their orientation in the event loop (the cache lines past position, velocity
-    /// and time).
-    const ROTATES: bool;
     /// The largest body's bounding radius: what linked cells are sized for.
     fn bounding_radius(&self) -> f64;
     /// Body `i`'s own shape, which its neighbour-list region is built around (one shape for
@@ -35,29 +35,29 @@ pub(crate) trait Model {
     fn collide(
         &mut self,
         pair: [usize; 2],
-        a: &mut Body,
-        b: &mut Body,
+        a: &mut Self::Body,
+        b: &mut Self::Body,
         offset: &V3,
         x: &Self::Extra,
     ) -> Option<V3>;
     /// The translational kinetic energy of bodies `a` and `b` (indices in `pair`): unit masses
     /// unless the model has its own.
     #[inline(always)]
-    fn pair_kinetic(&self, _pair: [usize; 2], a: &Body, b: &Body) -> f64 {
-        0.5 * (a.v.norm_squared() + b.v.norm_squared())
+    fn pair_kinetic(&self, _pair: [usize; 2], a: &Self::Body, b: &Self::Body) -> f64 {
+        0.5 * (a.v().norm_squared() + b.v().norm_squared())
     }
     /// The translational kinetic energy of body `i`.
     #[inline(always)]
-    fn kinetic(&self, _i: usize, b: &Body) -> f64 {
-        0.5 * b.v.norm_squared()
+    fn kinetic(&self, _i: usize, b: &Self::Body) -> f64 {
+        0.5 * b.v().norm_squared()
     }
     /// The momentum of body `i`.
     #[inline(always)]
-    fn momentum(&self, _i: usize, b: &Body) -> V3 {
-        b.v
+    fn momentum(&self, _i: usize, b: &Self::Body) -> V3 {
+        b.v()
     }
     /// The rotational kinetic energy of body `i`: none where rotation is not simulated.
-    fn spin_kinetic(&self, _i: usize, _b: &Body) -> f64 {
+    fn spin_kinetic(&self, _i: usize, _b: &Self::Body) -> f64 {
         0.0
     }
     /// Starts the model's own sums afresh (a mixture's per-pair counts), with the measured run.
@@ -71,8 +71,7 @@ pub(crate) trait Model {
 pub(crate) struct SphereModel {
     sigma: f64,
     /// Scratch: a neighbour list's trajectories with their images applied, contiguous for
-    /// [`sphere::first_contact`](crate::sphere::first_contact). A body's position, velocity and
-    /// time are the first cache line of its [`Body`], the only one the sphere path reads.
+    /// [`sphere::first_contact`](crate::sphere::first_contact), each from one [`SphereBody`].
     pub(crate) gathered: Vec<Trajectory>,
 }
 
@@ -87,9 +86,9 @@ impl SphereModel {
 
 impl Model for SphereModel {
     type Extra = ();
+    type Body = SphereBody;
     type Region = Ball;
     type Shape = Ellipsoid;
-    const ROTATES: bool = false;
     fn bounding_radius(&self) -> f64 {
         0.5 * self.sigma
     }
@@ -100,8 +99,8 @@ impl Model for SphereModel {
     fn collide(
         &mut self,
         _: [usize; 2],
-        a: &mut Body,
-        b: &mut Body,
+        a: &mut SphereBody,
+        b: &mut SphereBody,
         offset: &V3,
         _: &(),
     ) -> Option<V3> {
@@ -261,9 +260,9 @@ impl MixedSphereModel {
 
 impl Model for MixedSphereModel {
     type Extra = ();
+    type Body = SphereBody;
     type Region = SizedBall;
     type Shape = Ellipsoid;
-    const ROTATES: bool = false;
     fn bounding_radius(&self) -> f64 {
         self.r_max
     }
@@ -274,8 +273,8 @@ impl Model for MixedSphereModel {
     fn collide(
         &mut self,
         [i, j]: [usize; 2],
-        a: &mut Body,
-        b: &mut Body,
+        a: &mut SphereBody,
+        b: &mut SphereBody,
         offset: &V3,
         _: &(),
     ) -> Option<V3> {
@@ -295,15 +294,15 @@ impl Model for MixedSphereModel {
         Some(dp)
     }
     #[inline(always)]
-    fn pair_kinetic(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> f64 {
+    fn pair_kinetic(&self, [i, j]: [usize; 2], a: &SphereBody, b: &SphereBody) -> f64 {
         0.5 * (self.mass[i] * a.v.norm_squared() + self.mass[j] * b.v.norm_squared())
     }
     #[inline(always)]
-    fn kinetic(&self, i: usize, b: &Body) -> f64 {
+    fn kinetic(&self, i: usize, b: &SphereBody) -> f64 {
         0.5 * self.mass[i] * b.v.norm_squared()
     }
     #[inline(always)]
-    fn momentum(&self, i: usize, b: &Body) -> V3 {
+    fn momentum(&self, i: usize, b: &SphereBody) -> V3 {
         b.v * self.mass[i]
     }
     fn reset_sums(&mut self) {
@@ -318,7 +317,7 @@ impl Model for MixedSphereModel {
 /// What the engine's search for a rigid body's first collision asks of a rigid model, for a
 /// pair of bodies by index: one shape for every body ([`RigidModel`]) or one per body
 /// ([`MixedRigidModel`]).
-pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp> {
+pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
     /// The radius of body `i`'s bounding sphere.
     fn bounding_radius_of(&self, i: usize) -> f64;
     /// The first contact of bodies `pair` = [i, j] (`a`, `b`, at the present time) before
@@ -377,9 +376,9 @@ pub(crate) struct RigidModel<S> {
 
 impl<S: Surface + Copy> Model for RigidModel<S> {
     type Extra = (V3, V3);
+    type Body = Body;
     type Region = Obp;
     type Shape = S;
-    const ROTATES: bool = true;
     fn bounding_radius(&self) -> f64 {
         self.e.bounding_radius()
     }
@@ -514,9 +513,9 @@ impl<S: Surface + Copy> MixedRigidModel<S> {
 
 impl<S: Surface + Copy> Model for MixedRigidModel<S> {
     type Extra = (V3, V3);
+    type Body = Body;
     type Region = Obp;
     type Shape = S;
-    const ROTATES: bool = true;
     fn bounding_radius(&self) -> f64 {
         self.r_max
     }

@@ -31,6 +31,7 @@ impl Obp {
 }
 
 impl Region for Obp {
+    type Body = Body;
     fn around<S: Surface>(s: &S, body: &Body, delta: f64) -> Self {
         Obp::around(s, body, delta)
     }

@@ -3,9 +3,9 @@
 
 use serde::Serialize;
 
+use crate::body::Moving;
 use crate::geometry::V3;
 use crate::init::Geom;
-use crate::rigid::Body;
 use crate::sequence::Fingerprint;
 
 /// The measured figures of one run (the JSON of `sweep edmd`).
@@ -126,13 +126,13 @@ pub struct ParticleDump {
     pub angular_velocity: [f64; 3],
 }
 
-pub(crate) fn final_state(bodies: &[Body], l: f64, geom: &Geom) -> FinalState {
+pub(crate) fn final_state<B: Moving>(bodies: &[B], l: f64, geom: &Geom) -> FinalState {
     final_state_each(bodies, l, &|_| *geom)
 }
 
 /// [`final_state`] of bodies of several shapes or sizes (body `i` is `geom_of(i)`).
-pub(crate) fn final_state_each(
-    bodies: &[Body],
+pub(crate) fn final_state_each<B: Moving>(
+    bodies: &[B],
     l: f64,
     geom_of: &dyn Fn(usize) -> Geom,
 ) -> FinalState {
@@ -152,10 +152,10 @@ pub(crate) fn final_state_each(
                     shape,
                     semi_axes,
                     exponents,
-                    position: arr(b.r.map(|x| x.rem_euclid(l))),
-                    orientation: [0, 1, 2].map(|k| arr(b.rot.row(k).transpose())),
-                    velocity: arr(b.v),
-                    angular_velocity: arr(b.w),
+                    position: arr(b.r().map(|x| x.rem_euclid(l))),
+                    orientation: [0, 1, 2].map(|k| arr(b.rot().row(k).transpose())),
+                    velocity: arr(b.v()),
+                    angular_velocity: arr(b.w()),
                 }
             })
             .collect(),

@@ -1,7 +1,7 @@
 //! Hard spheres: the analytic path (no Newton–Raphson, no rotation).
 
+use crate::body::SphereBody;
 use crate::geometry::V3;
-use crate::rigid::Body;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -55,7 +55,7 @@ pub struct Trajectory {
 impl Trajectory {
     /// The trajectory of `body` seen through the image displacement `offset`.
     #[inline]
-    pub fn of(body: &Body, offset: &V3) -> Self {
+    pub fn of(body: &SphereBody, offset: &V3) -> Self {
         let r = body.r + offset;
         Trajectory {
             r: [r.x, r.y, r.z],

@@ -2,7 +2,7 @@
 //! configuration (`--save-state`, `--checkpoint-every`, the scene key `from_state`).
 //!
 //! Format: one CBOR document (RFC 8949, as `ciborium` writes serde data), a map with
-//! - `format`: the text `"sweep-edmd-state"`, `version`: [`VERSION`] (a reader refuses others);
+//! - `format`: the text `"sweep-edmd-state"`, `version`: [`VERSION`] (a reader refuses later ones);
 //! - `scene`: the scene of the run that saved it, every key (as in the scene TOML);
 //! - `box_length`: the side of the periodic box;
 //! - `engine`: a map with one key, the model (`sphere`, `ellipsoid`, `superquadric`), holding
@@ -35,7 +35,9 @@ use crate::scene::Scene;
 /// What the `format` field of a state file holds.
 pub const FORMAT: &str = "sweep-edmd-state";
 /// The layout of [`SavedState`]; a change to any saved engine structure must raise it.
-pub const VERSION: u32 = 1;
+/// Version 2 lets a neighbour list spill beyond its room (`lists.lists.spill`); a version 1 file
+/// is a version 2 file without spilled lists, and is read as one.
+pub const VERSION: u32 = 2;
 
 /// A saved run (see the module's documentation for the format).
 #[derive(Serialize, Deserialize)]
@@ -62,7 +64,7 @@ pub enum StateError {
     Decode(String),
     #[error("`format` is {0:?}, not {FORMAT:?}: not a sweep EDMD state file")]
     Format(String),
-    #[error("state file version {0}; this sweep reads version {VERSION}")]
+    #[error("state file version {0}; this sweep reads versions 1 to {VERSION}")]
     Version(u32),
     /// The scene asks for another system than the one saved.
     #[error("key `{key}`: the state holds {saved}, the scene asks for {scene}")]
@@ -118,7 +120,7 @@ impl SavedState {
         if header.format != FORMAT {
             return Err(StateError::Format(header.format));
         }
-        if header.version != VERSION {
+        if !(1..=VERSION).contains(&header.version) {
             return Err(StateError::Version(header.version));
         }
         let state: SavedState = ciborium::from_reader(bytes).map_err(decode)?;

@@ -232,3 +232,68 @@ fn time_frames_come_at_the_first_collision_after_each_interval() {
         );
     }
 }
+
+/// A state file of version 1, written before neighbour lists could spill past their room (no
+/// `spill` and `free` in its lists), is read and continues as the version 2 file it differs from;
+/// a later version is refused, naming it.
+#[test]
+fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
+    use ciborium::Value;
+    // Drops the empty `spill` and `free` of every list; returns how many it dropped.
+    fn as_version_1(v: &mut Value) -> usize {
+        match v {
+            Value::Map(entries) => {
+                let before = entries.len();
+                entries.retain(|(k, val)| {
+                    !(matches!(k, Value::Text(t) if t == "spill" || t == "free")
+                        && matches!(val, Value::Array(a) if a.is_empty()))
+                });
+                let mut dropped = before - entries.len();
+                for (k, val) in entries.iter_mut() {
+                    if let Value::Text(t) = k
+                        && t == "version"
+                    {
+                        *val = Value::Integer(1.into());
+                    }
+                    dropped += as_version_1(val);
+                }
+                dropped
+            }
+            Value::Array(items) => items.iter_mut().map(as_version_1).sum(),
+            _ => 0,
+        }
+    }
+    let encode = |v: &Value| {
+        let mut out = Vec::new();
+        ciborium::into_writer(v, &mut out).expect("encodes");
+        out
+    };
+    let k = 5_000;
+    let (whole, _) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, 2 * k), None, 0);
+    let (_, first) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), None, 0);
+    let bytes = &first.last().expect("the final state").1;
+    let mut v: Value = ciborium::from_reader(&bytes[..]).expect("CBOR");
+    assert_eq!(
+        as_version_1(&mut v),
+        2,
+        "no list spilled at the end of the first half"
+    );
+    let v1 = encode(&v);
+    let (continued, _) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), Some(&v1), 0);
+    assert_same_bits(&whole, &continued, "from version 1");
+    if let Value::Map(entries) = &mut v {
+        for (key, val) in entries.iter_mut() {
+            if matches!(key, Value::Text(t) if t == "version") {
+                *val = Value::Integer((edmd::state::VERSION + 1).into());
+            }
+        }
+    }
+    let err = SavedState::from_bytes(&encode(&v))
+        .err()
+        .expect("a later version is refused")
+        .to_string();
+    assert!(
+        err.contains(&format!("version {}", edmd::state::VERSION + 1)),
+        "{err}"
+    );
+}
