@@ -344,6 +344,24 @@ fn spin_energy(inertia: &Inertia, b: &Body) -> f64 {
     }
 }
 
+/// [`collide`] of `a` with the image of `b` displaced by `offset`, at the contact point and
+/// normal `x`; `b`'s velocities change as its image's do.
+fn collide_with_image(
+    a: &mut Body,
+    b: &mut Body,
+    offset: &V3,
+    x: &(V3, V3),
+    ia: Inertia,
+    ib: Inertia,
+) -> Option<V3> {
+    let mut image = *b;
+    image.r += offset;
+    let impulse = collide(a, &mut image, &x.0, &x.1, ia, ib);
+    b.v = image.v;
+    b.w = image.w;
+    impulse
+}
+
 /// The first contact of `a` (shape `sa`) and `b` (`sb`) before `horizon`.
 #[allow(clippy::too_many_arguments)]
 fn predict_pair<S: Surface>(
@@ -394,12 +412,7 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
         offset: &V3,
         x: &(V3, V3),
     ) -> Option<V3> {
-        let mut image = *b;
-        image.r += offset;
-        let impulse = collide(a, &mut image, &x.0, &x.1, self.inertia, self.inertia);
-        b.v = image.v;
-        b.w = image.w;
-        impulse
+        collide_with_image(a, b, offset, x, self.inertia, self.inertia)
     }
     fn spin_kinetic(&self, _: usize, b: &Body) -> f64 {
         spin_energy(&self.inertia, b)
@@ -531,13 +544,9 @@ impl<S: Surface + Copy> Model for MixedRigidModel<S> {
         offset: &V3,
         x: &(V3, V3),
     ) -> Option<V3> {
-        let mut image = *b;
-        image.r += offset;
-        let impulse = collide(a, &mut image, &x.0, &x.1, self.inertia[i], self.inertia[j]);
-        b.v = image.v;
-        b.w = image.w;
+        let impulse = collide_with_image(a, b, offset, x, self.inertia[i], self.inertia[j]);
         if let Some(dp) = &impulse {
-            self.sums.record([i, j], &(image.r - a.r), dp);
+            self.sums.record([i, j], &(b.r + offset - a.r), dp);
         }
         impulse
     }

@@ -273,59 +273,48 @@ fn simulate_mixture(
         progress,
         hooks,
     };
-    let sums = |order: &[usize]| {
-        SpeciesSums::new(
-            order.iter().map(|&k| bodies.species[k]).collect(),
-            order.iter().map(|&k| bodies.sizes[k]).collect(),
-            kinds,
-        )
-    };
-    let rigid_sums = |order: &[usize]| sums(order).counting_distance_calls();
-    let round = |order: &[usize]| -> Vec<bool> {
-        order
-            .iter()
-            .map(|&k| bodies.shapes[k].is_sphere())
-            .collect()
-    };
-    let inertia =
-        |order: &[usize]| -> Vec<Inertia> { order.iter().map(|&k| bodies.inertia[k]).collect() };
     match scene.shape {
         ShapeKind::Sphere => bodies.simulate(start, |order| {
             let sizes: Vec<f64> = order.iter().map(|&k| bodies.sizes[k]).collect();
-            MixedSphereModel::new(&sizes, sums(order))
+            MixedSphereModel::new(&sizes, bodies.sums(order, kinds))
         }),
         ShapeKind::Ellipsoid => bodies.simulate(start, |order| {
-            let shapes = order
-                .iter()
-                .map(|&k| match bodies.shapes[k] {
-                    Geom::Ellipsoid(e) => e,
-                    _ => unreachable!("the bodies of an ellipsoid mixture are ellipsoids"),
-                })
-                .collect();
-            MixedRigidModel::new(
-                shapes,
-                round(order),
-                inertia(order),
-                rigid_sums(order),
-                params,
-            )
+            bodies.rigid_model::<Ellipsoid>(order, kinds, params)
         }),
         ShapeKind::Superquadric => bodies.simulate(start, |order| {
-            let shapes = order
-                .iter()
-                .map(|&k| match bodies.shapes[k] {
-                    Geom::Superquadric(q) => q,
-                    _ => unreachable!("the bodies of a superquadric mixture are superquadrics"),
-                })
-                .collect();
-            MixedRigidModel::new(
-                shapes,
-                round(order),
-                inertia(order),
-                rigid_sums(order),
-                params,
-            )
+            bodies.rigid_model::<Superquadric>(order, kinds, params)
         }),
+    }
+}
+
+/// The shape of a rigid mixture's bodies, as the initial state and the audit see it ([`Geom`]).
+trait MixtureShape: Surface + Copy {
+    /// The body `g` describes; every body of a mixture is of its one kind.
+    fn of(g: &Geom) -> Self;
+    fn geom(self) -> Geom;
+}
+
+impl MixtureShape for Ellipsoid {
+    fn of(g: &Geom) -> Self {
+        match g {
+            Geom::Ellipsoid(e) => *e,
+            _ => unreachable!("the bodies of an ellipsoid mixture are ellipsoids"),
+        }
+    }
+    fn geom(self) -> Geom {
+        Geom::Ellipsoid(self)
+    }
+}
+
+impl MixtureShape for Superquadric {
+    fn of(g: &Geom) -> Self {
+        match g {
+            Geom::Superquadric(q) => *q,
+            _ => unreachable!("the bodies of a superquadric mixture are superquadrics"),
+        }
+    }
+    fn geom(self) -> Geom {
+        Geom::Superquadric(self)
     }
 }
 
@@ -401,6 +390,31 @@ impl MixtureBodies {
             inertia,
             inertial,
         })
+    }
+
+    /// The species sums of the bodies in the given order (`kinds` species).
+    fn sums(&self, order: &[usize], kinds: usize) -> SpeciesSums {
+        SpeciesSums::new(
+            order.iter().map(|&k| self.species[k]).collect(),
+            order.iter().map(|&k| self.sizes[k]).collect(),
+            kinds,
+        )
+    }
+
+    /// The rigid model of the bodies in the given order.
+    fn rigid_model<S: MixtureShape>(
+        &self,
+        order: &[usize],
+        kinds: usize,
+        params: ContactParams,
+    ) -> MixedRigidModel<S> {
+        MixedRigidModel::new(
+            order.iter().map(|&k| S::of(&self.shapes[k])).collect(),
+            order.iter().map(|&k| self.shapes[k].is_sphere()).collect(),
+            order.iter().map(|&k| self.inertia[k]).collect(),
+            self.sums(order, kinds).counting_distance_calls(),
+            params,
+        )
     }
 
     /// The initial state, relaxed by the model `model_of` gives for the bodies in an order
@@ -585,30 +599,24 @@ fn sphere_of(m: &MixedSphereModel, i: usize) -> Geom {
     }
 }
 
-/// A rigid mixture's model, saved, audited and reported as its bodies' shapes say.
-macro_rules! mixed_rigid_saves {
-    ($shape:ty, $geom:path) => {
-        impl Saves for MixedRigidModel<$shape> {
-            fn wrap(_: EngineState<(V3, V3), Obp>) -> Option<SavedEngine> {
-                None
-            }
-            fn unwrap(_: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
-                None
-            }
-            fn audit(m: &Self, bodies: &[Body], l: f64, _: &Geom, tol: f64) -> u64 {
-                audit_each(bodies, l, &|i| $geom(*m.shape(i)), tol)
-            }
-            fn final_state(m: &Self, bodies: &[Body], l: f64, _: &Geom) -> FinalState {
-                final_state_each(bodies, l, &|i| $geom(*m.shape(i)))
-            }
-            fn species_report(eng: &Engine<Self>, ke_int: f64) -> Option<SpeciesReport> {
-                Some(eng.m.sums.report(ke_int))
-            }
-        }
-    };
+/// A rigid mixture's model: not saved yet; audited and reported as its bodies' shapes say.
+impl<S: MixtureShape> Saves for MixedRigidModel<S> {
+    fn wrap(_: EngineState<(V3, V3), Obp>) -> Option<SavedEngine> {
+        None
+    }
+    fn unwrap(_: SavedEngine) -> Option<EngineState<(V3, V3), Obp>> {
+        None
+    }
+    fn audit(m: &Self, bodies: &[Body], l: f64, _: &Geom, tol: f64) -> u64 {
+        audit_each(bodies, l, &|i| m.shape(i).geom(), tol)
+    }
+    fn final_state(m: &Self, bodies: &[Body], l: f64, _: &Geom) -> FinalState {
+        final_state_each(bodies, l, &|i| m.shape(i).geom())
+    }
+    fn species_report(eng: &Engine<Self>, ke_int: f64) -> Option<SpeciesReport> {
+        Some(eng.m.sums.report(ke_int))
+    }
 }
-mixed_rigid_saves!(Ellipsoid, Geom::Ellipsoid);
-mixed_rigid_saves!(Superquadric, Geom::Superquadric);
 
 impl Saves for SphereModel {
     fn wrap(s: EngineState<(), Ball>) -> Option<SavedEngine> {
