@@ -1,0 +1,315 @@
+//! A minimisation pooled over the state points of one `[[tune]]` table: the curves τ_p(t) of
+//! neighbouring state points share their shape, so a state point needs two runs where a search
+//! of its own needs three at least (a minimum located from its own runs alone needs a parabola).
+//!
+//! The model, in the log position t: τ_p(t) ≈ a_p (1 + c (t − t*_p)²), the curvature c shared
+//! by the table, the level a_p and the minimum t*_p the state point's own.
+//! - **The leader** (the table's first state point) searches on its own ([`crate::minimise`]).
+//! - **The prior**: c is the median relative curvature (c / vertex value) of the parabolas the
+//!   siblings' own runs make (convex, vertex among their runs: the leader's first three runs
+//!   usually); the expected minimum is the median of the siblings' minima (their vertex, or
+//!   for a sibling with two runs, its two-run estimate below).
+//! - **A follower** waits while the leader has not located a minimum, then runs a pair
+//!   straddling the expected minimum, `h` either side where c h² ≤ [`TOLERANCE`] (so that where
+//!   the pair straddles its minimum, the better run is within it). From two values y₁, y₂ at
+//!   t₁ < t₂ and the shared c, its own minimum is
+//!   t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) / (2 c (t₂ − t₁)),
+//!   and the model puts its better run c (t_best − t*)² above its minimum. With t* between
+//!   the two values (they straddle the minimum: |ln y₂ − ln y₁| ≤ c (t₂ − t₁)²) and within
+//!   [`TOLERANCE`]: stopped ([`Stopped::Pooled`]), the better run reported. Else t* is run
+//!   next, and a state point with three values, or a failed run, or a prior that is gone,
+//!   searches on its own from what it has — a wrong prior costs runs, never the answer.
+//!
+//! Stateless as the rest: a pure function of the table's evaluations (a sibling's included),
+//! so a resumed or restarted search decides as before and a grid's runs count.
+
+use crate::lattice::Range;
+use crate::minimise::{self, Around, Settings, points, sorted};
+use crate::noise::{self, Point};
+use crate::{Conclusion, Evaluation, Objective, Proposal, Step, Stopped, in_range};
+
+/// How far above the pooled model's minimum a follower's better run may lie when it stops: a
+/// fraction of the minimum. Two per cent is less than one run's noise (2–3 %) and less than half
+/// of the 5 % over which Fig. 10's minima are flat.
+pub const TOLERANCE: f64 = 0.02;
+
+/// The most values a follower fits with the shared curvature; with more it searches on its own
+/// (the curvature did not place its minimum).
+const MAX_POOLED: usize = 4;
+
+/// Positions of a follower's pair lie on multiples of this (dyadic, so the pair of a repeated
+/// search is the same values).
+const PAIR_STEP: f64 = 1.0 / 32.0;
+
+/// The evaluations of one search of a pool (those outside the range are ignored).
+#[derive(Clone, Copy, Debug)]
+pub struct Member<'a> {
+    pub done: &'a [Evaluation],
+    pub in_flight: &'a [Proposal],
+}
+
+/// What a follower's siblings say about its curve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prior {
+    /// c of τ ≈ a (1 + c (t − t*)²), t the log position.
+    pub curvature: f64,
+    /// Where the minimum is expected (a log position).
+    pub position: f64,
+}
+
+/// The next step of search `me` of the pool (`pool[0]` leads; `me` indexes the pool).
+pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> Step {
+    let own = pool[me];
+    let alone = || minimise::next(range, settings, own.done, own.in_flight);
+    if me == 0 {
+        return alone();
+    }
+    let (done, in_flight) = in_range(range, own.done, own.in_flight);
+    let (points, failed) = points(range, &done);
+    if points.len() > MAX_POOLED || !failed.is_empty() {
+        return alone();
+    }
+    let Some(prior) = Prior::of(range, pool, me) else {
+        // The leader has not located a minimum yet: a follower starts from its answer.
+        let leader = minimise::next(range, settings, pool[0].done, pool[0].in_flight);
+        return match leader {
+            Step::Done(_) => alone(),
+            _ if !done.is_empty() || !in_flight.is_empty() => alone(),
+            _ => Step::Wait,
+        };
+    };
+    let c = prior.curvature;
+    let allowed = settings
+        .max_evaluations
+        .saturating_sub(done.len() + in_flight.len());
+    let taken = |x: f64| done.iter().any(|e| e.x == x) || in_flight.iter().any(|p| p.x == x);
+    let positions = sorted(
+        points
+            .iter()
+            .map(|p| p.t)
+            .chain(in_flight.iter().map(|p| range.position(p.x))),
+    );
+    if positions.len() < 2 {
+        let wanted: Vec<Proposal> = pair(&prior)
+            .into_iter()
+            .map(|t| range.value(t))
+            .filter(|&x| !taken(x))
+            .take(2 - positions.len())
+            .map(|x| Proposal { x, repeat: 0 })
+            .collect();
+        return match (wanted.is_empty(), allowed) {
+            (false, 1..) => Step::Propose(wanted.into_iter().take(allowed).collect()),
+            _ if !in_flight.is_empty() => Step::Wait,
+            _ => alone(),
+        };
+    }
+    if !in_flight.is_empty() {
+        return Step::Wait;
+    }
+    let Some(t_star) = own_minimum(&points, c) else {
+        return alone();
+    };
+    let best = points
+        .iter()
+        .min_by(|a, b| a.mean().total_cmp(&b.mean()))
+        .unwrap_or(&points[0]);
+    // Only between its own values: beyond them the shared curvature is an extrapolation, and on
+    // a flank the relative slope of a curve's tail can pass for the gentle one near a minimum.
+    // With three values or more, the runs themselves must bracket it too: the best one between
+    // two higher ones (a follower that walks down a flank has not found a minimum).
+    let (first, last) = (points[0].t, points[points.len() - 1].t);
+    let bracketed = points.len() == 2 || (first < best.t && best.t < last);
+    if bracketed && (first..=last).contains(&t_star) && c * (best.t - t_star).powi(2) <= TOLERANCE
+    {
+        return Step::Done(conclusion(range, &points, best, t_star, c));
+    }
+    // Next at t*, or a step of the pair's half-width beyond the last value towards it where t*
+    // is as good as run already.
+    let h = 0.5 * (pair(&prior)[1] - pair(&prior)[0]);
+    let mut t = t_star.clamp(0.0, 1.0);
+    if points.iter().any(|p| (p.t - t).abs() < 0.5 * PAIR_STEP) {
+        t = if t_star < first {
+            first - h
+        } else if t_star > last {
+            last + h
+        } else {
+            return alone();
+        };
+    }
+    let x = range.value(t.clamp(0.0, 1.0));
+    if taken(x) || allowed == 0 {
+        return alone();
+    }
+    Step::Propose(vec![Proposal { x, repeat: 0 }])
+}
+
+impl Prior {
+    /// The shared curvature and the expected minimum, from the siblings of `me`; none while no
+    /// sibling's own runs make a convex parabola with its vertex among them.
+    pub fn of(range: &Range, pool: &[Member], me: usize) -> Option<Prior> {
+        let siblings: Vec<Vec<Point>> = pool
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| i != me)
+            .map(|(_, m)| {
+                let (done, _) = in_range(range, m.done, m.in_flight);
+                points(range, &done).0
+            })
+            .collect();
+        let fits: Vec<(f64, f64)> = siblings.iter().filter_map(|p| own_fit(p)).collect();
+        let curvature = median(fits.iter().map(|&(_, c)| c).collect())?;
+        let minima = siblings
+            .iter()
+            .filter_map(|p| match own_fit(p) {
+                Some((t, _)) => Some(t),
+                None if (2..=MAX_POOLED).contains(&p.len()) => own_minimum(p, curvature),
+                None => None,
+            })
+            .map(|t| t.clamp(0.0, 1.0))
+            .collect();
+        Some(Prior {
+            curvature,
+            position: median(minima)?,
+        })
+    }
+}
+
+/// The positions of a follower's pair: `h` either side of the expected minimum, the largest
+/// multiple of [`PAIR_STEP`] with c h² ≤ [`TOLERANCE`] (so that where the pair straddles the
+/// minimum, its better run is within the tolerance), kept inside [0, 1].
+pub fn pair(prior: &Prior) -> [f64; 2] {
+    let h = ((TOLERANCE / prior.curvature).sqrt() / PAIR_STEP)
+        .floor()
+        .clamp(1.0, 8.0)
+        * PAIR_STEP;
+    let centre = ((prior.position / PAIR_STEP).round() * PAIR_STEP).clamp(h, 1.0 - h);
+    [centre - h, centre + h]
+}
+
+/// The vertex position and relative curvature of the parabola a state point's own runs make,
+/// where it is convex, lies among them and above zero.
+fn own_fit(points: &[Point]) -> Option<(f64, f64)> {
+    if points.len() < 3 {
+        return None;
+    }
+    let evaluated: Vec<f64> = points.iter().map(|p| p.t).collect();
+    let (t, value, c) = Around::best(points, &evaluated).vertex(points)?;
+    (value > 0.0).then_some((t, c / value))
+}
+
+/// t* of ln y = α + c (t − t*)² fitted to a state point's values with c given: a straight line
+/// z = ln y − c t² = β₀ + β₁ t by least squares (each value weighted by its runs), t* = −β₁/(2c)
+/// (two values: t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) / (2 c (t₂ − t₁))). None unless every value
+/// is positive and two positions differ.
+fn own_minimum(points: &[Point], curvature: f64) -> Option<f64> {
+    if points.len() < 2 || curvature <= 0.0 || points.iter().any(|p| p.mean() <= 0.0) {
+        return None;
+    }
+    let w = |p: &Point| p.values.len() as f64;
+    let total: f64 = points.iter().map(w).sum();
+    let t_mean = points.iter().map(|p| w(p) * p.t).sum::<f64>() / total;
+    let z = |p: &Point| p.mean().ln() - curvature * p.t * p.t;
+    let z_mean = points.iter().map(|p| w(p) * z(p)).sum::<f64>() / total;
+    let s_tt = spread_of(points, t_mean);
+    if s_tt <= 0.0 {
+        return None;
+    }
+    let s_tz: f64 = points
+        .iter()
+        .map(|p| w(p) * (p.t - t_mean) * (z(p) - z_mean))
+        .sum();
+    let t = -(s_tz / s_tt) / (2.0 * curvature);
+    t.is_finite().then_some(t)
+}
+
+/// Σ runs · (t − t̄)² of the values' positions.
+fn spread_of(points: &[Point], t_mean: f64) -> f64 {
+    points
+        .iter()
+        .map(|p| p.values.len() as f64 * (p.t - t_mean).powi(2))
+        .sum()
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    Some(if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    })
+}
+
+/// The better run reported, with the positions the model cannot tell from the minimum: t*
+/// give or take its 95 % error from the two means' noise, widened by where the model stays
+/// within the better run's 95 % half-width of its minimum, and holding the better run.
+fn conclusion(range: &Range, points: &[Point], best: &Point, t_star: f64, c: f64) -> Conclusion {
+    let (s, t95) = noise::spread(points);
+    let half_width = noise::half_width(best, (s, t95));
+    let total: f64 = points.iter().map(|p| p.values.len() as f64).sum();
+    let t_mean = points
+        .iter()
+        .map(|p| p.values.len() as f64 * p.t)
+        .sum::<f64>()
+        / total;
+    // The slope's standard error is s / √Σ runs (t − t̄)², and t* = −slope / (2c).
+    let error = t95 * s / (2.0 * c * spread_of(points, t_mean).sqrt());
+    let reach = (half_width / best.mean() / c).sqrt();
+    let lower = (t_star - error - reach).min(best.t).max(0.0);
+    let upper = (t_star + error + reach).max(best.t).min(1.0);
+    Conclusion {
+        best: Some(best.x),
+        interval: Some([range.exact(lower), range.exact(upper)]),
+        objective: Some(Objective {
+            x: best.x,
+            mean: best.mean(),
+            half_width,
+            runs: best.values.len(),
+        }),
+        evaluations: points.iter().map(|p| p.values.len()).sum(),
+        stopped: Stopped::Pooled,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pair_straddles_the_prior_closer_where_the_curve_is_sharper() {
+        let flat = pair(&Prior {
+            curvature: 0.5,
+            position: 0.5,
+        });
+        let sharp = pair(&Prior {
+            curvature: 8.0,
+            position: 0.5,
+        });
+        assert_eq!(flat, [0.3125, 0.6875]);
+        assert_eq!(sharp, [0.46875, 0.53125]);
+        // Kept inside the range at its ends.
+        let end = pair(&Prior {
+            curvature: 1.0,
+            position: 0.99,
+        });
+        assert_eq!(end, [0.75, 1.0]);
+    }
+
+    #[test]
+    fn two_runs_on_a_known_curvature_give_its_minimum() {
+        let (c, t_star) = (2.0, 0.4);
+        let at = |t: f64| Point {
+            t,
+            x: t,
+            values: vec![30.0 * (c * (t - t_star) * (t - t_star)).exp()],
+        };
+        let t = own_minimum(&[at(0.5), at(0.7)], c).unwrap();
+        assert!((own_minimum(&[at(0.1), at(0.5), at(0.7)], c).unwrap() - t_star).abs() < 1e-12);
+        assert!((t - t_star).abs() < 1e-12, "{t}");
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(vec![]), None);
+    }
+}
