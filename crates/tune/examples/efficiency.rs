@@ -89,16 +89,10 @@ fn main() {
             let Step::Done(c) = step else { continue };
             pooled += usize::from(c.stopped == tune::Stopped::Pooled);
             runs.push(done[p].len() as f64);
-            if std::env::var("HIST").is_ok() {
-                eprintln!("H {p} {} {:?}", done[p].len(), c.stopped);
-            }
             // What the search ran and reports as its minimum: the best run's value.
             let chosen = c.objective.expect("a minimum").x;
             let minimum = truth(p, range.exact(truths[p].0));
             excesses.push(truth(p, chosen) / minimum - 1.0);
-            if std::env::var("DEBUG").is_ok() && truth(p, chosen) / minimum - 1.0 > 0.05 {
-                eprintln!("p {p} truth {:?} stopped {:?} c {c:?} done {:?}", truths[p], c.stopped, done[p].iter().map(|e| (range.position(e.x), e.outcome)).collect::<Vec<_>>());
-            }
             reported.push(truth(p, c.best.expect("a value")) / minimum - 1.0);
         }
     }

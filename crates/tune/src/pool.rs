@@ -33,10 +33,6 @@ use crate::{Conclusion, Evaluation, Objective, Proposal, Step, Stopped, in_range
 /// of the 5 % over which Fig. 10's minima are flat.
 pub const TOLERANCE: f64 = 0.02;
 
-/// The most values a follower fits with the shared curvature; with more it searches on its own
-/// (the curvature did not place its minimum).
-const MAX_POOLED: usize = 4;
-
 /// Positions of a follower's pair lie on multiples of this (dyadic, so the pair of a repeated
 /// search is the same values).
 const PAIR_STEP: f64 = 1.0 / 32.0;
@@ -66,7 +62,9 @@ pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> S
     }
     let (done, in_flight) = in_range(range, own.done, own.in_flight);
     let (points, failed) = points(range, &done);
-    if points.len() > MAX_POOLED || !failed.is_empty() {
+    // A third value (the pooled guess of its minimum, or a grid's) or a failed run: the state
+    // point's own curvature decides from here, as for a search of its own.
+    if points.len() > 2 || !failed.is_empty() {
         return alone();
     }
     let Some(prior) = Prior::of(range, pool, me) else {
@@ -106,37 +104,27 @@ pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> S
     if !in_flight.is_empty() {
         return Step::Wait;
     }
-    let Some(t_star) = own_minimum(&points, c) else {
+    let Some(t_star) = two_run_minimum(&points, c) else {
         return alone();
     };
-    let best = points
-        .iter()
-        .min_by(|a, b| a.mean().total_cmp(&b.mean()))
-        .unwrap_or(&points[0]);
-    // Only between its own values: beyond them the shared curvature is an extrapolation, and on
-    // a flank the relative slope of a curve's tail can pass for the gentle one near a minimum.
-    // With three values or more, the runs themselves must bracket it too: the best one between
-    // two higher ones (a follower that walks down a flank has not found a minimum).
-    let (first, last) = (points[0].t, points[points.len() - 1].t);
-    let bracketed = points.len() == 2 || (first < best.t && best.t < last);
-    if bracketed && (first..=last).contains(&t_star) && c * (best.t - t_star).powi(2) <= TOLERANCE
+    let best = if points[0].mean() <= points[1].mean() {
+        &points[0]
+    } else {
+        &points[1]
+    };
+    // Only between the two values, and only across a gap no wider than a pair's, 2 √(tol / c):
+    // beyond them the shared curvature is an extrapolation, where a tail's relative slope can
+    // pass for the gentle one near a minimum; across a wider gap (two runs of a grid) the
+    // state point's own curvature matters more than the shared one.
+    let (t1, t2) = (points[0].t, points[1].t);
+    if (t1..=t2).contains(&t_star)
+        && t2 - t1 <= 2.0 * (TOLERANCE / c).sqrt() + 1e-12
+        && c * (best.t - t_star).powi(2) <= TOLERANCE
     {
         return Step::Done(conclusion(range, &points, best, t_star, c));
     }
-    // Next at t*, or a step of the pair's half-width beyond the last value towards it where t*
-    // is as good as run already.
-    let h = 0.5 * (pair(&prior)[1] - pair(&prior)[0]);
-    let mut t = t_star.clamp(0.0, 1.0);
-    if points.iter().any(|p| (p.t - t).abs() < 0.5 * PAIR_STEP) {
-        t = if t_star < first {
-            first - h
-        } else if t_star > last {
-            last + h
-        } else {
-            return alone();
-        };
-    }
-    let x = range.value(t.clamp(0.0, 1.0));
+    // Its guess of the minimum next: then three values, its own search.
+    let x = range.value(t_star.clamp(0.0, 1.0));
     if taken(x) || allowed == 0 {
         return alone();
     }
@@ -162,7 +150,7 @@ impl Prior {
             .iter()
             .filter_map(|p| match own_fit(p) {
                 Some((t, _)) => Some(t),
-                None if (2..=MAX_POOLED).contains(&p.len()) => own_minimum(p, curvature),
+                None if p.len() == 2 => two_run_minimum(p, curvature),
                 None => None,
             })
             .map(|t| t.clamp(0.0, 1.0))
@@ -197,37 +185,19 @@ fn own_fit(points: &[Point]) -> Option<(f64, f64)> {
     (value > 0.0).then_some((t, c / value))
 }
 
-/// t* of ln y = α + c (t − t*)² fitted to a state point's values with c given: a straight line
-/// z = ln y − c t² = β₀ + β₁ t by least squares (each value weighted by its runs), t* = −β₁/(2c)
-/// (two values: t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) / (2 c (t₂ − t₁))). None unless every value
-/// is positive and two positions differ.
-fn own_minimum(points: &[Point], curvature: f64) -> Option<f64> {
-    if points.len() < 2 || curvature <= 0.0 || points.iter().any(|p| p.mean() <= 0.0) {
+/// t* of ln y = α + c (t − t*)² through two values with c given (ln(1 + x) ≈ x near a
+/// minimum): t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) / (2 c (t₂ − t₁)). None unless both are
+/// positive at distinct positions.
+fn two_run_minimum(points: &[Point], curvature: f64) -> Option<f64> {
+    let [p1, p2] = points else {
+        return None;
+    };
+    let (y1, y2) = (p1.mean(), p2.mean());
+    if !(y1 > 0.0 && y2 > 0.0) || p1.t == p2.t || curvature <= 0.0 {
         return None;
     }
-    let w = |p: &Point| p.values.len() as f64;
-    let total: f64 = points.iter().map(w).sum();
-    let t_mean = points.iter().map(|p| w(p) * p.t).sum::<f64>() / total;
-    let z = |p: &Point| p.mean().ln() - curvature * p.t * p.t;
-    let z_mean = points.iter().map(|p| w(p) * z(p)).sum::<f64>() / total;
-    let s_tt = spread_of(points, t_mean);
-    if s_tt <= 0.0 {
-        return None;
-    }
-    let s_tz: f64 = points
-        .iter()
-        .map(|p| w(p) * (p.t - t_mean) * (z(p) - z_mean))
-        .sum();
-    let t = -(s_tz / s_tt) / (2.0 * curvature);
+    let t = 0.5 * (p1.t + p2.t) - (y2.ln() - y1.ln()) / (2.0 * curvature * (p2.t - p1.t));
     t.is_finite().then_some(t)
-}
-
-/// Σ runs · (t − t̄)² of the values' positions.
-fn spread_of(points: &[Point], t_mean: f64) -> f64 {
-    points
-        .iter()
-        .map(|p| p.values.len() as f64 * (p.t - t_mean).powi(2))
-        .sum()
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
@@ -249,14 +219,9 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 fn conclusion(range: &Range, points: &[Point], best: &Point, t_star: f64, c: f64) -> Conclusion {
     let (s, t95) = noise::spread(points);
     let half_width = noise::half_width(best, (s, t95));
-    let total: f64 = points.iter().map(|p| p.values.len() as f64).sum();
-    let t_mean = points
-        .iter()
-        .map(|p| p.values.len() as f64 * p.t)
-        .sum::<f64>()
-        / total;
-    // The slope's standard error is s / √Σ runs (t − t̄)², and t* = −slope / (2c).
-    let error = t95 * s / (2.0 * c * spread_of(points, t_mean).sqrt());
+    let runs = |p: &Point| 1.0 / p.values.len() as f64;
+    let error = t95 * s * (runs(&points[0]) + runs(&points[1])).sqrt()
+        / (2.0 * c * (points[1].t - points[0].t).abs());
     let reach = (half_width / best.mean() / c).sqrt();
     let lower = (t_star - error - reach).min(best.t).max(0.0);
     let upper = (t_star + error + reach).max(best.t).min(1.0);
@@ -306,8 +271,7 @@ mod tests {
             x: t,
             values: vec![30.0 * (c * (t - t_star) * (t - t_star)).exp()],
         };
-        let t = own_minimum(&[at(0.5), at(0.7)], c).unwrap();
-        assert!((own_minimum(&[at(0.1), at(0.5), at(0.7)], c).unwrap() - t_star).abs() < 1e-12);
+        let t = two_run_minimum(&[at(0.5), at(0.7)], c).unwrap();
         assert!((t - t_star).abs() < 1e-12, "{t}");
         assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
         assert_eq!(median(vec![]), None);
