@@ -123,8 +123,8 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
             evaluations(search, runs, &failed[i], &pending[i])
         })
         .collect();
-    // The searches of one table that pool their evaluations, in the plan's order (the first
-    // leads).
+    // The searches of one table that pool their evaluations, in the plan's order (the middle
+    // one leads).
     let keys: Vec<String> = searches.iter().map(TuneSearch::pool).collect();
     // A search listed twice (by two campaigns of one plan) is one member, its first listing.
     let first: Vec<usize> = searches

@@ -158,7 +158,7 @@ pub fn next(range: &Range, goal: &Goal, done: &[Evaluation], in_flight: &[Propos
 }
 
 /// [`next`] for search `me` of a pool: the searches of one `[[tune]]` table, which share the
-/// shape of their curves ([`pool`]); `pool[0]` leads. A search that loosens a knob, or a pool of
+/// shape of their curves ([`pool`]; [`pool::leader`] leads). A search that loosens a knob, or a pool of
 /// one, decides from its own evaluations alone.
 pub fn next_in_pool(range: &Range, goal: &Goal, pool: &[pool::Member], me: usize) -> Step {
     match goal {

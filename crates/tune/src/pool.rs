@@ -4,7 +4,9 @@
 //!
 //! The model, in the log position t: τ_p(t) ≈ a_p (1 + c (t − t*_p)²), the curvature c shared
 //! by the table, the level a_p and the minimum t*_p the state point's own.
-//! - **The leader** (the table's first state point) searches on its own ([`crate::minimise`]).
+//! - **The leader** ([`leader`]: the middle state point of the table's order, for a table swept
+//!   over φ the middle φ, whose minimum is nearer to most siblings' than an end's) searches on
+//!   its own ([`crate::minimise`]).
 //! - **The prior**: c is the median relative curvature (c / vertex value) of the parabolas the
 //!   siblings' own runs make (convex, vertex among their runs: the leader's first three runs
 //!   usually); the expected minimum is the median of the siblings' minima (their vertex, or
@@ -53,11 +55,17 @@ pub struct Prior {
     pub position: f64,
 }
 
-/// The next step of search `me` of the pool (`pool[0]` leads; `me` indexes the pool).
+/// Which member of a pool of `len` leads: the middle one.
+pub fn leader(len: usize) -> usize {
+    len / 2
+}
+
+/// The next step of search `me` of the pool (`me` indexes the pool; [`leader`] leads).
 pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> Step {
     let own = pool[me];
     let alone = || minimise::next(range, settings, own.done, own.in_flight);
-    if me == 0 {
+    let lead = leader(pool.len());
+    if me == lead {
         return alone();
     }
     let (done, in_flight) = in_range(range, own.done, own.in_flight);
@@ -69,8 +77,8 @@ pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> S
     }
     let Some(prior) = Prior::of(range, pool, me) else {
         // The leader has not located a minimum yet: a follower starts from its answer.
-        let leader = minimise::next(range, settings, pool[0].done, pool[0].in_flight);
-        return match leader {
+        let leading = minimise::next(range, settings, pool[lead].done, pool[lead].in_flight);
+        return match leading {
             Step::Done(_) => alone(),
             _ if !done.is_empty() || !in_flight.is_empty() => alone(),
             _ => Step::Wait,
