@@ -1,7 +1,8 @@
 //! The minimum of a noisy result field over the range by successive parabolic interpolation in
 //! log x, told where the noise hides the answer.
 //!
-//! Each step reads the evaluations as points (every run at one value pooled; a value with a
+//! The first values ([`INITIAL`]) are judged once all of them are done. Each step reads the
+//! evaluations as points (every run at one value pooled; a value with a
 //! failed run is never the minimum, and bounds the search as a value worse than any). Around the
 //! best mean it fits the least-squares parabola through the best point and up to two evaluated
 //! neighbours on either side (as the EDMD paper locates Δ*_NNL, Fig. 10):
@@ -124,6 +125,11 @@ pub fn next(
             .filter_map(|&t| fresh(t))
             .take(INITIAL.len())
             .collect()
+    } else if evaluated.len() < INITIAL.len() && !in_flight.is_empty() {
+        // The first values are judged together: the first one done is at an open end of what
+        // is known whatever the curve, and extending from it would spend a run the others
+        // make needless.
+        Vec::new()
     } else {
         let around = Around::best(&points, &evaluated);
         let flying = |a: f64, b: f64| {

@@ -62,6 +62,11 @@ pub fn leader(len: usize) -> usize {
 
 /// The next step of search `me` of the pool (`me` indexes the pool; [`leader`] leads).
 pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> Step {
+    // A table's minima are located to the pooled tolerance, each member's own search's too.
+    let settings = &Settings {
+        value_tolerance: settings.value_tolerance.max(TOLERANCE),
+        ..*settings
+    };
     let own = pool[me];
     let alone = || minimise::next(range, settings, own.done, own.in_flight);
     let lead = leader(pool.len());
@@ -120,20 +125,24 @@ pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> S
     } else {
         &points[1]
     };
-    // Only between the two values, and only across a gap no wider than a pair's, 2 √(tol / c):
-    // beyond them the shared curvature is an extrapolation, where a tail's relative slope can
-    // pass for the gentle one near a minimum; across a wider gap (two runs of a grid) the
-    // state point's own curvature matters more than the shared one.
+    // Only between the two values, and only across a gap no wider than a pair's, 2 √(tol / c)
+    // (√2 more, for a prior whose curvature grew since the pair was placed): beyond them the
+    // shared curvature is an extrapolation, where a tail's relative slope can pass for the
+    // gentle one near a minimum; across a wider gap (two runs of a grid) the state point's own
+    // curvature matters more than the shared one.
     let (t1, t2) = (points[0].t, points[1].t);
     if (t1..=t2).contains(&t_star)
-        && t2 - t1 <= 2.0 * (TOLERANCE / c).sqrt() + 1e-12
+        && t2 - t1 <= 2.0 * (2.0 * TOLERANCE / c).sqrt()
         && c * (best.t - t_star).powi(2) <= TOLERANCE
     {
         return Step::Done(conclusion(range, &points, best, t_star, c));
     }
-    // Its guess of the minimum next: then three values, its own search.
-    let x = range.value(t_star.clamp(0.0, 1.0));
-    if taken(x) || allowed == 0 {
+    // Its guess of the minimum next (unless as good as run already): then three values, its
+    // own search.
+    let t = t_star.clamp(0.0, 1.0);
+    let x = range.value(t);
+    let run_already = points.iter().any(|p| (p.t - t).abs() < 0.5 * PAIR_STEP);
+    if run_already || taken(x) || allowed == 0 {
         return alone();
     }
     Step::Propose(vec![Proposal { x, repeat: 0 }])
