@@ -5,9 +5,7 @@
 use proptest::prelude::*;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rand_xoshiro::rand_core::{Rng, SeedableRng};
-use tune::{
-    Conclusion, Evaluation, Goal, Outcome, Proposal, Range, Step, Stopped, minimise, pool,
-};
+use tune::{Conclusion, Evaluation, Goal, Outcome, Proposal, Range, Step, Stopped, minimise, pool};
 
 /// A state point's curve: τ(t) = level · (1 + curvature · (t − t*)²) in the log position t.
 #[derive(Clone, Copy, Debug)]
