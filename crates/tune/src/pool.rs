@@ -17,10 +17,15 @@
 //!   t₁ < t₂ and the shared c, its own minimum is
 //!   t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) / (2 c (t₂ − t₁)),
 //!   and the model puts its better run c (t_best − t*)² above its minimum. With t* between
-//!   the two values (they straddle the minimum: |ln y₂ − ln y₁| ≤ c (t₂ − t₁)²) and within
-//!   [`TOLERANCE`]: stopped ([`Stopped::Pooled`]), the better run reported. Else t* is run
-//!   next, and a state point with three values, or a failed run, or a prior that is gone,
-//!   searches on its own from what it has — a wrong prior costs runs, never the answer.
+//!   the two values (they straddle the minimum: |ln y₂ − ln y₁| ≤ c (t₂ − t₁)²), no further
+//!   apart than a pair, and within [`TOLERANCE`]: stopped ([`Stopped::Pooled`]), the better run
+//!   reported. Else t* is run next (unless it is as good as run already), and a state point
+//!   with three values, or a failed run, or a prior that is gone, searches on its own from what
+//!   it has. Without noise a wrong prior costs runs, not the answer (tests/pool.rs); with noise
+//!   of a few per cent a pair far down a flank can pass for one straddling the minimum
+//!   (MEASUREMENTS.md gives how often).
+//! - Every member's own search, the leader's included, locates to [`TOLERANCE`] too (its
+//!   `value_tolerance` raised to it): a table's minima are found to one tolerance.
 //!
 //! Stateless as the rest: a pure function of the table's evaluations (a sibling's included),
 //! so a resumed or restarted search decides as before and a grid's runs count.
