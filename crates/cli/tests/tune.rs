@@ -62,9 +62,20 @@ fn done_jobs(db: &str) -> Vec<(String, f64, i64)> {
 
 #[test]
 fn a_search_resumed_after_kill_9_reuses_every_finished_evaluation() {
+    resumed_after_kill_9(PLAN, 1);
+}
+
+/// A table's searches pool their runs ([`tune::pool`]): killed while its leader and followers
+/// run, resumed, each finished evaluation is reused and every search concludes.
+#[test]
+fn a_pooled_table_resumed_after_kill_9_reuses_every_finished_evaluation() {
+    resumed_after_kill_9(&PLAN.replace("phi = 0.4", "phi = [0.35, 0.4, 0.45]"), 3);
+}
+
+fn resumed_after_kill_9(plan_text: &str, searches: usize) {
     let dir = tempfile::tempdir().unwrap();
     let plan = dir.path().join("tune.toml");
-    std::fs::write(&plan, PLAN).unwrap();
+    std::fs::write(&plan, plan_text).unwrap();
     let plan = plan.to_str().unwrap();
     let db = dir.path().join("t.db").to_str().unwrap().to_owned();
 
@@ -101,11 +112,16 @@ fn a_search_resumed_after_kill_9_reuses_every_finished_evaluation() {
     for job in &before {
         assert!(after.contains(job), "{job:?} was run again or lost");
     }
-    assert!(after.len() <= 8, "over the budget: {after:?}");
-    let searches = resumed["searches"].as_array().unwrap();
-    assert_eq!(searches.len(), 1, "{resumed}");
-    let stopped = searches[0]["stopped"].as_str().unwrap();
-    assert!(["converged", "budget"].contains(&stopped), "{resumed}");
+    assert!(after.len() <= 8 * searches, "over the budget: {after:?}");
+    let concluded = resumed["searches"].as_array().unwrap();
+    assert_eq!(concluded.len(), searches, "{resumed}");
+    for search in concluded {
+        let stopped = search["stopped"].as_str().unwrap();
+        assert!(
+            ["converged", "budget", "pooled"].contains(&stopped),
+            "{resumed}"
+        );
+    }
 
     // A third run has nothing left to do.
     let again = json(&sweep(&["run", plan, "--db", &db, "--format", "json"]));
@@ -114,20 +130,24 @@ fn a_search_resumed_after_kill_9_reuses_every_finished_evaluation() {
 
     let report = json(&sweep(&["report", "tune", "--db", &db, "--format", "json"]));
     let rows = report.as_array().unwrap();
-    assert_eq!(rows.len(), 1, "{report}");
-    let row = &rows[0];
-    assert_eq!(row["knob"], "delta_nnl");
-    assert_eq!(row["evaluations"].as_u64().unwrap() as usize, after.len());
-    let best = row["conclusion"]["best"].as_f64().unwrap();
-    assert!((0.05..=1.0).contains(&best), "{row}");
-    // The path lists every evaluation, each with its τ_c.
-    let path = row["path"].as_array().unwrap();
-    assert_eq!(path.len(), after.len());
-    assert!(
-        path.iter()
-            .all(|p| p["value"].as_f64().is_some_and(|v| v > 0.0)),
-        "{row}"
-    );
+    assert_eq!(rows.len(), searches, "{report}");
+    let mut evaluations = 0;
+    for row in rows {
+        assert_eq!(row["knob"], "delta_nnl");
+        let used = row["evaluations"].as_u64().unwrap() as usize;
+        evaluations += used;
+        let best = row["conclusion"]["best"].as_f64().unwrap();
+        assert!((0.05..=1.0).contains(&best), "{row}");
+        // The path lists every evaluation, each with its τ_c.
+        let path = row["path"].as_array().unwrap();
+        assert_eq!(path.len(), used);
+        assert!(
+            path.iter()
+                .all(|p| p["value"].as_f64().is_some_and(|v| v > 0.0)),
+            "{row}"
+        );
+    }
+    assert_eq!(evaluations, after.len(), "{report}");
 }
 
 #[test]

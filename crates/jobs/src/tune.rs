@@ -84,6 +84,26 @@ impl TuneSearch {
         state_point_of(&self.template, &self.knob)
     }
 
+    /// What the searches that pool their evaluations have in common (a `[[tune]]` table's
+    /// searches that differ only in φ and X0, along which a curve's shape varies smoothly): the
+    /// search's settings and the state point with the knob, the seed, φ and X0 blanked.
+    pub fn pool(&self) -> String {
+        let mut blank = self.template.clone();
+        set_knob(&mut blank, &self.knob, 0.0);
+        blank.seed = 0;
+        blank.phi = 0.0;
+        blank.x0 = 0.0;
+        format!(
+            "{} {:?} {:?} {} {} {}",
+            self.knob,
+            self.range,
+            self.goal,
+            self.max_evaluations,
+            self.exclusive,
+            JobSpec::Edmd(blank).id()
+        )
+    }
+
     /// A name for the search: its state point without the knob and the seed.
     pub fn id(&self) -> String {
         self.evaluation(self.range[0], 0).id()

@@ -72,6 +72,25 @@ fn an_evaluation_is_the_grid_point_of_the_same_scene() {
     assert_ne!(jobs::state_point_of(&scene, "eps_d"), search.state_point());
 }
 
+/// A table's searches pool their runs when they differ only in φ and X0; another N, another
+/// knob, another range or another goal is another pool.
+#[test]
+fn the_searches_of_a_table_that_differ_in_phi_and_x0_share_a_pool() {
+    let plan = Plan::parse(ISSUE_EXAMPLE, "tune.toml").unwrap();
+    let pools: std::collections::BTreeSet<String> = plan.tunes.iter().map(|t| t.pool()).collect();
+    assert_eq!(pools.len(), 1, "{pools:?}");
+    let pool = plan.tunes[0].pool();
+    for (from, to) in [
+        ("n = 256", "n = 512"),
+        ("range = [0.02, 1.5]", "range = [0.02, 1.0]"),
+        ("goal = \"min tau_c_us\"", "goal = \"min tau_c_cpu_us\""),
+        ("neighbours = \"nnl\"", "neighbours = \"nnl\"\neps_d = 1e-4"),
+    ] {
+        let other = Plan::parse(&ISSUE_EXAMPLE.replace(from, to), "tune.toml").unwrap();
+        assert_ne!(other.tunes[0].pool(), pool, "{to}");
+    }
+}
+
 #[test]
 fn bad_tune_tables_are_refused_naming_the_key() {
     let body = "shape = \"ellipsoid\"\nn = 256\nphi = 0.3\n";

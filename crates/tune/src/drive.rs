@@ -3,7 +3,9 @@
 //!
 //! Nothing is kept between calls: the jobs are the searches' state. A call reads every EDMD job
 //! once and hands each to the searches of its state point (O(jobs × knobs searched) hashes, then
-//! O(the state point's jobs) per search), which a driver does when jobs have finished.
+//! O(the state point's jobs) per search), which a driver does when jobs have finished. The
+//! searches of one table that share a [`TuneSearch::pool`] decide together ([`crate::pool`]):
+//! O(searches²) key comparisons and O(pool² × its runs) per call, a few hundred at most.
 
 use std::collections::{BTreeSet, HashMap};
 
@@ -12,7 +14,9 @@ use jobs::{JobSpec, TuneGoal, TuneSearch};
 use report::{Clock, EdmdRow};
 use store::Store;
 
-use crate::{Evaluation, Goal, Outcome, Proposal, Range, Step, TuneError, loosest_safe, minimise};
+use crate::{
+    Evaluation, Goal, Outcome, Proposal, Range, Step, TuneError, loosest_safe, minimise, pool,
+};
 
 #[derive(Debug, thiserror::Error)]
 pub enum DriveError {
@@ -108,19 +112,45 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
         by_point.sort(&failed, |s| s),
         by_point.sort(&pending, |s| s),
     );
+    let evaluated: Vec<(Vec<Evaluation>, Vec<Proposal>)> = searches
+        .iter()
+        .enumerate()
+        .map(|(i, search)| {
+            let runs = match &search.goal {
+                TuneGoal::Min(f) if f == tau_c_field(Clock::Cpu) => &cpu[i],
+                _ => &wall[i],
+            };
+            evaluations(search, runs, &failed[i], &pending[i])
+        })
+        .collect();
+    // The searches of one table that pool their evaluations, in the plan's order (the middle
+    // one leads).
+    let keys: Vec<String> = searches.iter().map(TuneSearch::pool).collect();
+    // A search listed twice (by two campaigns of one plan) is one member, its first listing.
+    let first: Vec<usize> = searches
+        .iter()
+        .map(|s| searches.iter().position(|t| t == s).unwrap_or(0))
+        .collect();
     searches
         .iter()
         .enumerate()
         .map(|(i, search)| {
             let (range, goal) = goal_of(search)?;
-            let runs = match &search.goal {
-                TuneGoal::Min(f) if f == tau_c_field(Clock::Cpu) => &cpu[i],
-                _ => &wall[i],
-            };
-            let (mut done, in_flight) = evaluations(search, runs, &failed[i], &pending[i]);
-            let step = crate::next(&range, &goal, &done, &in_flight);
+            let pool: Vec<usize> = (0..searches.len())
+                .filter(|&j| keys[j] == keys[i] && first[j] == j)
+                .collect();
+            let members: Vec<pool::Member> = pool
+                .iter()
+                .map(|&j| pool::Member {
+                    done: &evaluated[j].0,
+                    in_flight: &evaluated[j].1,
+                })
+                .collect();
+            let me = pool.iter().position(|&j| j == first[i]).unwrap_or(0);
+            let step = crate::next_in_pool(&range, &goal, &members, me);
             // Runs of the same scenes outside the range (another search's, a grid's) are not
             // this search's.
+            let mut done = evaluated[i].0.clone();
             done.retain(|e| range.contains(e.x));
             Ok(SearchStep {
                 step,

@@ -14,7 +14,9 @@
 //! job ids).
 //!
 //! Two goals ([`Goal`]): the minimum of a noisy result field ([`minimise`]), and the loosest
-//! value whose runs stay safe ([`loosest_safe`]). [`drive`] reads a plan's searches' evaluations
+//! value whose runs stay safe ([`loosest_safe`]). The minimisations of one `[[tune]]` table
+//! share the shape of their curves: [`next_in_pool`] spends two runs on a state point where a
+//! search of its own needs three or more ([`pool`]). [`drive`] reads a plan's searches' evaluations
 //! from the database.
 
 pub mod drive;
@@ -22,6 +24,7 @@ pub mod lattice;
 pub mod loosest_safe;
 pub mod minimise;
 mod noise;
+pub mod pool;
 pub mod report;
 
 pub use lattice::Range;
@@ -87,6 +90,9 @@ pub enum Stopped {
     NoSafeValue,
     /// Loosest safe: the loosest value of the range is safe.
     RangeEndSafe,
+    /// Minimisation pooled over a table's state points: the curvature the siblings share puts
+    /// the minimum within [`pool::TOLERANCE`] of the better of this state point's two values.
+    Pooled,
 }
 
 impl Stopped {
@@ -98,6 +104,7 @@ impl Stopped {
             Stopped::NothingUsable => "nothing_usable",
             Stopped::NoSafeValue => "no_safe_value",
             Stopped::RangeEndSafe => "range_end_safe",
+            Stopped::Pooled => "pooled",
         }
     }
 }
@@ -150,6 +157,16 @@ pub fn next(range: &Range, goal: &Goal, done: &[Evaluation], in_flight: &[Propos
     }
 }
 
+/// [`next`] for search `me` of a pool: the searches of one `[[tune]]` table, which share the
+/// shape of their curves ([`pool`]; [`pool::leader`] leads). A search that loosens a knob, or a pool of
+/// one, decides from its own evaluations alone.
+pub fn next_in_pool(range: &Range, goal: &Goal, pool: &[pool::Member], me: usize) -> Step {
+    match goal {
+        Goal::Minimise(settings) if pool.len() > 1 => pool::next(range, settings, pool, me),
+        _ => next(range, goal, pool[me].done, pool[me].in_flight),
+    }
+}
+
 /// The next repeat index of `x` not done and not in flight.
 fn next_repeat(x: f64, done: &[&Evaluation], in_flight: &[&Proposal]) -> u32 {
     let done = done.iter().filter(|e| e.x == x).map(|e| e.repeat);
@@ -182,6 +199,7 @@ mod tests {
             Stopped::NothingUsable,
             Stopped::NoSafeValue,
             Stopped::RangeEndSafe,
+            Stopped::Pooled,
         ] {
             assert_eq!(serde_json::to_value(s).unwrap(), s.as_str());
         }

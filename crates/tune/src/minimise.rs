@@ -1,7 +1,8 @@
 //! The minimum of a noisy result field over the range by successive parabolic interpolation in
 //! log x, told where the noise hides the answer.
 //!
-//! Each step reads the evaluations as points (every run at one value pooled; a value with a
+//! The first values ([`INITIAL`]) are judged once all of them are done. Each step reads the
+//! evaluations as points (every run at one value pooled; a value with a
 //! failed run is never the minimum, and bounds the search as a value worse than any). Around the
 //! best mean it fits the least-squares parabola through the best point and up to two evaluated
 //! neighbours on either side (as the EDMD paper locates Δ*_NNL, Fig. 10):
@@ -124,6 +125,11 @@ pub fn next(
             .filter_map(|&t| fresh(t))
             .take(INITIAL.len())
             .collect()
+    } else if evaluated.len() < INITIAL.len() && !in_flight.is_empty() {
+        // The first values are judged together: the first one done is at an open end of what
+        // is known whatever the curve, and extending from it would spend a run the others
+        // make needless.
+        Vec::new()
     } else {
         let around = Around::best(&points, &evaluated);
         let flying = |a: f64, b: f64| {
@@ -196,7 +202,7 @@ pub fn next(
 }
 
 /// The runs grouped by value, sorted by position, and the positions of values with a failed run.
-fn points(range: &Range, done: &[&Evaluation]) -> (Vec<Point>, Vec<f64>) {
+pub(crate) fn points(range: &Range, done: &[&Evaluation]) -> (Vec<Point>, Vec<f64>) {
     let mut points: Vec<Point> = Vec::new();
     let mut failed = Vec::new();
     for e in done {
@@ -219,7 +225,7 @@ fn points(range: &Range, done: &[&Evaluation]) -> (Vec<Point>, Vec<f64>) {
     (points, failed)
 }
 
-fn sorted(positions: impl Iterator<Item = f64>) -> Vec<f64> {
+pub(crate) fn sorted(positions: impl Iterator<Item = f64>) -> Vec<f64> {
     let mut v: Vec<f64> = positions.collect();
     v.sort_by(f64::total_cmp);
     v.dedup();
@@ -227,8 +233,8 @@ fn sorted(positions: impl Iterator<Item = f64>) -> Vec<f64> {
 }
 
 /// The best point (index into the points) and the evaluated positions on either side of it.
-struct Around {
-    best: usize,
+pub(crate) struct Around {
+    pub(crate) best: usize,
     /// The nearest evaluated position below the best, or the best's own where nothing is.
     lower: f64,
     upper: f64,
@@ -237,7 +243,7 @@ struct Around {
 }
 
 impl Around {
-    fn best(points: &[Point], evaluated: &[f64]) -> Self {
+    pub(crate) fn best(points: &[Point], evaluated: &[f64]) -> Self {
         let best = (0..points.len())
             .min_by(|&a, &b| points[a].mean().total_cmp(&points[b].mean()))
             .unwrap_or(0);
@@ -266,7 +272,7 @@ impl Around {
 
     /// The vertex (position, value) of the parabola through the best point and up to two of its
     /// usable neighbours on either side, where it is convex and lies among them.
-    fn vertex(&self, points: &[Point]) -> Option<(f64, f64, f64)> {
+    pub(crate) fn vertex(&self, points: &[Point]) -> Option<(f64, f64, f64)> {
         let near: Vec<&Point> = points
             [self.best.saturating_sub(2)..(self.best + 3).min(points.len())]
             .iter()
