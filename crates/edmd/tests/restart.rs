@@ -273,7 +273,11 @@ fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
     let (_, first) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), None, 0);
     let bytes = &first.last().expect("the final state").1;
     let mut v: Value = ciborium::from_reader(&bytes[..]).expect("CBOR");
-    assert_eq!(as_version_1(&mut v), 2, "no list spilled at the end of the first half");
+    assert_eq!(
+        as_version_1(&mut v),
+        2,
+        "no list spilled at the end of the first half"
+    );
     let v1 = encode(&v);
     let (continued, _) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), Some(&v1), 0);
     assert_same_bits(&whole, &continued, "from version 1");
@@ -288,5 +292,8 @@ fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
         .err()
         .expect("a later version is refused")
         .to_string();
-    assert!(err.contains(&format!("version {}", edmd::state::VERSION + 1)), "{err}");
+    assert!(
+        err.contains(&format!("version {}", edmd::state::VERSION + 1)),
+        "{err}"
+    );
 }
