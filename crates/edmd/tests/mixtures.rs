@@ -119,23 +119,26 @@ fn binary_mixtures_follow_bmcsl() {
 /// Spheres of one size run the one-species path bit for bit as before species existed: the
 /// collision sequence's fingerprint (its last blocks), Z and the energy drift, pinned on the
 /// code before this change (commit c6de570), for a scene without species and for one whose only
-/// species has one size (which is the same scene, another id).
+/// species has one size (which is the same scene, another id). Pinned again when the spheres'
+/// initial state changed (issue 29: random sequential addition instead of a melted lattice, five
+/// relaxing collisions per particle instead of ten), which changes every sphere trajectory from
+/// its first collision; the store of the bodies and the lists' room did not change them.
 #[test]
 fn one_size_runs_as_before_species_existed() {
     for (nb, tail, z_bits, drift_bits, len) in [
         (
             Neighbours::Ll,
-            "b6ebb2e24abb882f307875d28ee5e63e8902f0b617f87347dbd2c2b1e77adef5eb2619a44f07dd7fff9affe38c5d9fed",
-            0x4022a1ae81c54c88u64,
-            0x3d12aaaaaaaaaa99u64,
-            3064,
+            "e8754f2099009583e14ed86ebfc37eff45cb178e630043461f67b554e3223115b30ed0a24b77042c6af7c5f9c9517b67",
+            0x4022ae7c1198b8c9u64,
+            0x3d11fffffffffff1u64,
+            2904,
         ),
         (
             Neighbours::Nnl,
-            "ad161e95df90aedf3fc73a54f2345367a75048b5bf7abfb2d805996392790a92fd7f1bf13010b6945022af8e983d184d",
-            0x4022ae1249d425e1u64,
-            0x3d11555555555540u64,
-            3064,
+            "3a3be648f7545c5eec9a83436a28da1560466a1b2e4b889fdf2cb2c8f7a28b6a027014c0719521e4b7ac13fdfb8ae129",
+            0x4022c9bec5957fe6u64,
+            0x3d11aaaaaaaaaaa0u64,
+            2904,
         ),
     ] {
         let mut s = Scene::new(ShapeKind::Sphere, 256, 0.45);
