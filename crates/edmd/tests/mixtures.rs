@@ -124,7 +124,7 @@ fn binary_mixtures_follow_bmcsl() {
 /// relaxing collisions per particle instead of ten), which changes every sphere trajectory from
 /// its first collision; the store of the bodies and the lists' room did not change them.
 #[test]
-fn one_size_runs_as_before_species_existed() {
+fn one_size_spheres_run_the_pinned_one_species_path() {
     for (nb, tail, z_bits, drift_bits, len) in [
         (
             Neighbours::Ll,
