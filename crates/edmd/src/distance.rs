@@ -562,6 +562,34 @@ mod tests {
         }
     }
 
+    /// The uniaxial ellipsoid of aspect ratio `x0` and volume π/6.
+    fn unit_ellipsoid(x0: f64) -> Ellipsoid {
+        let b = 0.5 / f64::cbrt(x0);
+        Ellipsoid::new(x0 * b, b, b)
+    }
+
+    /// Two copies of `e` in random orientations, apart along a random direction by up to 5 %
+    /// more than where they touch.
+    fn near_contact(e: &Ellipsoid, rng: &mut crate::rng::Rng) -> (Pose, Pose) {
+        let mut rot = || {
+            let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
+            rotate(&M3::identity(), &axis, 1.0)
+        };
+        let (ra, rb) = (rot(), rot());
+        let dir = V3::new(rng.normal(), rng.normal(), rng.normal());
+        // The contact scale is homogeneous of degree one in the separation.
+        let touching = dir / crate::pw::contact_scale(e, &ra, e, &rb, &dir);
+        let pa = Pose {
+            r: V3::zeros(),
+            rot: ra,
+        };
+        let pb = Pose {
+            r: touching * (1.0 + 0.05 * rng.uniform() + 1e-6),
+            rot: rb,
+        };
+        (pa, pb)
+    }
+
     /// Needles and plates (X0 = 10 and 0.1) within 5 % of contact, from a cold start: Newton–
     /// Raphson from Gilbert's support points converges without steepest descent or the support
     /// fallback, to the distance Gilbert's algorithm brackets on its own to 1e-10.
@@ -569,27 +597,11 @@ mod tests {
     fn elongated_bodies_converge_from_a_cold_start_to_the_certified_distance() {
         let mut rng = crate::rng::Rng::new(17);
         for x0 in [10.0, 0.1] {
-            let b = 0.5 / f64::cbrt(x0);
-            let e = Ellipsoid::new(x0 * b, b, b);
+            let e = unit_ellipsoid(x0);
             let l = e.s.min();
             let mut stats = SolverStats::default();
             for _ in 0..400 {
-                let mut rot = || {
-                    let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
-                    rotate(&M3::identity(), &axis, 1.0)
-                };
-                let (ra, rb) = (rot(), rot());
-                let dir = V3::new(rng.normal(), rng.normal(), rng.normal());
-                // The contact scale is homogeneous of degree one in the separation.
-                let touching = dir / crate::pw::contact_scale(&e, &ra, &e, &rb, &dir);
-                let pa = Pose {
-                    r: V3::zeros(),
-                    rot: ra,
-                };
-                let pb = Pose {
-                    r: touching * (1.0 + 0.05 * rng.uniform() + 1e-6),
-                    rot: rb,
-                };
+                let (pa, pb) = near_contact(&e, &mut rng);
                 let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut stats)
                     .expect("a distance");
                 match certify(&e, &pa, &e, &pb, 1e-10 * l, 1_000_000) {
@@ -619,26 +631,11 @@ mod tests {
     #[test]
     fn the_support_fallback_finds_the_certified_distance() {
         let mut rng = crate::rng::Rng::new(23);
-        let b = 0.5 / f64::cbrt(0.1);
-        let e = Ellipsoid::new(0.1 * b, b, b);
+        let e = unit_ellipsoid(0.1);
         let l = e.s.min();
         let mut stats = SolverStats::default();
         for _ in 0..100 {
-            let mut rot = || {
-                let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
-                rotate(&M3::identity(), &axis, 1.0)
-            };
-            let (ra, rb) = (rot(), rot());
-            let dir = V3::new(rng.normal(), rng.normal(), rng.normal());
-            let touching = dir / crate::pw::contact_scale(&e, &ra, &e, &rb, &dir);
-            let pa = Pose {
-                r: V3::zeros(),
-                rot: ra,
-            };
-            let pb = Pose {
-                r: touching * (1.0 + 0.05 * rng.uniform() + 1e-6),
-                rot: rb,
-            };
+            let (pa, pb) = near_contact(&e, &mut rng);
             let d = support_fallback(&e, &pa, &e, &pb, l, &Tolerances::default(), &mut stats)
                 .expect("the fallback resolves apart bodies");
             let Certified::Apart { lower, upper, .. } =

@@ -289,43 +289,36 @@ pub fn initial_configuration(
     };
     let at_temperature =
         |pos: &[V3], rot: &[M3], l: f64, rng: &mut Rng| thermal(pos, rot, l, &|_| inertial, rng);
-    if let Geom::Sphere { sigma } = *geom {
-        let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
-        if let Some(pos) = random_sequential(n, l_melt, sigma, rng) {
-            let start = Packing::new(pos, vec![M3::identity(); n], l_melt, *geom);
-            let packing = compress(
-                start,
-                volume,
-                phi,
-                &SPHERES,
-                &melted,
-                &at_temperature,
-                rng,
-                relax,
-            )?;
-            let Packing { pos, rot, l, .. } = packing;
-            return Ok(Config {
-                l,
-                bodies: at_temperature(&pos, &rot, l, rng),
-            });
+    let added = match *geom {
+        Geom::Sphere { sigma } => {
+            let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
+            random_sequential(n, l_melt, sigma, rng).map(|pos| {
+                let start = Packing::new(pos, vec![M3::identity(); n], l_melt, *geom);
+                (start, &SPHERES)
+            })
         }
-    }
-    let sites = fcc_sites(n);
-    let rot: Vec<M3> = (0..n)
-        .map(|_| {
-            if geom.rotates() {
-                random_rotation(rng)
-            } else {
-                M3::identity()
-            }
-        })
-        .collect();
-    let start = lattice(&sites, rot, volume, phi, &melted);
+        _ => None,
+    };
+    let (start, schedule) = match added {
+        Some(start) => start,
+        None => {
+            let rot: Vec<M3> = (0..n)
+                .map(|_| {
+                    if geom.rotates() {
+                        random_rotation(rng)
+                    } else {
+                        M3::identity()
+                    }
+                })
+                .collect();
+            (lattice(&fcc_sites(n), rot, volume, phi, &melted), &LATTICE)
+        }
+    };
     let packing = compress(
         start,
         volume,
         phi,
-        &LATTICE,
+        schedule,
         &melted,
         &at_temperature,
         rng,
