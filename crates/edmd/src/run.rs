@@ -189,21 +189,9 @@ fn simulate<M: Saves>(
         let Some(m) = slot.take() else {
             unreachable!("the model is put back after every relaxation")
         };
-        let n = bodies.len() as u64;
-        let mut eng = Engine::new(m, l, stored(&bodies), scene, 0.0)?;
-        drop(bodies);
-        eng.sequence = std::mem::take(&mut sequence);
-        eng.advance(per_particle * n, |_| {})?;
-        eng.sync_all();
-        let Engine {
-            m,
-            bodies,
-            sequence: so_far,
-            ..
-        } = eng;
+        let (m, bodies) = relaxed(m, bodies, l, per_particle, scene, &mut sequence)?;
         slot = Some(m);
-        sequence = so_far;
-        Ok(bodies.iter().map(Moving::to_body).collect())
+        Ok(bodies)
     };
     let mut cfg = initial_configuration(scene.n, scene.phi, &geom, inertia, &mut rng, &mut relax)?;
     sort_along_z_curve(&mut cfg.bodies, cfg.l);
@@ -215,6 +203,28 @@ fn simulate<M: Saves>(
     let mut eng = Engine::new(m, cfg.l, bodies, scene, 0.0)?;
     eng.sequence = sequence;
     measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+}
+
+/// The dynamics of an initial state (see [`crate::init::Relax`]): `per_particle` collisions per
+/// body in a box of side `l`, with model `m`, the collision sequence carried on in `sequence`;
+/// the model back with the bodies, every one at the present time.
+fn relaxed<M: FirstCollision>(
+    m: M,
+    bodies: Vec<Body>,
+    l: f64,
+    per_particle: u64,
+    scene: &Scene,
+    sequence: &mut Fingerprint,
+) -> Result<(M, Vec<Body>), EdmdError> {
+    let n = bodies.len() as u64;
+    let mut eng = Engine::new(m, l, stored(&bodies), scene, 0.0)?;
+    drop(bodies);
+    eng.sequence = std::mem::take(sequence);
+    eng.advance(per_particle * n, |_| {})?;
+    eng.sync_all();
+    *sequence = std::mem::take(&mut eng.sequence);
+    let (m, bodies) = eng.into_parts();
+    Ok((m, bodies.iter().map(Moving::to_body).collect()))
 }
 
 /// Bodies as model `M` stores them.
@@ -334,7 +344,6 @@ struct MixtureBodies {
     sizes: Vec<f64>,
     species: Vec<u16>,
     shapes: Vec<Geom>,
-    inertia: Vec<Inertia>,
     inertial: Vec<Inertial>,
 }
 
@@ -344,7 +353,6 @@ impl MixtureBodies {
     fn new(scene: &Scene, sizes: Vec<f64>, species: Vec<u16>) -> Result<Self, EdmdError> {
         let kinds = scene.species.as_deref().unwrap_or_default();
         let mut shapes = Vec::with_capacity(sizes.len());
-        let mut inertia = Vec::with_capacity(sizes.len());
         let mut inertial = Vec::with_capacity(sizes.len());
         for (&d, &k) in sizes.iter().zip(&species) {
             let kind = &kinds[k as usize];
@@ -372,10 +380,6 @@ impl MixtureBodies {
                 ShapeKind::Sphere => 0.0,
                 _ => 1.0 / (0.4 * mass * rmin * rmin),
             };
-            inertia.push(Inertia {
-                inv_m: 1.0 / mass,
-                inv_i,
-            });
             inertial.push(Inertial {
                 mass,
                 inv_i,
@@ -387,7 +391,6 @@ impl MixtureBodies {
             sizes,
             species,
             shapes,
-            inertia,
             inertial,
         })
     }
@@ -411,7 +414,13 @@ impl MixtureBodies {
         MixedRigidModel::new(
             order.iter().map(|&k| S::of(&self.shapes[k])).collect(),
             order.iter().map(|&k| self.shapes[k].is_sphere()).collect(),
-            order.iter().map(|&k| self.inertia[k]).collect(),
+            order
+                .iter()
+                .map(|&k| Inertia {
+                    inv_m: 1.0 / self.inertial[k].mass,
+                    inv_i: self.inertial[k].inv_i,
+                })
+                .collect(),
             self.sums(order, kinds).counting_distance_calls(),
             params,
         )
@@ -434,14 +443,15 @@ impl MixtureBodies {
         let drawn: Vec<usize> = (0..self.sizes.len()).collect();
         let mut sequence = Fingerprint::default();
         let mut relax = |bodies: Vec<Body>, l: f64, per_particle: u64| {
-            let n = bodies.len() as u64;
-            let mut eng = Engine::new(model_of(&drawn), l, stored(&bodies), scene, 0.0)?;
-            drop(bodies);
-            eng.sequence = std::mem::take(&mut sequence);
-            eng.advance(per_particle * n, |_| {})?;
-            eng.sync_all();
-            sequence = std::mem::take(&mut eng.sequence);
-            Ok(eng.bodies.iter().map(Moving::to_body).collect())
+            relaxed(
+                model_of(&drawn),
+                bodies,
+                l,
+                per_particle,
+                scene,
+                &mut sequence,
+            )
+            .map(|(_, bodies)| bodies)
         };
         let cfg = initial_mixture(
             &self.shapes,
