@@ -23,7 +23,7 @@ sed -i \
 grep -q '^int peer_main()$' "$out/mdSingle.c" || { echo "main() not found: another version?" >&2; exit 1; }
 grep -q 'seed = sweep_seed;' "$out/mdSingle.c" || { echo "the seed not found: another version?" >&2; exit 1; }
 cp "$repo/deploy/peers/smallenburg-main.c" "$repo/deploy/peers/smallenburg-file-main.c" \
-    "$repo/deploy/peers/smallenburg-clock.h" "$out/"
+    "$repo/deploy/peers/smallenburg-clock.h" "$repo/deploy/peers/smallenburg-run.h" "$out/"
 gcc -O3 -ffast-math -funroll-loops -march=native -w -I"$out" \
     "$out/smallenburg-main.c" -o "$out/md-single" -lm
 # The same peer started from a configuration file with radii (polydisperse spheres, mixtures),

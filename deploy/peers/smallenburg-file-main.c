@@ -14,6 +14,7 @@
  */
 #include "smallenburg-clock.h"
 #include "mdSingle-file.c"
+#include "smallenburg-run.h"
 
 int main(int argc, char** argv)
 {
@@ -34,31 +35,5 @@ int main(int argc, char** argv)
     sweep_seed = strtoul(argv[4], NULL, 10);
     initialconfig = 0;
     maxtime = warmup + measured;
-
-    char dir[] = "/tmp/md-single.XXXXXX";
-    if (!mkdtemp(dir) || chdir(dir) != 0)
-    {
-        perror("temporary folder");
-        return 3;
-    }
-    double w0 = now_s(CLOCK_MONOTONIC);
-    init();
-    while (simtime <= warmup) step();
-    double w1 = now_s(CLOCK_MONOTONIC), c1 = now_s(CLOCK_PROCESS_CPUTIME_ID);
-    unsigned int before = colcounter;
-    double dvbefore = dvtot, tbefore = simtime;
-    while (simtime <= maxtime) step();
-    double w2 = now_s(CLOCK_MONOTONIC), c2 = now_s(CLOCK_PROCESS_CPUTIME_ID);
-    unsigned int ran = colcounter - before;
-
-    double volume = xsize * ysize * zsize;
-    double pressure = N / volume - (dvtot - dvbefore) / (3.0 * volume * (simtime - tbefore));
-    char command[64];
-    snprintf(command, sizeof command, "rm -rf %s", dir);
-    if (chdir("/") != 0 || system(command) != 0) fprintf(stderr, "could not remove %s\n", dir);
-    printf("{\"tau_c_us\": %.6f, \"tau_c_wall_us\": %.6f, \"collisions\": %u, \"pressure\": %.6f, "
-           "\"z\": %.6f, \"init_s\": %.6f, \"run_s\": %.6f}\n",
-           1e6 * (c2 - c1) / ran, 1e6 * (w2 - w1) / ran, ran, pressure, pressure / (N / volume),
-           w1 - w0, w2 - w1);
-    return 0;
+    return measured_run(warmup);
 }

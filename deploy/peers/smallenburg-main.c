@@ -11,14 +11,12 @@
  *               time units (kT = m = sigma = 1, g(sigma) = (Z - 1) / (4 phi) from Kolafa's Z)
  *   SEED        the Mersenne Twister's seed
  *
- * Prints, as its last line, {"tau_c_us", "tau_c_wall_us", "collisions", "pressure", "z",
- * "init_s", "run_s"}: tau_c_us is the CPU time of the event loop alone per collision (as our
- * EDMD's CPU tau_c), the initial state (FCC, random velocities, lists) excluded and reported as
- * init_s. The peer writes a pressure file every time unit: the run happens in a temporary
- * folder, removed at the end.
+ * Prints, as its last line, what smallenburg-run.h says, the initial state (FCC, random
+ * velocities, lists) excluded from tau_c and reported as init_s.
  */
 #include "smallenburg-clock.h"
 #include "mdSingle.c"
+#include "smallenburg-run.h"
 
 int main(int argc, char** argv)
 {
@@ -37,33 +35,5 @@ int main(int argc, char** argv)
     double rho = 6 * e / M_PI;
     double g = (z - 1) / (4 * e);
     maxtime = collisions / (N * 2 * rho * g * sqrt(M_PI));
-
-    char dir[] = "/tmp/md-single.XXXXXX";
-    if (!mkdtemp(dir) || chdir(dir) != 0)
-    {
-        perror("temporary folder");
-        return 3;
-    }
-
-    double w0 = now_s(CLOCK_MONOTONIC), c0 = now_s(CLOCK_PROCESS_CPUTIME_ID);
-    init();
-    double w1 = now_s(CLOCK_MONOTONIC), c1 = now_s(CLOCK_PROCESS_CPUTIME_ID);
-    unsigned int before = colcounter;
-    double dvbefore = dvtot, tbefore = simtime;
-    while (simtime <= maxtime) step();
-    double w2 = now_s(CLOCK_MONOTONIC), c2 = now_s(CLOCK_PROCESS_CPUTIME_ID);
-    unsigned int ran = colcounter - before;
-
-    double volume = xsize * ysize * zsize;
-    double pressure = N / volume - (dvtot - dvbefore) / (3.0 * volume * (simtime - tbefore));
-    char command[64];
-    snprintf(command, sizeof command, "rm -rf %s", dir);
-    if (chdir("/") != 0 || system(command) != 0) fprintf(stderr, "could not remove %s\n", dir);
-    (void)w0;
-    (void)c0;
-    printf("{\"tau_c_us\": %.6f, \"tau_c_wall_us\": %.6f, \"collisions\": %u, \"pressure\": %.6f, "
-           "\"z\": %.6f, \"init_s\": %.6f, \"run_s\": %.6f}\n",
-           1e6 * (c2 - c1) / ran, 1e6 * (w2 - w1) / ran, ran, pressure, pressure / (N / volume),
-           w1 - w0, w2 - w1);
-    return 0;
+    return measured_run(-1.0);
 }
