@@ -54,6 +54,22 @@ pub fn predict<S: Surface>(
     p: &ContactParams,
     stats: &mut SolverStats,
 ) -> Option<Hit> {
+    predict_from(sa, a, sb, b, horizon, None, p, stats)
+}
+
+/// [`predict`], given the [`separating_axis`] gap of A and B as they are now where the caller has
+/// it already: the search's first step, where the bounding spheres overlap now.
+#[allow(clippy::too_many_arguments)]
+pub fn predict_from<S: Surface>(
+    sa: &S,
+    a: &Body,
+    sb: &S,
+    b: &Body,
+    horizon: f64,
+    mut now: Option<AxisGap>,
+    p: &ContactParams,
+    stats: &mut SolverStats,
+) -> Option<Hit> {
     stats.searches += 1;
     let (la, lb) = (sa.bounding_radius(), sb.bounding_radius());
     let (t1, t2) = bounding_sphere_window(&(b.r - a.r), &(b.v - a.v), la + lb)?;
@@ -83,7 +99,10 @@ pub fn predict<S: Surface>(
             return None;
         }
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
-        let gap = separating_axis(sa, &pa, sb, &pb);
+        let gap = match now.take() {
+            Some(gap) if t == 0.0 => gap,
+            _ => separating_axis(sa, &pa, sb, &pb),
+        };
         // A small gap may still prove the horizon free (a pair parting, a close horizon): then
         // no distance is needed at all.
         let safe = gap.safe_time(sa, a, sb, b);
@@ -281,6 +300,7 @@ pub const FAR_GAP: f64 = 0.001;
 
 /// The best separating axis found between two placed bodies: the support gap along `n` (a lower
 /// bound on their distance), and the offsets of the support points from the centres (lab frame).
+#[derive(Clone, Copy, Debug)]
 pub struct AxisGap {
     pub gap: f64,
     pub n: V3,
@@ -297,33 +317,115 @@ pub struct AxisGap {
 /// vector between the support points, and the step is damped by the largest radii of curvature,
 /// which bound how fast the support points move with n. No Newton–Raphson, no failure.
 pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
-    const STEPS: usize = 4;
-    // Worked in A's body frame: B's axes seen from A, and the line of centres.
-    let b_to_a = pa.rot * pb.rot.transpose();
-    let r = pa.rot * (pb.r - pa.r);
-    // Only the step length of the search: any damping leaves every gap a rigorous lower bound.
-    // A flat face has no largest radius of curvature; its bounding radius stands in.
-    let damping = 1.0 / (search_radius(sa) + search_radius(sb));
-    let mut n = r.normalize();
-    let mut best = (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros());
-    for _ in 0..STEPS {
-        let offset_a = sa.support_point(&n);
-        let offset_b = b_to_a * sb.support_point(&-(b_to_a.tr_mul(&n)));
-        let between = r + offset_b - offset_a;
-        let gap = n.dot(&between);
-        if gap > best.0 {
-            best = (gap, n, offset_a, offset_b);
+    let mut ascent = AxisAscent::start(sa, pa, sb, pb);
+    ascent.step_to(sa, sb, AXIS_STEPS);
+    ascent.gap()
+}
+
+/// The ascent steps of [`separating_axis`].
+const AXIS_STEPS: usize = 4;
+
+/// The gradient ascent of [`separating_axis`], stepped on demand: the engine orders and rules out
+/// most candidates on the gap of the first step, and takes the others to [`AXIS_STEPS`].
+#[derive(Clone, Copy, Debug)]
+struct AxisAscent {
+    /// B's axes seen from A's body frame, where the ascent works.
+    b_to_a: M3,
+    /// The line of centres in A's frame.
+    r: V3,
+    damping: f64,
+    /// The next direction to try, in A's frame.
+    n: V3,
+    /// The largest gap so far, its direction and support offsets (A's frame).
+    best: (f64, V3, V3, V3),
+    rot_a: M3,
+    rot_b: M3,
+    steps: usize,
+}
+
+impl AxisAscent {
+    /// Before the first step, from the line of centres.
+    fn start<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Self {
+        let r = pa.rot * (pb.r - pa.r);
+        let n = r.normalize();
+        AxisAscent {
+            b_to_a: pa.rot * pb.rot.transpose(),
+            r,
+            // Only the step length of the search: any damping leaves every gap a rigorous lower
+            // bound. A flat face has no largest radius of curvature; its bounding radius stands in.
+            damping: 1.0 / (search_radius(sa) + search_radius(sb)),
+            n,
+            best: (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros()),
+            rot_a: pa.rot,
+            rot_b: pb.rot,
+            steps: 0,
         }
-        n = (n + (between - n * gap) * damping).normalize();
     }
-    let to_lab = pa.rot.transpose();
-    AxisGap {
-        gap: best.0,
-        n: to_lab * best.1,
-        offset_a: to_lab * best.2,
-        offset_b: to_lab * best.3,
-        rot_a: pa.rot,
-        rot_b: pb.rot,
+
+    /// Steps until `steps` have been taken in all.
+    fn step_to<S: Surface>(&mut self, sa: &S, sb: &S, steps: usize) {
+        while self.steps < steps {
+            let n = self.n;
+            let offset_a = sa.support_point(&n);
+            let offset_b = self.b_to_a * sb.support_point(&-(self.b_to_a.tr_mul(&n)));
+            let between = self.r + offset_b - offset_a;
+            let gap = n.dot(&between);
+            if gap > self.best.0 {
+                self.best = (gap, n, offset_a, offset_b);
+            }
+            self.n = (n + (between - n * gap) * self.damping).normalize();
+            self.steps += 1;
+        }
+    }
+
+    /// The best gap so far, in the lab frame.
+    fn gap(&self) -> AxisGap {
+        let to_lab = self.rot_a.transpose();
+        AxisGap {
+            gap: self.best.0,
+            n: to_lab * self.best.1,
+            offset_a: to_lab * self.best.2,
+            offset_b: to_lab * self.best.3,
+            rot_a: self.rot_a,
+            rot_b: self.rot_b,
+        }
+    }
+}
+
+/// What [`quick_bound`] finds: times after the present.
+pub struct QuickBound {
+    pub lower: f64,
+    pub estimate: f64,
+    /// The separating-axis gap of the bodies as they are, for the contact search to start from;
+    /// `None` where the bound was not worth the whole ascent, or is the contact time (spheres).
+    pub now: Option<AxisGap>,
+}
+
+/// Without any solver, a lower bound on the contact time of A and B (at their common present,
+/// bounding spheres overlapping) from a [`separating_axis`] gap, and an estimate of it to order
+/// searches by. A bound at or beyond `horizon` needs no tighter one: there the first step of the
+/// ascent, along the line of centres, is enough. Measured at X0 = 2, φ = 0.5, NNL: the engine's
+/// contact searches are the same as with the whole ascent for every candidate, at 8 % less τ_c.
+pub fn quick_bound<S: Surface>(sa: &S, a: &Body, sb: &S, b: &Body, horizon: f64) -> QuickBound {
+    let mut ascent = AxisAscent::start(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
+    ascent.step_to(sa, sb, 1);
+    let gap = ascent.gap();
+    let lower = gap.safe_time(sa, a, sb, b);
+    if lower >= horizon {
+        return QuickBound {
+            lower,
+            estimate: lower,
+            now: None,
+        };
+    }
+    ascent.step_to(sa, sb, AXIS_STEPS);
+    let gap = ascent.gap();
+    // Both gaps bound the distance; the safe time of either is rigorous.
+    let lower = gap.safe_time(sa, a, sb, b).max(lower);
+    QuickBound {
+        lower,
+        estimate: gap.closing_estimate(a, b).max(lower),
+        now: Some(gap),
     }
 }
 

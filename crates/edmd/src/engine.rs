@@ -6,7 +6,7 @@ use std::time::Instant;
 use crate::body::{Moving, SphereBody};
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
-use crate::contact::bounding_sphere_window;
+use crate::contact::{AxisGap, bounding_sphere_window};
 use crate::geometry::{V3, image_offset};
 use crate::lists::{Lists, Region};
 use crate::model::{MixedSphereModel, Model, Rigid, SphereModel};
@@ -45,8 +45,12 @@ pub(crate) struct Engine<M: Model> {
     pub(crate) t: f64,
     nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
-    /// Candidate partners: (estimate, lower bound, partner, image shift).
-    order: Vec<(f64, f64, u32, [i32; 3])>,
+    /// Candidate partners: (estimate, lower bound, partner, image shift, index in `near` or
+    /// [`FAR`]).
+    order: Vec<(f64, f64, u32, [i32; 3], u32)>,
+    /// Rigid candidates whose bounding spheres overlap now: the partner at the present, and their
+    /// separating-axis gap where the quick bound found it.
+    near: Vec<(Body, Option<AxisGap>)>,
     pub(crate) acc: Accounting,
     /// The first error of the event loop (a contact search no solver could resolve, a list beyond
     /// its limits); the loop stops on it.
@@ -161,6 +165,7 @@ impl<M: FirstCollision> Engine<M> {
             nb,
             scratch: Vec::new(),
             order: Vec::new(),
+            near: Vec::new(),
             acc: Accounting {
                 ke_trans,
                 ..Default::default()
@@ -212,6 +217,7 @@ impl<M: FirstCollision> Engine<M> {
             nb: s.nb,
             scratch: Vec::new(),
             order: Vec::new(),
+            near: Vec::new(),
             acc: s.acc,
             failure: None,
             last_parting: None,
@@ -667,6 +673,8 @@ impl<M: Rigid> Engine<M> {
         let lb = self.m.bounding_radius_of(i);
         let mut order = std::mem::take(&mut self.order);
         order.clear();
+        let mut near = std::mem::take(&mut self.near);
+        near.clear();
         for &(j, shift) in &cand {
             let ju = j as usize;
             if ju == i {
@@ -678,28 +686,35 @@ impl<M: Rigid> Engine<M> {
             let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
             let reach = lb + self.m.bounding_radius_of(ju);
             if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), reach) {
-                // Bounding spheres already overlap: a separating axis bounds the contact time.
-                let (lower, estimate) = if t1 == 0.0 {
+                if t1 == 0.0 {
+                    // Bounding spheres already overlap: a separating axis bounds the contact time.
                     let mut b = self.bodies[ju].at(self.t);
                     b.r += image_offset(shift, self.l);
-                    self.m.quick_bound([i, ju], a, &b)
+                    let q = self.m.quick_bound([i, ju], a, &b, best.t - self.t);
+                    order.push((q.estimate, q.lower, j, shift, near.len() as u32));
+                    near.push((b, q.now));
                 } else {
-                    (t1, t1)
-                };
-                order.push((estimate, lower, j, shift));
+                    order.push((t1, t1, j, shift, FAR));
+                }
             }
         }
         order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
-        for &(_, lower, j, shift) in &order {
+        for &(_, lower, j, shift, k) in &order {
             if self.t + lower >= best.t {
                 continue;
             }
             let ju = j as usize;
-            let mut b = self.bodies[ju].at(self.t);
-            b.r += image_offset(shift, self.l);
+            let (b, now) = if k == FAR {
+                let mut b = self.bodies[ju].at(self.t);
+                b.r += image_offset(shift, self.l);
+                (b, None)
+            } else {
+                let (b, now) = &mut near[k as usize];
+                (*b, now.take())
+            };
             let failures = self.m.solver_stats().failures;
-            let hit = self.m.predict([i, ju], a, &b, best.t - self.t);
+            let hit = self.m.predict([i, ju], a, &b, best.t - self.t, now);
             let stats = self.m.solver_stats();
             if stats.failures > failures && self.failure.is_none() {
                 let arr = |v: V3| [v.x, v.y, v.z];
@@ -727,11 +742,15 @@ impl<M: Rigid> Engine<M> {
                 };
             }
         }
+        self.near = near;
         self.order = order;
         self.scratch = cand;
         best
     }
 }
+
+/// `order`'s mark of a candidate whose bounding spheres do not overlap yet.
+const FAR: u32 = u32::MAX;
 
 /// Image shift of j as seen from i with unwrapped positions: the cell shift plus the image counters.
 fn ll_shift(cell: [i8; 3], img_i: [i32; 3], img_j: [i32; 3]) -> [i32; 3] {

@@ -3,7 +3,7 @@
 
 use crate::ball::{Ball, SizedBall};
 use crate::body::{Moving, SphereBody};
-use crate::contact::{ContactParams, predict, separating_axis};
+use crate::contact::{AxisGap, ContactParams, QuickBound, predict_from, quick_bound};
 use crate::distance::SolverStats;
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{Surface, V3};
@@ -321,17 +321,19 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
     /// The radius of body `i`'s bounding sphere.
     fn bounding_radius_of(&self, i: usize) -> f64;
     /// The first contact of bodies `pair` = [i, j] (`a`, `b`, at the present time) before
-    /// `horizon`.
+    /// `horizon`; `now`, where the caller has it, is their separating-axis gap at present.
     fn predict(
         &mut self,
         pair: [usize; 2],
         a: &Body,
         b: &Body,
         horizon: f64,
+        now: Option<AxisGap>,
     ) -> Option<(f64, (V3, V3))>;
     /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
-    /// overlap, and an estimate of it to order the searches by.
-    fn quick_bound(&self, pair: [usize; 2], a: &Body, b: &Body) -> (f64, f64);
+    /// overlap, and an estimate of it to order the searches by; a bound at or beyond `horizon`
+    /// (a time after the present) need not be tight.
+    fn quick_bound(&self, pair: [usize; 2], a: &Body, b: &Body, horizon: f64) -> QuickBound;
     fn solver_stats(&self) -> &SolverStats;
 }
 
@@ -370,17 +372,11 @@ fn predict_pair<S: Surface>(
     sb: &S,
     b: &Body,
     horizon: f64,
+    now: Option<AxisGap>,
     params: &ContactParams,
     stats: &mut SolverStats,
 ) -> Option<(f64, (V3, V3))> {
-    predict(sa, a, sb, b, horizon, params, stats).map(|h| (h.t, (h.xc, h.n)))
-}
-
-/// [`Rigid::quick_bound`] of `a` (shape `sa`) and `b` (`sb`).
-fn quick_bound_pair<S: Surface>(sa: &S, a: &Body, sb: &S, b: &Body) -> (f64, f64) {
-    let gap = separating_axis(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
-    let lower = gap.safe_time(sa, a, sb, b);
-    (lower, gap.closing_estimate(a, b).max(lower))
+    predict_from(sa, a, sb, b, horizon, now, params, stats).map(|h| (h.t, (h.xc, h.n)))
 }
 
 /// Hard rigid bodies of any [`Surface`] through the general algorithm of Sec. 2: ellipsoids (any
@@ -447,6 +443,7 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
         a: &Body,
         b: &Body,
         horizon: f64,
+        now: Option<AxisGap>,
     ) -> Option<(f64, (V3, V3))> {
         predict_pair(
             &self.e,
@@ -454,12 +451,13 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
             &self.e,
             b,
             horizon,
+            now,
             &self.params,
             &mut self.stats,
         )
     }
-    fn quick_bound(&self, _: [usize; 2], a: &Body, b: &Body) -> (f64, f64) {
-        quick_bound_pair(&self.e, a, &self.e, b)
+    fn quick_bound(&self, _: [usize; 2], a: &Body, b: &Body, horizon: f64) -> QuickBound {
+        quick_bound(&self.e, a, &self.e, b, horizon)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats
@@ -587,6 +585,7 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         a: &Body,
         b: &Body,
         horizon: f64,
+        now: Option<AxisGap>,
     ) -> Option<(f64, (V3, V3))> {
         if self.round[i] && self.round[j] {
             self.stats.searches += 1;
@@ -597,17 +596,21 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         }
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
         let calls = self.stats.distance_calls;
-        let hit = predict_pair(sa, a, sb, b, horizon, &self.params, &mut self.stats);
+        let hit = predict_pair(sa, a, sb, b, horizon, now, &self.params, &mut self.stats);
         self.sums
             .searched([i, j], self.stats.distance_calls - calls);
         hit
     }
-    fn quick_bound(&self, [i, j]: [usize; 2], a: &Body, b: &Body) -> (f64, f64) {
+    fn quick_bound(&self, [i, j]: [usize; 2], a: &Body, b: &Body, horizon: f64) -> QuickBound {
         if self.round[i] && self.round[j] {
             let tau = self.sphere_contact([i, j], a, b);
-            return (tau, tau);
+            return QuickBound {
+                lower: tau,
+                estimate: tau,
+                now: None,
+            };
         }
-        quick_bound_pair(&self.shapes[i], a, &self.shapes[j], b)
+        quick_bound(&self.shapes[i], a, &self.shapes[j], b, horizon)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats

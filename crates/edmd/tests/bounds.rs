@@ -1,7 +1,7 @@
 //! The contact-free intervals that prune and shorten contact searches, against the independent
 //! Perram–Wertheim overlap test: within a claimed interval the bodies never overlap.
 
-use edmd::contact::{ContactParams, predict, separating_axis};
+use edmd::contact::{ContactParams, predict, predict_from, quick_bound, separating_axis};
 use edmd::distance::{SolverStats, Tolerances, distance};
 use edmd::ellipsoid::Ellipsoid;
 use edmd::geometry::{M3, Placed, Surface, V3};
@@ -96,6 +96,38 @@ proptest! {
             prop_assert!((at - 1.0).abs() < 1e-8, "contact scale {at} at the contact");
             let u = (a.v + a.w.cross(&(h.xc - pa.r))) - (b.v + b.w.cross(&(h.xc - pb.r)));
             prop_assert!(u.dot(&h.n) > 0.0, "parting at the contact");
+        }
+    }
+
+    /// The engine's quick bound, from one step of the ascent (a horizon of 0) or all of them (an
+    /// infinite one): nothing overlaps before it, no contact comes before it, and a search
+    /// started from the gap it hands on finds what a search from scratch finds, to the bit.
+    #[test]
+    fn the_quick_bound_comes_before_any_contact_and_its_gap_starts_the_same_search(
+        (e, a, b) in pair(),
+        horizon in prop_oneof![Just(0.0), Just(f64::INFINITY), 0.0f64..0.3],
+    ) {
+        let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
+        let q = quick_bound(&e, &a, &e, &b, horizon);
+        prop_assert!(q.lower >= 0.0 && q.estimate >= q.lower, "{} {}", q.lower, q.estimate);
+        // Only a bound beyond the horizon may stop at the first step.
+        prop_assert!(q.now.is_some() || q.lower >= horizon);
+        if q.lower > 0.0 {
+            let scale = min_scale(&e, &a, &b, q.lower.min(3.0), 300);
+            prop_assert!(scale > 1.0 - 1e-9, "overlap {scale} before the bound {}", q.lower);
+        }
+        let params = ContactParams { eps_d: 1e-5, brent_tol: 1e-12, tol: Tolerances::default() };
+        let mut stats = SolverStats::default();
+        let hit = predict(&e, &a, &e, &b, 3.0, &params, &mut stats);
+        if let Some(h) = hit {
+            prop_assert!(q.lower <= h.t, "bound {} after the contact {}", q.lower, h.t);
+        }
+        if let Some(gap) = q.now {
+            let mut again = SolverStats::default();
+            let from_gap = predict_from(&e, &a, &e, &b, 3.0, Some(gap), &params, &mut again);
+            prop_assert_eq!(from_gap, hit);
+            prop_assert_eq!(again.distance_calls, stats.distance_calls);
         }
     }
 }
