@@ -57,8 +57,18 @@ pub fn predict<S: Surface>(
     predict_from(sa, a, sb, b, horizon, None, p, stats)
 }
 
-/// [`predict`], given the [`separating_axis`] gap of A and B as they are now where the caller has
-/// it already: the search's first step, where the bounding spheres overlap now.
+/// What the caller of [`predict_from`] may know already of A and B as they are now.
+#[derive(Clone, Copy, Debug)]
+pub enum Known {
+    /// Their [`separating_axis`] gap: the search's first step.
+    Gap(AxisGap),
+    /// They touch, at these offsets from their centres (lab frame): the contact just resolved,
+    /// which they leave. The search starts from it instead of a distance at their contact.
+    Contact { offset_a: V3, offset_b: V3 },
+}
+
+/// [`predict`], given what the caller knows of A and B as they are now, where their bounding
+/// spheres overlap now.
 #[allow(clippy::too_many_arguments)]
 pub fn predict_from<S: Surface>(
     sa: &S,
@@ -66,7 +76,7 @@ pub fn predict_from<S: Surface>(
     sb: &S,
     b: &Body,
     horizon: f64,
-    mut now: Option<AxisGap>,
+    known: Option<Known>,
     p: &ContactParams,
     stats: &mut SolverStats,
 ) -> Option<Hit> {
@@ -89,41 +99,29 @@ pub fn predict_from<S: Surface>(
         p,
         stats,
     };
-    let mut t = t1;
-    let mut steps = 0;
-    let near = loop {
-        steps += 1;
-        if steps > MAX_STEPS {
-            search.stats.failures += 1;
-            search.stats.failed = Some("contact time (separating-axis stepping)");
-            return None;
-        }
-        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
-        let gap = match now.take() {
-            Some(gap) if t == 0.0 => gap,
-            _ => separating_axis(sa, &pa, sb, &pb),
-        };
-        // A small gap may still prove the horizon free (a pair parting, a close horizon): then
-        // no distance is needed at all.
-        let safe = gap.safe_time(sa, a, sb, b);
-        if t + safe > t2 {
-            return None;
-        }
-        if gap.gap <= FAR_GAP {
-            // The support points are nearly the closest points: Newton–Raphson starts there.
-            let (xa, xb) = (pa.r + gap.offset_a, pb.r + gap.offset_b);
+    let (mut t, mut cur) = match known {
+        Some(Known::Contact { offset_a, offset_b }) if t1 == 0.0 => {
+            let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+            let (xa, xb) = (pa.r + offset_a, pb.r + offset_b);
             let (alpha, beta) = multipliers_guess(sa, &pa, sb, &pb, &xa, &xb);
-            break Distance {
-                d: gap.gap,
+            let d = Distance {
+                d: 0.0,
                 xa,
                 xb,
                 alpha,
                 beta,
             };
+            (0.0, Some(d))
         }
-        t += safe;
+        _ => {
+            let now = match known {
+                Some(Known::Gap(gap)) => Some(gap),
+                _ => None,
+            };
+            let (t, near) = approach(&mut search, t1, t2, now)?;
+            (t, search.dist(t, Some(&near)))
+        }
     };
-    let mut cur = search.dist(t, Some(&near));
     if let Some(d0) = cur
         && d0.d <= 0.0
         && approaching(sa, a, b, &d0, t)
@@ -290,6 +288,55 @@ pub fn predict_from<S: Surface>(
     search.stats.failures += 1;
     search.stats.failed = Some("contact time (Eq. 39 stepping)");
     None
+}
+
+/// The separating-axis stepping of [`predict_from`] from `t1`: the time the bodies are first
+/// within [`FAR_GAP`] of each other, with their support points there, or `None` if that cannot
+/// happen before `t2`. `now` is the gap at the present, if known.
+fn approach<S: Surface>(
+    search: &mut Search<'_, S>,
+    t1: f64,
+    t2: f64,
+    mut now: Option<AxisGap>,
+) -> Option<(f64, Distance)> {
+    let (sa, a, sb, b) = (search.sa, search.a, search.sb, search.b);
+    let mut t = t1;
+    let mut steps = 0;
+    loop {
+        steps += 1;
+        if steps > MAX_STEPS {
+            search.stats.failures += 1;
+            search.stats.failed = Some("contact time (separating-axis stepping)");
+            return None;
+        }
+        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        let gap = match now.take() {
+            Some(gap) if t == 0.0 => gap,
+            _ => separating_axis(sa, &pa, sb, &pb),
+        };
+        // A small gap may still prove the horizon free (a pair parting, a close horizon): then
+        // no distance is needed at all.
+        let safe = gap.safe_time(sa, a, sb, b);
+        if t + safe > t2 {
+            return None;
+        }
+        if gap.gap <= FAR_GAP {
+            // The support points are nearly the closest points: Newton–Raphson starts there.
+            let (xa, xb) = (pa.r + gap.offset_a, pb.r + gap.offset_b);
+            let (alpha, beta) = multipliers_guess(sa, &pa, sb, &pb, &xa, &xb);
+            return Some((
+                t,
+                Distance {
+                    d: gap.gap,
+                    xa,
+                    xb,
+                    alpha,
+                    beta,
+                },
+            ));
+        }
+        t += safe;
+    }
 }
 
 /// Below this separating-axis gap (in units of σ) the contact search switches from the cheap

@@ -6,7 +6,7 @@ use std::time::Instant;
 use crate::body::{Moving, SphereBody};
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
-use crate::contact::{AxisGap, bounding_sphere_window};
+use crate::contact::{Known, bounding_sphere_window};
 use crate::geometry::{V3, image_offset};
 use crate::lists::{Lists, Region};
 use crate::model::{MixedSphereModel, Model, Rigid, SphereModel};
@@ -48,9 +48,14 @@ pub(crate) struct Engine<M: Model> {
     /// Candidate partners: (estimate, lower bound, partner, image shift, index in `near` or
     /// [`FAR`]).
     order: Vec<(f64, f64, u32, [i32; 3], u32)>,
-    /// Rigid candidates whose bounding spheres overlap now: the partner at the present, and their
-    /// separating-axis gap where the quick bound found it.
-    near: Vec<(Body, Option<AxisGap>)>,
+    /// Rigid candidates whose bounding spheres overlap now: the partner at the present, and what
+    /// is known of the pair already (the quick bound's separating-axis gap, or the contact just
+    /// resolved).
+    near: Vec<(Body, Option<Known>)>,
+    /// While the two bodies of a collision are predicted anew: the pair, where they touched
+    /// (`Extra`, the image offset of the second), so that each one's search for the other starts
+    /// from that contact.
+    met: Option<(u32, u32, M::Extra, V3)>,
     pub(crate) acc: Accounting,
     /// The first error of the event loop (a contact search no solver could resolve, a list beyond
     /// its limits); the loop stops on it.
@@ -166,6 +171,7 @@ impl<M: FirstCollision> Engine<M> {
             scratch: Vec::new(),
             order: Vec::new(),
             near: Vec::new(),
+            met: None,
             acc: Accounting {
                 ke_trans,
                 ..Default::default()
@@ -218,6 +224,7 @@ impl<M: FirstCollision> Engine<M> {
             scratch: Vec::new(),
             order: Vec::new(),
             near: Vec::new(),
+            met: None,
             acc: s.acc,
             failure: None,
             last_parting: None,
@@ -413,8 +420,10 @@ impl<M: FirstCollision> Engine<M> {
                 prefetch(&self.bodies[n.j as usize]);
             }
         }
+        self.met = happened.then_some((ev.a, ev.b, ev.extra, offset));
         self.predict_for(a);
         self.predict_for(b);
+        self.met = None;
         happened
     }
 
@@ -690,9 +699,16 @@ impl<M: Rigid> Engine<M> {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
                     let mut b = self.bodies[ju].at(self.t);
                     b.r += image_offset(shift, self.l);
+                    if let Some(contact) = self.contact_with(i, ju, a, &b) {
+                        // The pair has just collided and parts: rarely the first to meet again,
+                        // it is searched last, with the shortest horizon.
+                        order.push((f64::INFINITY, 0.0, j, shift, near.len() as u32));
+                        near.push((b, Some(contact)));
+                        continue;
+                    }
                     let q = self.m.quick_bound([i, ju], a, &b, best.t - self.t);
                     order.push((q.estimate, q.lower, j, shift, near.len() as u32));
-                    near.push((b, q.now));
+                    near.push((b, q.now.map(Known::Gap)));
                 } else {
                     order.push((t1, t1, j, shift, FAR));
                 }
@@ -746,6 +762,24 @@ impl<M: Rigid> Engine<M> {
         self.order = order;
         self.scratch = cand;
         best
+    }
+
+    /// Where `a` (body `i`) and `b` (body `j`'s candidate image) touch, if they are the pair of
+    /// the collision just resolved.
+    fn contact_with(&self, i: usize, j: usize, a: &Body, b: &Body) -> Option<Known> {
+        let (p, q, (xc, _), offset) = self.met?;
+        let (p, q) = (p as usize, q as usize);
+        // The contact point as the event's first body saw it, its partner's image `offset` away.
+        let (off_p, off_q) = (xc - self.bodies[p].r, xc - (self.bodies[q].r + offset));
+        let seen = self.bodies[q].r + offset - self.bodies[p].r;
+        let (offset_a, offset_b, seen) = match (i, j) {
+            _ if (i, j) == (p, q) => (off_p, off_q, seen),
+            _ if (i, j) == (q, p) => (off_q, off_p, -seen),
+            _ => return None,
+        };
+        // Another image of the partner (any other is a box length away) did not collide.
+        ((b.r - a.r - seen).norm_squared() < 0.25 * self.l * self.l)
+            .then_some(Known::Contact { offset_a, offset_b })
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::ball::{Ball, SizedBall};
 use crate::body::{Moving, SphereBody};
-use crate::contact::{AxisGap, ContactParams, QuickBound, predict_from, quick_bound};
+use crate::contact::{ContactParams, Known, QuickBound, predict_from, quick_bound};
 use crate::distance::SolverStats;
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{Surface, V3};
@@ -321,14 +321,14 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
     /// The radius of body `i`'s bounding sphere.
     fn bounding_radius_of(&self, i: usize) -> f64;
     /// The first contact of bodies `pair` = [i, j] (`a`, `b`, at the present time) before
-    /// `horizon`; `now`, where the caller has it, is their separating-axis gap at present.
+    /// `horizon`, from what the caller knows of them as they are now.
     fn predict(
         &mut self,
         pair: [usize; 2],
         a: &Body,
         b: &Body,
         horizon: f64,
-        now: Option<AxisGap>,
+        known: Option<Known>,
     ) -> Option<(f64, (V3, V3))>;
     /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
     /// overlap, and an estimate of it to order the searches by; a bound at or beyond `horizon`
@@ -372,11 +372,11 @@ fn predict_pair<S: Surface>(
     sb: &S,
     b: &Body,
     horizon: f64,
-    now: Option<AxisGap>,
+    known: Option<Known>,
     params: &ContactParams,
     stats: &mut SolverStats,
 ) -> Option<(f64, (V3, V3))> {
-    predict_from(sa, a, sb, b, horizon, now, params, stats).map(|h| (h.t, (h.xc, h.n)))
+    predict_from(sa, a, sb, b, horizon, known, params, stats).map(|h| (h.t, (h.xc, h.n)))
 }
 
 /// Hard rigid bodies of any [`Surface`] through the general algorithm of Sec. 2: ellipsoids (any
@@ -443,7 +443,7 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
         a: &Body,
         b: &Body,
         horizon: f64,
-        now: Option<AxisGap>,
+        known: Option<Known>,
     ) -> Option<(f64, (V3, V3))> {
         predict_pair(
             &self.e,
@@ -451,7 +451,7 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
             &self.e,
             b,
             horizon,
-            now,
+            known,
             &self.params,
             &mut self.stats,
         )
@@ -585,7 +585,7 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         a: &Body,
         b: &Body,
         horizon: f64,
-        now: Option<AxisGap>,
+        known: Option<Known>,
     ) -> Option<(f64, (V3, V3))> {
         if self.round[i] && self.round[j] {
             self.stats.searches += 1;
@@ -596,7 +596,7 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         }
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
         let calls = self.stats.distance_calls;
-        let hit = predict_pair(sa, a, sb, b, horizon, now, &self.params, &mut self.stats);
+        let hit = predict_pair(sa, a, sb, b, horizon, known, &self.params, &mut self.stats);
         self.sums
             .searched([i, j], self.stats.distance_calls - calls);
         hit

@@ -1,12 +1,12 @@
 //! The contact-free intervals that prune and shorten contact searches, against the independent
 //! Perram–Wertheim overlap test: within a claimed interval the bodies never overlap.
 
-use edmd::contact::{ContactParams, predict, predict_from, quick_bound, separating_axis};
+use edmd::contact::{ContactParams, Known, predict, predict_from, quick_bound, separating_axis};
 use edmd::distance::{SolverStats, Tolerances, distance};
 use edmd::ellipsoid::Ellipsoid;
 use edmd::geometry::{M3, Placed, Surface, V3};
 use edmd::pw::contact_scale;
-use edmd::rigid::{Body, GapSide, ddot_max, gap_safe_time, rotate};
+use edmd::rigid::{Body, GapSide, Inertia, collide, ddot_max, gap_safe_time, rotate};
 use proptest::prelude::*;
 
 /// The smallest Perram–Wertheim scale factor over `samples` times in [0, t_end): below 1 is an overlap.
@@ -125,10 +125,54 @@ proptest! {
         }
         if let Some(gap) = q.now {
             let mut again = SolverStats::default();
-            let from_gap = predict_from(&e, &a, &e, &b, 3.0, Some(gap), &params, &mut again);
+            let from_gap = predict_from(&e, &a, &e, &b, 3.0, Some(Known::Gap(gap)), &params, &mut again);
             prop_assert_eq!(from_gap, hit);
             prop_assert_eq!(again.distance_calls, stats.distance_calls);
         }
+    }
+}
+
+proptest! {
+    // Half the random pairs never meet within the horizon: they are drawn again.
+    #![proptest_config(ProptestConfig { cases: 128, max_global_rejects: 4096, ..ProptestConfig::default() })]
+
+    /// After a collision, the search that starts from the contact just resolved (no distance at
+    /// the contact) finds the next contact of the pair that a search from scratch finds, and
+    /// nothing overlaps before it.
+    #[test]
+    fn a_search_from_the_resolved_contact_finds_the_next_contact((e, a, b) in pair()) {
+        let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
+        let params = ContactParams { eps_d: 1e-5, brent_tol: 1e-12, tol: Tolerances::default() };
+        let mut stats = SolverStats::default();
+        let hit = predict(&e, &a, &e, &b, 3.0, &params, &mut stats);
+        prop_assume!(hit.is_some());
+        let h = hit.unwrap();
+        let (mut a, mut b) = (a.at(h.t), b.at(h.t));
+        let unit = Inertia { inv_m: 1.0, inv_i: 1.0 / (0.4 * e.semi_axes().min().powi(2)) };
+        prop_assume!(collide(&mut a, &mut b, &h.xc, &h.n, unit, unit).is_some());
+        let (a, b) = (Body { t: 0.0, ..a }, Body { t: 0.0, ..b });
+        let known = Known::Contact { offset_a: h.xc - a.r, offset_b: h.xc - b.r };
+        let mut from_contact = SolverStats::default();
+        let next = predict_from(&e, &a, &e, &b, 3.0, Some(known), &params, &mut from_contact);
+        let mut scratch = SolverStats::default();
+        let again = predict(&e, &a, &e, &b, 3.0, &params, &mut scratch);
+        prop_assert_eq!(from_contact.failures, 0);
+        // Within the search's resolution both find the same next contact, or none.
+        match (next, again) {
+            (Some(x), Some(y)) => prop_assert!((x.t - y.t).abs() < 1e-6, "{} against {}", x.t, y.t),
+            (x, y) => prop_assert_eq!(x.is_some(), y.is_some(), "{:?} against {:?}", x, y),
+        }
+        let end = next.map_or(3.0, |h| h.t);
+        // Parting from the contact: sampled strictly after it.
+        let scale = (1..=400)
+            .map(|k| {
+                let t = end * k as f64 / 401.0;
+                let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+                contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r))
+            })
+            .fold(f64::INFINITY, f64::min);
+        prop_assert!(scale > 1.0 - 1e-9, "overlap {scale} before {next:?}");
     }
 }
 
