@@ -144,6 +144,7 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
                 .map(|&j| pool::Member {
                     done: &evaluated[j].0,
                     in_flight: &evaluated[j].1,
+                    coordinates: [searches[j].template.phi, searches[j].template.x0],
                 })
                 .collect();
             let me = pool.iter().position(|&j| j == first[i]).unwrap_or(0);
