@@ -146,7 +146,13 @@ pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> S
     let bracket = points
         .windows(2)
         .find(|w| (w[0].t..=w[1].t).contains(&t_star));
+    // Three values must say it themselves too: their own parabola convex with its vertex among
+    // them and the better run within the tolerance of it (a curvature unlike the shared one
+    // puts the shared model's minimum anywhere between three values, down one flank too).
+    let convex = points.len() == 2
+        || own_fit(&points).is_some_and(|(t, own)| own * (best.t - t).powi(2) <= TOLERANCE);
     if let Some(w) = bracket
+        && convex
         && w[1].t - w[0].t <= 2.0 * (2.0 * TOLERANCE / c).sqrt()
         && c * (best.t - t_star).powi(2) <= TOLERANCE
     {
@@ -156,12 +162,22 @@ pub fn next(range: &Range, settings: &Settings, pool: &[Member], me: usize) -> S
         return alone();
     }
     // Its guess of the minimum next (unless as good as run already): then three values, judged
-    // as the pair was, then its own search. No further out than the pair's width beyond it:
-    // there the slope of two runs says where to look, not how far (a curve steeper on one side
-    // than the shared one, or the noise, would send the run far down a flank).
+    // as the pair was, then its own search. Beyond the pair, half a pair's width past the guess
+    // (the shared curvature's guess falls short where the curve is gentler on that side, and
+    // then the pair's near value and this one hold the minimum between them), and no further
+    // out than two widths: there the slope of two runs says where to look, not how far (a curve
+    // steeper on one side than the shared one, or the noise, would send the run far down a
+    // flank).
     let (t1, t2) = (points[0].t, points[1].t);
     let width = t2 - t1;
-    let t = t_star
+    let past = if t_star > t2 {
+        0.5 * width
+    } else if t_star < t1 {
+        -0.5 * width
+    } else {
+        0.0
+    };
+    let t = (t_star + past)
         .clamp(t1 - 2.0 * width, t2 + 2.0 * width)
         .clamp(0.0, 1.0);
     let x = range.value(t);
