@@ -7,22 +7,31 @@
 //! - **The leader** ([`leader`]: the middle state point of the table's order, for a table swept
 //!   over φ the middle φ, whose minimum is nearer to most siblings' than an end's) searches on
 //!   its own ([`crate::minimise`]).
-//! - **The prior**: c is the median relative curvature (c / vertex value) of the parabolas the
-//!   siblings' own runs make (convex, vertex among their runs: the leader's first three runs
-//!   usually); the expected minimum is the median of the siblings' minima (their vertex, or
-//!   for a sibling with two runs, its two-run estimate below).
+//! - **The prior**: c is the leader's relative curvature (c / vertex value) of the parabola
+//!   its own runs make (convex, vertex among them: its first three runs usually; while it has
+//!   none, the median over the siblings that have one). The expected minimum of a **scout**
+//!   (a follower whose state point differs from the leader's in one key, φ or X0) is the
+//!   leader's minimum; a follower that differs in both keys waits for the two scouts with its
+//!   φ and its X0 and expects the leader's minimum moved by both scouts' shifts ([`scouts`]:
+//!   additive in the keys, as Δ*_NNL moves with φ much as it does whatever X0, EDMD paper
+//!   Fig. 11; a measured table's minima move by 0.2–0.3 of the log range between its φ, more
+//!   than a pair's half-width, so the leader's alone is no prior for the far rows).
 //! - **A follower** waits while the leader has not located a minimum, then runs a pair
 //!   straddling the expected minimum, `h` either side where c h² ≤ [`TOLERANCE`] (so that where
-//!   the pair straddles its minimum, the better run is within it). From two values y₁, y₂ at
-//!   t₁ < t₂ and the shared c, its own minimum is
-//!   t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) / (2 c (t₂ − t₁)),
-//!   and the model puts its better run c (t_best − t*)² above its minimum. With t* between
-//!   the two values (they straddle the minimum: |ln y₂ − ln y₁| ≤ c (t₂ − t₁)²), no further
-//!   apart than a pair, and within [`TOLERANCE`]: stopped ([`Stopped::Pooled`]), the better run
-//!   reported. Else t* is run next (unless it is as good as run already), and a state point
-//!   with three values, or a failed run, or a prior that is gone, searches on its own from what
-//!   it has. Without noise a wrong prior costs runs, not the answer (tests/pool.rs); with noise
-//!   of a few per cent a pair far down a flank can pass for one straddling the minimum
+//!   the pair straddles its minimum, the better run is within it). From its values y_i at t_i
+//!   and the shared c, its own minimum t* is the least-squares fit of ln y = α + c (t − t*)²
+//!   (`pooled_minimum`; through two values t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) /
+//!   (2 c (t₂ − t₁))), and the model puts its better run c (t_best − t*)² above its minimum.
+//!   With t* between two values no further apart than a pair, and within [`TOLERANCE`]:
+//!   stopped ([`Stopped::Pooled`]), t* reported (as a search of its own reports its vertex)
+//!   with the better run as the objective. Else a third value is run: t*, or beyond the pair
+//!   half a pair past it (the pair's near value and the third then hold the minimum between
+//!   them where the curve is gentler on that side than the shared curvature says), at most two
+//!   pair widths out; the three are judged as the pair was, and must agree by their own
+//!   parabola too (convex, the better run within [`TOLERANCE`] of its vertex). A state point
+//!   with a fourth value, or a failed run, or a prior that is gone, searches on its own from
+//!   what it has. Without noise a wrong prior costs runs, not the answer (tests/pool.rs); with
+//!   noise of a few per cent a pair far down a flank can pass for one straddling the minimum
 //!   (MEASUREMENTS.md gives how often).
 //! - Every member's own search, the leader's included, locates to [`TOLERANCE`] too (its
 //!   `value_tolerance` raised to it): a table's minima are found to one tolerance.
