@@ -45,9 +45,12 @@ use crate::noise::{self, Point};
 use crate::{Conclusion, Evaluation, Objective, Proposal, Step, Stopped, in_range};
 
 /// How far above the pooled model's minimum a follower's better run may lie when it stops: a
-/// fraction of the minimum. Two per cent is less than one run's noise (2–3 %) and less than half
-/// of the 5 % over which Fig. 10's minima are flat.
-pub const TOLERANCE: f64 = 0.02;
+/// fraction of the minimum. Three per cent is about one run's noise (the same scene run twice
+/// on a shared VM: 1.5–2 % apart) and well below the 5 % over which Fig. 10's minima are flat:
+/// a tolerance below the noise buys pairs too narrow for two runs to place a minimum in (two
+/// per cent cost 15.0 runs per table of the measured curves at 2 % noise, 15 % of the tables
+/// over 16, for as many state points within 5 %: MEASUREMENTS.md).
+pub const TOLERANCE: f64 = 0.03;
 
 /// Positions of a follower's pair lie on multiples of this (dyadic, so the pair of a repeated
 /// search is the same values).
@@ -404,14 +407,14 @@ mod tests {
             curvature: 8.0,
             position: 0.5,
         });
-        assert_eq!(flat, [0.3125, 0.6875]);
+        assert_eq!(flat, [0.28125, 0.71875]);
         assert_eq!(sharp, [0.46875, 0.53125]);
         // Kept inside the range at its ends.
         let end = pair(&Prior {
             curvature: 1.0,
             position: 0.99,
         });
-        assert_eq!(end, [0.75, 1.0]);
+        assert_eq!(end, [0.6875, 1.0]);
     }
 
     #[test]
