@@ -326,7 +326,8 @@ fn own_fit(points: &[Point]) -> Option<(f64, f64)> {
 /// (each value weighted by its runs); through two values t* = (t₁ + t₂)/2 − (ln y₂ − ln y₁) /
 /// (2 c (t₂ − t₁)). None unless every value is positive and two positions differ.
 fn pooled_minimum(points: &[Point], curvature: f64) -> Option<f64> {
-    if points.len() < 2 || points.iter().any(|p| !(p.mean() > 0.0)) || curvature <= 0.0 {
+    let positive = points.iter().all(|p| p.mean() > 0.0);
+    if points.len() < 2 || !positive || curvature <= 0.0 {
         return None;
     }
     let weight = |p: &Point| p.values.len() as f64;

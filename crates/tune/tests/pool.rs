@@ -167,7 +167,11 @@ fn followers_of_a_table_with_a_trend_start_from_their_scouts_minima() {
         })
         .collect();
     for p in [0, 4] {
-        assert!(pool::scouts(&members, p).iter().all(Option::is_some), "{p}");
+        let scouts = pool::scouts(&members, p);
+        assert!(
+            scouts.len() == 2 && scouts.iter().all(Option::is_some),
+            "{p}"
+        );
         let (c, n) = &results[p];
         assert_eq!((c.stopped, *n), (Stopped::Pooled, 2), "{p}: {c:?}");
     }
