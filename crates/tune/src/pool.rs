@@ -63,7 +63,7 @@ pub struct Member<'a> {
     pub done: &'a [Evaluation],
     pub in_flight: &'a [Proposal],
     /// The values of the keys the table sweeps (φ and X0 for EDMD): only compared for
-    /// equality, to find the siblings that differ from the leader in one key ([`scout_of`]).
+    /// equality, to find the siblings that differ from the leader in one key ([`scouts`]).
     pub coordinates: [f64; 2],
 }
 
@@ -233,15 +233,6 @@ impl Prior {
             Some((_, c)) => c,
             None => median(fits.iter().map(|&(_, c)| c).collect())?,
         };
-        let minima = siblings
-            .iter()
-            .filter_map(|p| match own_fit(p) {
-                Some((t, _)) => Some(t),
-                None if p.len() == 2 => pooled_minimum(p, curvature),
-                None => None,
-            })
-            .map(|t| t.clamp(0.0, 1.0))
-            .collect();
         let position = match leading {
             Some((base, _)) => {
                 let shift: f64 = scouts(pool, me)
@@ -252,7 +243,17 @@ impl Prior {
                     .sum();
                 base + shift
             }
-            None => median(minima)?,
+            None => median(
+                siblings
+                    .iter()
+                    .filter_map(|p| match own_fit(p) {
+                        Some((t, _)) => Some(t),
+                        None if p.len() == 2 => pooled_minimum(p, curvature),
+                        None => None,
+                    })
+                    .map(|t| t.clamp(0.0, 1.0))
+                    .collect(),
+            )?,
         };
         Some(Prior {
             curvature,
