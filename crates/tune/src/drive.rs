@@ -5,7 +5,9 @@
 //! once and hands each to the searches of its state point (O(jobs × knobs searched) hashes, then
 //! O(the state point's jobs) per search), which a driver does when jobs have finished. The
 //! searches of one table that share a [`TuneSearch::pool`] decide together ([`crate::pool`]):
-//! O(searches²) key comparisons and O(pool² × its runs) per call, a few hundred at most.
+//! O(searches²) key comparisons and O(pool² × its runs) per call (three times that where a
+//! follower that differs from the leader in both keys asks its two scouts where they stand), a
+//! few hundred at most.
 
 use std::collections::{BTreeSet, HashMap};
 
@@ -144,6 +146,7 @@ pub async fn steps(store: &Store, searches: &[TuneSearch]) -> Result<Vec<SearchS
                 .map(|&j| pool::Member {
                     done: &evaluated[j].0,
                     in_flight: &evaluated[j].1,
+                    coordinates: [searches[j].template.phi, searches[j].template.x0],
                 })
                 .collect();
             let me = pool.iter().position(|&j| j == first[i]).unwrap_or(0);

@@ -91,7 +91,8 @@ pub enum Stopped {
     /// Loosest safe: the loosest value of the range is safe.
     RangeEndSafe,
     /// Minimisation pooled over a table's state points: the curvature the siblings share puts
-    /// the minimum within [`pool::TOLERANCE`] of the better of this state point's two values.
+    /// the minimum within [`pool::TOLERANCE`] of the better of this state point's two or three
+    /// values.
     Pooled,
 }
 

@@ -46,6 +46,7 @@ fn drive(
             .map(|p| pool::Member {
                 done: &done[p],
                 in_flight: &in_flight[p],
+                coordinates: table_coordinates(p),
             })
             .collect();
         let steps: Vec<Step> = (0..curves.len())
@@ -102,6 +103,12 @@ fn drive(
     panic!("the table did not stop in 1000 steps");
 }
 
+/// Where state point `p` of a table lies: the plan's order of a table swept over φ (outer) and
+/// X0 (inner, two values), as indices.
+fn table_coordinates(p: usize) -> [f64; 2] {
+    [(p / 2) as f64, (p % 2) as f64]
+}
+
 fn range() -> Range {
     Range::new(0.01, 0.4).unwrap()
 }
@@ -133,6 +140,54 @@ fn followers_of_one_shared_shape_spend_two_runs_each() {
         }
     }
     assert!(runs <= 16, "{runs} runs for six state points");
+}
+
+#[test]
+fn followers_of_a_table_with_a_trend_start_from_their_scouts_minima() {
+    // Δ* falls with φ (the table's outer key) as in Fig. 11 and moves a little with X0: the
+    // minima of the φ = 0.3 row lie 0.25 above the leader's, beyond a pair centred on it. The
+    // scouts (one key away from the leader) find theirs; the two state points that differ in
+    // both keys start from the leader's minimum moved by both scouts', and need two runs (a
+    // pair centred on the leader's would not hold their minima).
+    let t_star = |p: usize| 0.5 + 0.25 * (1.0 - (p / 2) as f64) - 0.06 * (1.0 - (p % 2) as f64);
+    let curves: Vec<Curve> = (0..6)
+        .map(|p| Curve {
+            t_star: t_star(p),
+            curvature: 2.5,
+            level: 18.0 + p as f64,
+        })
+        .collect();
+    let range = range();
+    let results = drive(&range, minimise::Settings::default(), &curves, 0.0, 3);
+    let members: Vec<pool::Member> = (0..6)
+        .map(|p| pool::Member {
+            done: &[],
+            in_flight: &[],
+            coordinates: table_coordinates(p),
+        })
+        .collect();
+    for p in [0, 4] {
+        let scouts = pool::scouts(&members, p);
+        assert!(
+            scouts.len() == 2 && scouts.iter().all(Option::is_some),
+            "{p}"
+        );
+        let (c, n) = &results[p];
+        assert_eq!((c.stopped, *n), (Stopped::Pooled, 2), "{p}: {c:?}");
+    }
+    for (p, (c, _)) in results.iter().enumerate() {
+        let excess = curves[p].excess(&range, c.objective.unwrap().x);
+        assert!(excess <= pool::TOLERANCE, "{p}: {excess} {c:?}");
+        let [lo, hi] = c.interval.unwrap();
+        let x_star = range.exact(curves[p].t_star);
+        assert!(lo <= x_star && x_star <= hi, "{p}: {c:?}");
+    }
+    // The scouts of the far rows pay for the trend: a pair, its guess, and their own search.
+    let runs: usize = results.iter().map(|(_, n)| n).sum();
+    assert!(
+        runs <= 3 + 4 * 2 + 2 * 4,
+        "{runs} runs for six state points"
+    );
 }
 
 #[test]
@@ -172,6 +227,7 @@ fn a_pool_of_one_is_a_search_of_its_own() {
     let alone = [pool::Member {
         done: &done,
         in_flight: &[],
+        coordinates: [0.3, 2.0],
     }];
     assert_eq!(
         tune::next_in_pool(&range, &goal, &alone, 0),
