@@ -2,16 +2,16 @@
 //!
 //! F(λ) = λ(1−λ) rᵀ[(1−λ)A + λB]⁻¹ r with A = Σ a_k² u_k u_kᵀ (J. Comput. Phys. 58, 409 (1985)).
 //! max_λ F = μ², where μ is the factor by which both ellipsoids must be scaled about their centres
-//! to touch: μ < 1 ⇔ overlap. F is concave in λ, so a one-dimensional search finds the maximum.
+//! to touch: μ < 1 ⇔ overlap. F is concave in λ, so Newton on F′(λ) = 0 inside a bracket finds
+//! the maximum.
 
-use crate::contact::brent_min;
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{M3, V3};
 
 /// Contact scale factor μ = √(max_λ F(λ)) for ellipsoids A, B with orientations `rot_*`
 /// (rows = body axes) and centre separation `r` = r_B − r_A.
 pub fn contact_scale(ea: &Ellipsoid, rot_a: &M3, eb: &Ellipsoid, rot_b: &M3, r: &V3) -> f64 {
-    scale_of(&contact_function(ea, rot_a, eb, rot_b, r))
+    Pw::new(ea, rot_a, eb, rot_b, r).scale()
 }
 
 /// The contact scale, or `None` where it is proved above `k` without being computed: F is
@@ -25,32 +25,81 @@ pub fn contact_scale_unless_above(
     r: &V3,
     k: f64,
 ) -> Option<f64> {
-    let f = contact_function(ea, rot_a, eb, rot_b, r);
-    (f(0.5) <= k * k).then(|| scale_of(&f))
+    let pw = Pw::new(ea, rot_a, eb, rot_b, r);
+    (pw.f(0.5) <= k * k).then(|| pw.scale())
 }
 
-/// F(λ) of A and B.
-fn contact_function(
-    ea: &Ellipsoid,
-    rot_a: &M3,
-    eb: &Ellipsoid,
-    rot_b: &M3,
-    r: &V3,
-) -> impl Fn(f64) -> f64 {
-    let a = ea.a_lab(rot_a);
-    let b = eb.a_lab(rot_b);
-    let r = *r;
-    move |l: f64| {
-        let m = a * (1.0 - l) + b * l;
-        l * (1.0 - l) * r.dot(&solve_spd(&m, &r))
+/// F(λ) of A and B, with its derivatives.
+struct Pw {
+    a: M3,
+    /// B − A = dM/dλ, M(λ) = (1 − λ)A + λB.
+    d: M3,
+    r: V3,
+}
+
+impl Pw {
+    fn new(ea: &Ellipsoid, rot_a: &M3, eb: &Ellipsoid, rot_b: &M3, r: &V3) -> Self {
+        let a = ea.a_lab(rot_a);
+        Pw {
+            a,
+            d: eb.a_lab(rot_b) - a,
+            r: *r,
+        }
     }
-}
 
-/// μ = √(max_λ F(λ)).
-fn scale_of(f: &impl Fn(f64) -> f64) -> f64 {
-    // Brent's parabolic steps converge in a dozen evaluations on this smooth concave function.
-    let (_, neg_max) = brent_min(0.0, 0.5, 1.0, 1e-10, |l| -f(l));
-    (-neg_max).max(0.0).sqrt()
+    fn m(&self, l: f64) -> M3 {
+        self.a + self.d * l
+    }
+
+    fn f(&self, l: f64) -> f64 {
+        l * (1.0 - l) * self.r.dot(&solve_spd(&self.m(l), &self.r))
+    }
+
+    /// F, F′, F″ at λ: with x = M⁻¹r and g = r·x, g′ = −xᵀDx and g″ = 2 (Dx)ᵀM⁻¹(Dx)
+    /// (dM⁻¹/dλ = −M⁻¹DM⁻¹), and F = h g with h = λ(1 − λ).
+    fn derivatives(&self, l: f64) -> (f64, f64, f64) {
+        let m = self.m(l);
+        let x = solve_spd(&m, &self.r);
+        let dx = self.d * x;
+        let (g, g1, g2) = (
+            self.r.dot(&x),
+            -x.dot(&dx),
+            2.0 * dx.dot(&solve_spd(&m, &dx)),
+        );
+        let (h, h1) = (l * (1.0 - l), 1.0 - 2.0 * l);
+        (h * g, h1 * g + h * g1, -2.0 * g + 2.0 * h1 * g1 + h * g2)
+    }
+
+    /// μ = √(max_λ F(λ)): Newton on F′ = 0 from λ = ½, kept inside the bracket where F′ changes
+    /// sign (F′(0) = rᵀA⁻¹r > 0 > F′(1)), a bisection wherever a step leaves it. F is concave, so
+    /// Newton converges quadratically, in 3–5 steps where Brent's search took a dozen and more
+    /// evaluations to 10⁻¹⁰. The largest F seen is returned: every F(λ) is a lower bound of μ².
+    fn scale(&self) -> f64 {
+        let (mut lo, mut hi, mut l) = (0.0_f64, 1.0_f64, 0.5_f64);
+        let mut best = 0.0_f64;
+        for _ in 0..100 {
+            let (f, f1, f2) = self.derivatives(l);
+            best = best.max(f);
+            if f1 > 0.0 {
+                lo = l;
+            } else {
+                hi = l;
+            }
+            let newton = l - f1 / f2;
+            let next = if f2 < 0.0 && newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
+            // At the maximum F is flat: a step of 10⁻⁹ changes F by ~|F″|·10⁻¹⁸, below rounding.
+            if (next - l).abs() <= 1e-9 * (1.0 + l) || hi - lo <= 1e-12 {
+                best = best.max(self.f(next));
+                break;
+            }
+            l = next;
+        }
+        best.max(0.0).sqrt()
+    }
 }
 
 /// m⁻¹ r for a symmetric positive definite 3×3 matrix, by the adjugate (Cramer's rule).
@@ -95,6 +144,35 @@ mod tests {
             if exact { above += 1 } else { below += 1 }
         }
         assert!(above > 100 && below > 100, "{above} above, {below} below");
+    }
+
+    proptest::proptest! {
+        /// Newton's maximum of F is Brent's (`contact::brent_min`, an independent search, to
+        /// 10⁻¹³ in λ) within 10⁻⁹ relative, and no F(λ) on a grid exceeds it: random
+        /// ellipsoids of aspect ratios up to 10, orientations and separations from deep overlap
+        /// to far apart.
+        #[test]
+        fn newton_finds_the_maximum_brent_finds(
+            s in proptest::array::uniform6(0.1f64..1.0),
+            angles in proptest::array::uniform6(-3.2f64..3.2),
+            r in proptest::array::uniform3(-3.0f64..3.0),
+        ) {
+            let ea = Ellipsoid::new(s[0], s[1], s[2]);
+            let eb = Ellipsoid::new(s[3], s[4], s[5]);
+            let ra = crate::rigid::rotate(&M3::identity(), &V3::new(angles[0], angles[1], angles[2]), 1.0);
+            let rb = crate::rigid::rotate(&M3::identity(), &V3::new(angles[3], angles[4], angles[5]), 1.0);
+            let r = V3::new(r[0], r[1], r[2]);
+            proptest::prop_assume!(r.norm() > 1e-3);
+            let pw = Pw::new(&ea, &ra, &eb, &rb, &r);
+            let mu = pw.scale();
+            let (_, neg) = crate::contact::brent_min(0.0, 0.5, 1.0, 1e-13, |l| -pw.f(l));
+            let oracle = (-neg).sqrt();
+            proptest::prop_assert!((mu / oracle - 1.0).abs() < 1e-9, "{} vs {}", mu, oracle);
+            for k in 1..200 {
+                let l = k as f64 / 200.0;
+                proptest::prop_assert!(pw.f(l) <= mu * mu * (1.0 + 1e-12), "F({}) above", l);
+            }
+        }
     }
 
     #[test]
