@@ -5,13 +5,14 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::distance::{
-    Distance, Guess, SolverStats, Tolerances, distance, multipliers_guess, solve5,
+    Distance, Guess, SolverStats, Tolerances, distance, elongated, multipliers_guess, solve5,
 };
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
 use crate::rigid::{
     Body, GapSide, Towards, ddot_max, gap_safe_time, gap_safe_time_towards,
     support_acceleration_bound,
 };
+use crate::support_distance::{Certified, certify, support_point_lab};
 
 /// Everything the contact search needs besides the solver tolerances.
 #[derive(Clone, Copy, Debug)]
@@ -296,8 +297,12 @@ pub struct AxisGap {
 /// gradient ascent on the unit sphere from the line of centres come close: ∇g = x_B − x_A, the
 /// vector between the support points, and the step is damped by the largest radii of curvature,
 /// which bound how fast the support points move with n. No Newton–Raphson, no failure.
+/// Bodies of aspect ratio above 5 take [`gilbert_axis`] instead.
 pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     const STEPS: usize = 4;
+    if elongated(sa) || elongated(sb) {
+        return gilbert_axis(sa, pa, sb, pb);
+    }
     // Worked in A's body frame: B's axes seen from A, and the line of centres.
     let b_to_a = pa.rot * pb.rot.transpose();
     let r = pa.rot * (pb.r - pa.r);
@@ -326,6 +331,43 @@ pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Axis
         rot_b: pb.rot,
     }
 }
+
+/// [`separating_axis`] for needles and plates, whose largest radius of curvature (10 to 100
+/// times the smallest semi-axis) damps the ascent to a standstill: the best axis of a few
+/// iterations of Gilbert's algorithm ([`certify`]), every gap of which is as rigorous a lower
+/// bound. Bodies it proves overlapping get the line of centres and its (negative) gap.
+fn gilbert_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
+    let l = sa.semi_axes().min().min(sb.semi_axes().min());
+    let (gap, n, xa, xb) = match certify(sa, pa, sb, pb, GILBERT_AXIS_TOL * l, GILBERT_AXIS_ITER) {
+        Certified::Apart {
+            lower, n, xa, xb, ..
+        }
+        | Certified::Undecided {
+            lower, n, xa, xb, ..
+        } => (lower, n, xa, xb),
+        Certified::Overlapping { .. } => {
+            let n = (pb.r - pa.r).normalize();
+            let (xa, xb) = (
+                support_point_lab(sa, pa, &n),
+                support_point_lab(sb, pb, &-n),
+            );
+            (n.dot(&(xb - xa)), n, xa, xb)
+        }
+    };
+    AxisGap {
+        gap,
+        n,
+        offset_a: xa - pa.r,
+        offset_b: xb - pb.r,
+        rot_a: pa.rot,
+        rot_b: pb.rot,
+    }
+}
+
+/// How close [`gilbert_axis`] brings its gap to the distance (in units of the smallest
+/// semi-axis), and the iterations it may take for it.
+const GILBERT_AXIS_TOL: f64 = 0.05;
+const GILBERT_AXIS_ITER: u32 = 16;
 
 /// The largest radius of curvature, or the bounding radius where a flat face has none.
 fn search_radius<S: Surface>(s: &S) -> f64 {
@@ -882,6 +924,57 @@ pub fn brent_min(a: f64, b: f64, c: f64, tol: f64, mut f: impl FnMut(f64) -> f64
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ellipsoid::Ellipsoid;
+    use crate::rigid::rotate;
+
+    /// Needles and plates (X0 = 10 and 0.1, volume π/6) apart by up to 30 % more than where
+    /// they touch, in random orientations: the separating-axis gap never exceeds the distance
+    /// Gilbert's algorithm certifies to 1e-10, and comes within a tenth of the smallest
+    /// semi-axis of it on average (the damped ascent, which stayed near the line of centres,
+    /// fell 3.6 semi-axes short at X0 = 10).
+    #[test]
+    fn the_separating_axis_of_needles_and_plates_bounds_the_distance_closely() {
+        let mut rng = crate::rng::Rng::new(31);
+        for x0 in [10.0f64, 0.1] {
+            let b = 0.5 / x0.cbrt();
+            let e = Ellipsoid::new(x0 * b, b, b);
+            let l = e.semi_axes().min();
+            let mut shortfall = 0.0;
+            for _ in 0..300 {
+                let mut rot = || {
+                    let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
+                    rotate(&M3::identity(), &axis, 1.0)
+                };
+                let (ra, rb) = (rot(), rot());
+                let dir = V3::new(rng.normal(), rng.normal(), rng.normal());
+                let touching = dir / crate::pw::contact_scale(&e, &ra, &e, &rb, &dir);
+                let pa = Pose {
+                    r: V3::zeros(),
+                    rot: ra,
+                };
+                let pb = Pose {
+                    r: touching * (1.001 + 0.3 * rng.uniform()),
+                    rot: rb,
+                };
+                let gap = separating_axis(&e, &pa, &e, &pb).gap;
+                let Certified::Apart { lower, upper, .. } =
+                    certify(&e, &pa, &e, &pb, 1e-10 * l, 1_000_000)
+                else {
+                    panic!("X0 {x0}: apart bodies not certified")
+                };
+                assert!(
+                    gap <= upper + 1e-12,
+                    "X0 {x0}: gap {gap} above the distance {upper}"
+                );
+                shortfall += (lower - gap) / l;
+            }
+            assert!(
+                shortfall / 300.0 <= 0.1,
+                "X0 {x0}: mean shortfall {}",
+                shortfall / 300.0
+            );
+        }
+    }
 
     #[test]
     fn brent_finds_parabola_minimum() {

@@ -223,7 +223,7 @@ fn solve_distance<S: Surface>(
     stats: &mut SolverStats,
 ) -> Option<Distance> {
     let l = sa.semi_axes().min().min(sb.semi_axes().min());
-    let elongated = aspect(sa).max(aspect(sb)) > GUESS_ASPECT;
+    let elongated = elongated(sa) || elongated(sb);
     if let Some(g) = warm {
         let xa = pa.to_lab(&g.xa_body);
         let warm_tol = Tolerances {
@@ -357,6 +357,12 @@ const GILBERT_START_ITER: u32 = 1_000;
 fn aspect<S: Surface>(s: &S) -> f64 {
     let semi = s.semi_axes();
     semi.max() / semi.min()
+}
+
+/// Whether the guess of Sec. 3.2 (and the contact search's damped axis ascent) is poor for `s`:
+/// its aspect ratio is above [`GUESS_ASPECT`].
+pub(crate) fn elongated<S: Surface>(s: &S) -> bool {
+    aspect(s) > GUESS_ASPECT
 }
 
 /// The start of Newton–Raphson for elongated bodies: the support points along the best
