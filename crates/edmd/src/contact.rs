@@ -118,11 +118,9 @@ pub fn predict<S: Surface>(
     let mut failures = 0;
     // Step multiplier for the far regime (see below); 1 is the plain step of Eq. (39).
     let mut k: f64 = 1.0;
-    // The secant jump needs a curvature bound to prove its contact the first, and is tried once
-    // per search. Flat faces could prove it with their support modulus, but measured at p = 4
-    // and 10 the jump saved few distances and its overshoots deep into overlaps cost hundreds
-    // of Newton–Raphson fallbacks per 10⁴ collisions.
-    let mut secant = sa.max_curvature_radius().is_finite() && sb.max_curvature_radius().is_finite();
+    // The secant jump, tried once per search, proves its contact the first with a curvature
+    // bound, or on flat faces with their support modulus ([`Search::first_contact_after`]).
+    let mut secant = true;
     if secant
         && let Some(c) = cur
         && c.d > p.eps_d
@@ -524,7 +522,9 @@ impl<S: Surface> Search<'_, S> {
     /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart), is the first
     /// after t0. The support gap g along the contact normal n bounds d from below at every time
     /// and is zero at the contact, where it closes at the rate ġ < 0; with |g̈| ≤ M
-    /// ([`support_acceleration_bound`]), g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M. The
+    /// ([`support_acceleration_bound`]), g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M; on
+    /// flat faces (M = ∞) g(t_c − s) ≥ |ġ|s − P(s) with the powers P of the support modulus
+    /// ([`gap_safe_time_towards`] backwards from g = 0). The
     /// rest of [t0, t_c], if any, must pass the two-sided test of [`Search::no_zero_between`]
     /// with one more distance (at 90 % of that window before the contact).
     fn first_contact_after(&mut self, t0: f64, d0: &Distance, h: &Hit) -> bool {
@@ -543,10 +543,23 @@ impl<S: Surface> Search<'_, S> {
             self.sb.bounding_radius(),
             self.sb.max_curvature_radius(),
         );
-        if !(rate < 0.0 && m.is_finite() && h.t > t0) {
+        if !(rate < 0.0 && h.t > t0) {
             return false;
         }
-        let tv = h.t - 0.9 * 2.0 * -rate / m;
+        let window = if m.is_finite() {
+            2.0 * -rate / m
+        } else {
+            // A flat face has no curvature bound: the powers of its support modulus bound how
+            // the gap along n reopens backwards from the contact instead (g = 0 there).
+            gap_safe_time_towards(
+                &GapSide::new(self.sa, a, &pa.rot, h.xc - pa.r, &h.n),
+                &GapSide::new(self.sb, b, &pb.rot, h.xc - pb.r, &-h.n),
+                &h.n,
+                0.0,
+                Towards::Past,
+            )
+        };
+        let tv = h.t - 0.9 * window;
         if tv <= t0 {
             return true;
         }

@@ -675,8 +675,9 @@ fn the_p4_pair_that_passed_through_each_other_collides_at_its_first_contact() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(40))]
 
-    /// Fast-spinning superquadrics up to p = 10, half of them at p = 2 exactly (ellipsoids, where
-    /// the contact search may take a secant jump and must prove its contact the first): no
+    /// Fast-spinning superquadrics up to p = 10, half of them at p = 2 exactly (the contact
+    /// search's secant jump must prove its contact the first: by the curvature bound at p = 2,
+    /// by the support modulus of the flat faces above): no
     /// sampled time before the predicted contact (or before the horizon, if none is predicted)
     /// has the bodies overlapping by Gilbert's algorithm.
     #[test]
