@@ -330,8 +330,8 @@ pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Axis
     }
 }
 
-/// [`separating_axis`] for needles and plates, whose largest radius of curvature (10 to 100
-/// times the smallest semi-axis) damps the ascent to a standstill: the best axis of a few
+/// [`separating_axis`] for needles and plates, whose largest radius of curvature (aspect² times
+/// the smallest semi-axis: 100 at X0 = 10 and 0.1) damps the ascent to a standstill: the best axis of a few
 /// iterations of Gilbert's algorithm ([`certify`]), every gap of which is as rigorous a lower
 /// bound. Bodies it proves overlapping get the line of centres and its (negative) gap.
 fn gilbert_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
