@@ -46,6 +46,12 @@ pub struct SolverStats {
     pub failures: u64,
     /// Contact times for which Newton–Raphson on Eqs. (30) failed and bisection of d(t) was used.
     pub contact_fallbacks: u64,
+    /// Distances of elongated bodies (aspect above [`GUESS_ASPECT`]) that Gilbert's algorithm
+    /// proved overlapping and Newton–Raphson did not resolve (no negative distance of Eqs. 9
+    /// that deep): reported as the certified overlap at once, without steepest descent or the
+    /// support fallback.
+    #[serde(default)]
+    pub certified_overlaps: u64,
     /// Distances for which Newton–Raphson and steepest descent failed and the support-function
     /// iteration of [`crate::support_distance`] decided (converged or certified the overlap).
     pub distance_fallbacks: u64,
@@ -217,7 +223,7 @@ fn solve_distance<S: Surface>(
     stats: &mut SolverStats,
 ) -> Option<Distance> {
     let l = sa.semi_axes().min().min(sb.semi_axes().min());
-    let elongated = aspect(sa).max(aspect(sb)) > GUESS_ASPECT;
+    let elongated = elongated(sa) || elongated(sb);
     if let Some(g) = warm {
         let xa = pa.to_lab(&g.xa_body);
         let warm_tol = Tolerances {
@@ -232,14 +238,22 @@ fn solve_distance<S: Surface>(
             return Some(d);
         }
     }
-    let (xa, xb) = if elongated {
+    let (xa, xb, overlap) = if elongated {
         gilbert_guess(sa, pa, sb, pb, l)
     } else {
-        initial_guess(sa, pa, sb, pb)
+        let (xa, xb) = initial_guess(sa, pa, sb, pb);
+        (xa, xb, None)
     };
     let (alpha, beta) = multipliers_guess(sa, pa, sb, pb, &xa, &xb);
     if let Some(d) = newton(sa, pa, sb, pb, xa, alpha, beta, l, tol, stats) {
         return Some(d);
+    }
+    if let Some(certified) = overlap {
+        // Proved overlapping, and too deep for the negative distance of Eqs. (9): neither the
+        // steepest descent nor the support fallback would prove more.
+        stats.certified_overlaps += 1;
+        let (inside, lower) = certified;
+        return Some(overlap_distance(inside, lower, l, tol));
     }
     stats.sd_calls += 1;
     let (xa, xb) = steepest_descent(sa, pa, sb, pb, tol);
@@ -300,18 +314,24 @@ fn support_fallback<S: Surface>(
                 beta,
             })
         }
-        Certified::Overlapping { inside, lower } => Some(Distance {
-            d: if lower.is_finite() && lower < 0.0 {
-                lower
-            } else {
-                -tol.nr_tol * l
-            },
-            xa: inside,
-            xb: inside,
-            alpha: 1.0,
-            beta: 0.0,
-        }),
+        Certified::Overlapping { inside, lower } => Some(overlap_distance(inside, lower, l, tol)),
         Certified::Undecided { .. } => None,
+    }
+}
+
+/// The distance reported for bodies [`certify`] proved overlapping: its negative lower bound
+/// `lower` (−nr_tol·l where it has none), with the point `inside` both as either closest point.
+fn overlap_distance(inside: V3, lower: f64, l: f64, tol: &Tolerances) -> Distance {
+    Distance {
+        d: if lower.is_finite() && lower < 0.0 {
+            lower
+        } else {
+            -tol.nr_tol * l
+        },
+        xa: inside,
+        xb: inside,
+        alpha: 1.0,
+        beta: 0.0,
     }
 }
 
@@ -339,14 +359,30 @@ fn aspect<S: Surface>(s: &S) -> f64 {
     semi.max() / semi.min()
 }
 
+/// Whether the guess of Sec. 3.2 (and the contact search's damped axis ascent) is poor for `s`:
+/// its aspect ratio is above [`GUESS_ASPECT`].
+pub(crate) fn elongated<S: Surface>(s: &S) -> bool {
+    aspect(s) > GUESS_ASPECT
+}
+
 /// The start of Newton–Raphson for elongated bodies: the support points along the best
 /// separating axis Gilbert's algorithm finds ([`certify`]) within [`GILBERT_START_TOL`] of the
 /// distance, which lie near the closest points whatever the bodies' shapes; the guess of
-/// Sec. 3.2 where the bodies overlap.
-fn gilbert_guess<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, l: f64) -> (V3, V3) {
+/// Sec. 3.2 where the bodies overlap, with what proved the overlap (a point inside both and a
+/// lower bound on the signed distance).
+fn gilbert_guess<S: Surface>(
+    sa: &S,
+    pa: &Pose,
+    sb: &S,
+    pb: &Pose,
+    l: f64,
+) -> (V3, V3, Option<(V3, f64)>) {
     match certify(sa, pa, sb, pb, GILBERT_START_TOL * l, GILBERT_START_ITER) {
-        Certified::Apart { xa, xb, .. } | Certified::Undecided { xa, xb, .. } => (xa, xb),
-        Certified::Overlapping { .. } => initial_guess(sa, pa, sb, pb),
+        Certified::Apart { xa, xb, .. } | Certified::Undecided { xa, xb, .. } => (xa, xb, None),
+        Certified::Overlapping { inside, lower } => {
+            let (xa, xb) = initial_guess(sa, pa, sb, pb);
+            (xa, xb, Some((inside, lower)))
+        }
     }
 }
 
@@ -623,6 +659,49 @@ mod tests {
                 "X0 {x0}: {} Newton iterations for 400 distances",
                 stats.nr_iterations
             );
+        }
+    }
+
+    /// Needles and plates pushed into each other (centres at 40–90 % of where they touch, as
+    /// where the contact search's jumps land): too deep for the negative distance of Eqs. (9),
+    /// each is the overlap Gilbert's algorithm proved, at once: no steepest descent, no support
+    /// fallback, a negative distance (a support gap: a lower bound) and a point inside both.
+    #[test]
+    fn deep_overlaps_of_elongated_bodies_are_certified_without_the_fallback() {
+        let mut rng = crate::rng::Rng::new(29);
+        for x0 in [10.0, 0.1] {
+            let e = unit_ellipsoid(x0);
+            let (mut stats, mut before) = (SolverStats::default(), 0);
+            for _ in 0..200 {
+                let (pa, mut pb) = near_contact(&e, &mut rng);
+                pb.r *= 0.4 + 0.5 * rng.uniform();
+                let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut stats)
+                    .expect("a distance");
+                // The Perram–Wertheim scale, an independent test: below 1 they overlap.
+                assert!(crate::pw::contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) < 1.0);
+                assert!(d.d < 0.0, "X0 {x0}: overlapping bodies {} apart", d.d);
+                // A support gap is no lower than −|r_B − r_A| − L_A − L_B.
+                assert!(
+                    d.d >= -4.0 * e.s.max(),
+                    "X0 {x0}: {} below every support gap",
+                    d.d
+                );
+                let certified = stats.certified_overlaps;
+                if certified > before {
+                    let (qa, qb) = (e.place(&pa), e.place(&pb));
+                    assert!(
+                        qa.f(&d.xa) < 0.0 && qb.f(&d.xa) < 0.0,
+                        "X0 {x0}: not inside both"
+                    );
+                }
+                before = certified;
+            }
+            assert_eq!(
+                (stats.sd_calls, stats.distance_fallbacks, stats.failures),
+                (0, 0, 0),
+                "X0 {x0}"
+            );
+            assert!(stats.certified_overlaps >= 40, "X0 {x0}: {stats:?}");
         }
     }
 

@@ -44,6 +44,10 @@ pub struct RunReport {
     /// Distances decided by the support-function fallback after Newton–Raphson and steepest
     /// descent failed (whole run; converged or a proved overlap, not failures).
     pub distance_fallbacks: u64,
+    /// Distances of elongated bodies (aspect above 5) that Gilbert's algorithm proved
+    /// overlapping where Newton–Raphson found no negative distance (whole run): the certified
+    /// overlap, decided before steepest descent and the support fallback (not failures).
+    pub certified_overlaps: u64,
     /// Newton–Raphson iterations per distance evaluation in the measured run (0 on the sphere path).
     pub nr_iterations_mean: f64,
     /// The most Newton–Raphson iterations one distance evaluation took (whole run).

@@ -934,6 +934,7 @@ fn figures<M: Saves>(
         solver_failures: stats.failures,
         contact_nr_fallbacks: stats.contact_fallbacks,
         distance_fallbacks: stats.distance_fallbacks,
+        certified_overlaps: stats.certified_overlaps,
         nr_iterations_mean: if calls > 0.0 {
             (stats.nr_iterations - stats0.nr_iterations) as f64 / calls
         } else {

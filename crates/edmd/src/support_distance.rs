@@ -28,10 +28,11 @@ pub enum Certified {
     /// from the best axis tried (a negative bound on the signed distance).
     Overlapping { inside: V3, lower: f64 },
     /// Neither within the iterations: the bodies touch to within `upper` − `lower`; `xa`, `xb`
-    /// are the support points along the best axis, a start for Newton–Raphson.
+    /// are the support points along the best axis `n`, a start for Newton–Raphson.
     Undecided {
         lower: f64,
         upper: f64,
+        n: V3,
         xa: V3,
         xb: V3,
     },
@@ -121,6 +122,7 @@ pub fn certify<S: Surface>(
     Certified::Undecided {
         lower: best.0,
         upper,
+        n: best.1,
         xa: best.2,
         xb: best.3,
     }
