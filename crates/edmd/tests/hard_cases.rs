@@ -672,6 +672,82 @@ fn the_p4_pair_that_passed_through_each_other_collides_at_its_first_contact() {
     assert!(certainly_overlapping(&q, &a, &b, hit.t + 1e-4));
 }
 
+/// How a spinning pair of the proptests below is drawn: B's direction from A, the axes and
+/// angles of their orientations, B's velocity, their angular velocities, the gap between them.
+#[derive(Clone, Debug)]
+struct Spin {
+    dir: [f64; 3],
+    axes: [f64; 3],
+    angles: [f64; 2],
+    v: [f64; 3],
+    wa: [f64; 3],
+    wb: [f64; 3],
+    gap: f64,
+}
+
+prop_compose! {
+    fn spin()(
+        dir in prop::array::uniform3(-1.0f64..1.0),
+        axes in prop::array::uniform3(-1.0f64..1.0),
+        angles in prop::array::uniform2(0.0f64..3.2),
+        v in prop::array::uniform3(-1.5f64..1.5),
+        wa in prop::array::uniform3(-6.0f64..6.0),
+        wb in prop::array::uniform3(-6.0f64..6.0),
+        gap in 1e-6f64..0.3,
+    ) -> Spin {
+        Spin { dir, axes, angles, v, wa, wb, gap }
+    }
+}
+
+/// A spinning pair of `q`s drawn as `spin`: no sampled time before the predicted contact (or
+/// the horizon, where none is predicted) has the bodies overlapping by Gilbert's algorithm.
+fn predicted_contact_is_the_first<S: Surface>(q: &S, spin: Spin) -> Result<(), TestCaseError> {
+    let Spin {
+        dir,
+        axes,
+        angles,
+        v,
+        wa,
+        wb,
+        gap,
+    } = spin;
+    prop_assume!(V3::from(dir).norm() > 0.1 && V3::from(axes).norm() > 0.1);
+    let ra = rotate(&M3::identity(), &V3::from(axes), angles[0]);
+    let rb = rotate(&M3::identity(), &V3::from(dir), angles[1]);
+    let a = still(V3::zeros(), V3::zeros(), ra, V3::from(wa));
+    // B along `dir`, moved out until the bodies are `gap` apart along the line of centres.
+    let u = V3::from(dir).normalize();
+    let reach = q.bounding_radius() * 2.0 + gap;
+    let mut lo = 0.0;
+    let mut hi = reach;
+    for _ in 0..40 {
+        let m = 0.5 * (lo + hi);
+        let probe = still(u * m, V3::zeros(), rb, V3::zeros());
+        if certainly_overlapping(q, &a, &probe, 0.0) {
+            lo = m
+        } else {
+            hi = m
+        }
+    }
+    let b = still(u * (hi + gap), V3::from(v), rb, V3::from(wb));
+    prop_assume!(!certainly_overlapping(q, &a, &b, 0.0));
+    let horizon = 1.0;
+    let mut stats = SolverStats::default();
+    let hit = predict(q, &a, q, &b, horizon, &params(), &mut stats);
+    prop_assert_eq!(stats.failures, 0);
+    let end = hit.map_or(horizon, |h| h.t);
+    for k in 0..100 {
+        let t = end * k as f64 / 100.0;
+        prop_assert!(
+            !certainly_overlapping(q, &a, &b, t),
+            "overlap at {} before {:?}",
+            t,
+            hit
+        );
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(40))]
 
@@ -684,40 +760,9 @@ proptest! {
     fn the_predicted_contact_of_spinning_superquadrics_is_the_first(
         x0 in prop::sample::select(vec![0.5, 2.0]),
         p in prop_oneof![Just(2.0), 2.0f64..10.0],
-        dir in prop::array::uniform3(-1.0f64..1.0),
-        axes in prop::array::uniform3(-1.0f64..1.0),
-        angles in prop::array::uniform2(0.0f64..3.2),
-        v in prop::array::uniform3(-1.5f64..1.5),
-        wa in prop::array::uniform3(-6.0f64..6.0),
-        wb in prop::array::uniform3(-6.0f64..6.0),
-        gap in 1e-6f64..0.3,
+        spin in spin(),
     ) {
-        prop_assume!(V3::from(dir).norm() > 0.1 && V3::from(axes).norm() > 0.1);
-        let q = superquadric(x0, p);
-        let ra = rotate(&M3::identity(), &V3::from(axes), angles[0]);
-        let rb = rotate(&M3::identity(), &V3::from(dir), angles[1]);
-        let a = still(V3::zeros(), V3::zeros(), ra, V3::from(wa));
-        // B along `dir`, moved out until the bodies are `gap` apart along the line of centres.
-        let u = V3::from(dir).normalize();
-        let reach = q.bounding_radius() * 2.0 + gap;
-        let mut lo = 0.0;
-        let mut hi = reach;
-        for _ in 0..40 {
-            let m = 0.5 * (lo + hi);
-            let probe = still(u * m, V3::zeros(), rb, V3::zeros());
-            if certainly_overlapping(&q, &a, &probe, 0.0) { lo = m } else { hi = m }
-        }
-        let b = still(u * (hi + gap), V3::from(v), rb, V3::from(wb));
-        prop_assume!(!certainly_overlapping(&q, &a, &b, 0.0));
-        let horizon = 1.0;
-        let mut stats = SolverStats::default();
-        let hit = predict(&q, &a, &q, &b, horizon, &params(), &mut stats);
-        prop_assert_eq!(stats.failures, 0);
-        let end = hit.map_or(horizon, |h| h.t);
-        for k in 0..100 {
-            let t = end * k as f64 / 100.0;
-            prop_assert!(!certainly_overlapping(&q, &a, &b, t), "overlap at {} before {:?}", t, hit);
-        }
+        predicted_contact_is_the_first(&superquadric(x0, p), spin)?;
     }
 
     /// Fast-spinning needles and plates (X0 = 10 and 0.1, whose searches step on Gilbert's
@@ -726,40 +771,9 @@ proptest! {
     #[test]
     fn the_predicted_contact_of_spinning_needles_and_plates_is_the_first(
         x0 in prop::sample::select(vec![0.1, 10.0]),
-        dir in prop::array::uniform3(-1.0f64..1.0),
-        axes in prop::array::uniform3(-1.0f64..1.0),
-        angles in prop::array::uniform2(0.0f64..3.2),
-        v in prop::array::uniform3(-1.5f64..1.5),
-        wa in prop::array::uniform3(-6.0f64..6.0),
-        wb in prop::array::uniform3(-6.0f64..6.0),
-        gap in 1e-6f64..0.3,
+        spin in spin(),
     ) {
-        prop_assume!(V3::from(dir).norm() > 0.1 && V3::from(axes).norm() > 0.1);
-        let q = ellipsoid(x0);
-        let ra = rotate(&M3::identity(), &V3::from(axes), angles[0]);
-        let rb = rotate(&M3::identity(), &V3::from(dir), angles[1]);
-        let a = still(V3::zeros(), V3::zeros(), ra, V3::from(wa));
-        // B along `dir`, moved out until the bodies are `gap` apart along the line of centres.
-        let u = V3::from(dir).normalize();
-        let reach = q.bounding_radius() * 2.0 + gap;
-        let mut lo = 0.0;
-        let mut hi = reach;
-        for _ in 0..40 {
-            let m = 0.5 * (lo + hi);
-            let probe = still(u * m, V3::zeros(), rb, V3::zeros());
-            if certainly_overlapping(&q, &a, &probe, 0.0) { lo = m } else { hi = m }
-        }
-        let b = still(u * (hi + gap), V3::from(v), rb, V3::from(wb));
-        prop_assume!(!certainly_overlapping(&q, &a, &b, 0.0));
-        let horizon = 1.0;
-        let mut stats = SolverStats::default();
-        let hit = predict(&q, &a, &q, &b, horizon, &params(), &mut stats);
-        prop_assert_eq!(stats.failures, 0);
-        let end = hit.map_or(horizon, |h| h.t);
-        for k in 0..100 {
-            let t = end * k as f64 / 100.0;
-            prop_assert!(!certainly_overlapping(&q, &a, &b, t), "overlap at {} before {:?}", t, hit);
-        }
+        predicted_contact_is_the_first(&ellipsoid(x0), spin)?;
     }
 }
 
