@@ -562,7 +562,8 @@ fn short_run_of_superquadrics_at_p_10() {
 #[test]
 #[ignore = "hours on a shared machine: run with --ignored"]
 fn long_runs_of_extreme_ellipsoids() {
-    for (x0, n) in [(0.1, 128), (0.2, 128), (5.0, 256), (10.0, 512)] {
+    // N 160 at X0 = 0.1: with 128 the box (6.4629) is short of three linked cells (6.4633).
+    for (x0, n) in [(0.1, 160), (0.2, 128), (5.0, 256), (10.0, 512)] {
         for nb in [Neighbours::Nnl, Neighbours::Ll] {
             run_clean(x0, n, 0.3, nb, 100_000);
         }
