@@ -459,7 +459,7 @@ pub struct QuickBound {
 pub fn quick_bound<S: Surface>(sa: &S, a: &Body, sb: &S, b: &Body, horizon: f64) -> QuickBound {
     if elongated(sa) || elongated(sb) {
         // Needles and plates: the ascent stalls near the line of centres, Gilbert's axis does not.
-        let gap = separating_axis(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
+        let gap = gilbert_axis(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
         let lower = gap.safe_time(sa, a, sb, b);
         return QuickBound {
             lower,

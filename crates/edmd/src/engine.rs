@@ -769,13 +769,19 @@ impl<M: Rigid> Engine<M> {
     fn contact_with(&self, i: usize, j: usize, a: &Body, b: &Body) -> Option<Known> {
         let (p, q, (xc, _), offset) = self.met?;
         let (p, q) = (p as usize, q as usize);
+        // Every candidate of the pair's two predictions asks: the pair is looked for first.
+        let first = match (i, j) {
+            _ if (i, j) == (p, q) => true,
+            _ if (i, j) == (q, p) => false,
+            _ => return None,
+        };
         // The contact point as the event's first body saw it, its partner's image `offset` away.
         let (off_p, off_q) = (xc - self.bodies[p].r, xc - (self.bodies[q].r + offset));
         let seen = self.bodies[q].r + offset - self.bodies[p].r;
-        let (offset_a, offset_b, seen) = match (i, j) {
-            _ if (i, j) == (p, q) => (off_p, off_q, seen),
-            _ if (i, j) == (q, p) => (off_q, off_p, -seen),
-            _ => return None,
+        let (offset_a, offset_b, seen) = if first {
+            (off_p, off_q, seen)
+        } else {
+            (off_q, off_p, -seen)
         };
         // Another image of the partner (any other is a box length away) did not collide.
         ((b.r - a.r - seen).norm_squared() < 0.25 * self.l * self.l)
