@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use crate::axes::PairAxes;
 use crate::body::{Moving, SphereBody};
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
@@ -56,6 +57,8 @@ pub(crate) struct Engine<M: Model> {
     /// (`Extra`, the image offset of the second), so that each one's search for the other starts
     /// from that contact.
     met: Option<(u32, u32, M::Extra, V3)>,
+    /// Each rigid pair's last separating axis, where its next quick bound starts.
+    axes: PairAxes,
     pub(crate) acc: Accounting,
     /// The first error of the event loop (a contact search no solver could resolve, a list beyond
     /// its limits); the loop stops on it.
@@ -80,6 +83,10 @@ pub(crate) struct EngineState<X, R: Region> {
     pub(crate) acc: Accounting,
     pub(crate) sequence: Fingerprint,
     pub(crate) stats: crate::distance::SolverStats,
+    /// Rigid bodies' kept separating axes (version 3); a sphere's state has none, and a file
+    /// without them continues with none kept.
+    #[serde(default, skip_serializing_if = "PairAxes::is_empty")]
+    pub(crate) axes: PairAxes,
 }
 
 impl<X, R: Region> EngineState<X, R> {
@@ -172,6 +179,7 @@ impl<M: FirstCollision> Engine<M> {
             order: Vec::new(),
             near: Vec::new(),
             met: None,
+            axes: PairAxes::default(),
             acc: Accounting {
                 ke_trans,
                 ..Default::default()
@@ -207,6 +215,7 @@ impl<M: FirstCollision> Engine<M> {
             acc: self.acc,
             sequence: self.sequence.clone(),
             stats: self.m.stats(),
+            axes: self.axes.clone(),
         }
     }
 
@@ -225,6 +234,7 @@ impl<M: FirstCollision> Engine<M> {
             order: Vec::new(),
             near: Vec::new(),
             met: None,
+            axes: s.axes,
             acc: s.acc,
             failure: None,
             last_parting: None,
@@ -706,7 +716,13 @@ impl<M: Rigid> Engine<M> {
                         near.push((b, Some(contact)));
                         continue;
                     }
-                    let q = self.m.quick_bound([i, ju], a, &b, best.t - self.t);
+                    let start = self.axes.get(i, ju);
+                    let q = self
+                        .m
+                        .quick_bound([i, ju], a, &b, best.t - self.t, start.as_ref());
+                    if let Some(n) = &q.axis {
+                        self.axes.put(self.bodies.len(), i, ju, n);
+                    }
                     order.push((q.estimate, q.lower, j, shift, near.len() as u32));
                     near.push((b, q.now.map(Known::Gap)));
                 } else {

@@ -33,7 +33,8 @@
 //!   body, lists of [`ball::SizedBall`]s sized per pair), or the general rigid body (its collision
 //!   rule and the contact-time search of one pair).
 //! - [`engine`]: the event loop, generic over the model: collisions, cell crossings, box escapes,
-//!   each body's first-collision search, and the sums the measurements are made of.
+//!   each body's first-collision search, and the sums the measurements are made of; `axes`: the
+//!   rigid pairs' separating axes kept from one prediction to the next.
 //! - [`audit`]: the overlap audit of the final state, every pair found through cells and decided
 //!   independently of the engine's solvers; superquadrics by [`audit::overlap_certified`] (a
 //!   separating axis with a positive support gap, from Gilbert's algorithm or Newton's normal).
@@ -74,6 +75,7 @@
 //! and the isotropic moment of inertia (2/5) m min(a, b)² of their inscribed sphere.
 
 pub mod audit;
+mod axes;
 pub mod ball;
 pub mod body;
 pub mod calendar;

@@ -333,7 +333,14 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
     /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
     /// overlap, and an estimate of it to order the searches by; a bound at or beyond `horizon`
     /// (a time after the present) need not be tight.
-    fn quick_bound(&self, pair: [usize; 2], a: &Body, b: &Body, horizon: f64) -> QuickBound;
+    fn quick_bound(
+        &self,
+        pair: [usize; 2],
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+        start: Option<&V3>,
+    ) -> QuickBound;
     fn solver_stats(&self) -> &SolverStats;
 }
 
@@ -456,8 +463,15 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
             &mut self.stats,
         )
     }
-    fn quick_bound(&self, _: [usize; 2], a: &Body, b: &Body, horizon: f64) -> QuickBound {
-        quick_bound(&self.e, a, &self.e, b, horizon)
+    fn quick_bound(
+        &self,
+        _: [usize; 2],
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+        start: Option<&V3>,
+    ) -> QuickBound {
+        quick_bound(&self.e, a, &self.e, b, horizon, start)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats
@@ -601,16 +615,24 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
             .searched([i, j], self.stats.distance_calls - calls);
         hit
     }
-    fn quick_bound(&self, [i, j]: [usize; 2], a: &Body, b: &Body, horizon: f64) -> QuickBound {
+    fn quick_bound(
+        &self,
+        [i, j]: [usize; 2],
+        a: &Body,
+        b: &Body,
+        horizon: f64,
+        start: Option<&V3>,
+    ) -> QuickBound {
         if self.round[i] && self.round[j] {
             let tau = self.sphere_contact([i, j], a, b);
             return QuickBound {
                 lower: tau,
                 estimate: tau,
                 now: None,
+                axis: None,
             };
         }
-        quick_bound(&self.shapes[i], a, &self.shapes[j], b, horizon)
+        quick_bound(&self.shapes[i], a, &self.shapes[j], b, horizon, start)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats

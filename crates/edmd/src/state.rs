@@ -35,9 +35,10 @@ use crate::scene::Scene;
 /// What the `format` field of a state file holds.
 pub const FORMAT: &str = "sweep-edmd-state";
 /// The layout of [`SavedState`]; a change to any saved engine structure must raise it.
-/// Version 2 lets a neighbour list spill beyond its room (`lists.lists.spill`); a version 1 file
-/// is a version 2 file without spilled lists, and is read as one.
-pub const VERSION: u32 = 2;
+/// Version 2 lets a neighbour list spill beyond its room (`lists.lists.spill`); version 3 keeps
+/// rigid pairs' separating axes (`engine.*.axes`). An older file is a newer one without them,
+/// and is read as one (a rigid run from a version 2 file continues with no axes kept).
+pub const VERSION: u32 = 3;
 
 /// A saved run (see the module's documentation for the format).
 #[derive(Serialize, Deserialize)]

@@ -297,3 +297,45 @@ fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
         "{err}"
     );
 }
+
+/// A rigid body's state keeps its pairs' separating axes (version 3), a sphere's has none; a
+/// version 2 file of ellipsoids, which had none, still continues (without the axes' starts the
+/// run is not the saved one's bit for bit, but it is a run: no overlap, the same collisions).
+#[test]
+fn an_ellipsoid_state_without_kept_axes_continues() {
+    use ciborium::Value;
+    fn drop_axes(v: &mut Value) -> usize {
+        match v {
+            Value::Map(entries) => {
+                let before = entries.len();
+                entries.retain(|(k, _)| !matches!(k, Value::Text(t) if t == "axes"));
+                let mut dropped = before - entries.len();
+                for (k, val) in entries.iter_mut() {
+                    if matches!(k, Value::Text(t) if t == "version") {
+                        *val = Value::Integer(2.into());
+                    }
+                    dropped += drop_axes(val);
+                }
+                dropped
+            }
+            Value::Array(items) => items.iter_mut().map(drop_axes).sum(),
+            _ => 0,
+        }
+    }
+    let decode = |bytes: &[u8]| -> Value { ciborium::from_reader(bytes).expect("CBOR") };
+    let k = 2_000;
+    let (_, spheres) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), None, 0);
+    let mut v = decode(&spheres.last().expect("the final state").1);
+    assert_eq!(drop_axes(&mut v), 0, "a sphere's state keeps no axes");
+    let (_, first) = run(&scene(ShapeKind::Ellipsoid, Neighbours::Nnl, k), None, 0);
+    let mut v = decode(&first.last().expect("the final state").1);
+    assert_eq!(drop_axes(&mut v), 1, "an ellipsoid's state keeps its axes");
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&v, &mut bytes).expect("encodes");
+    let (continued, _) = run(
+        &scene(ShapeKind::Ellipsoid, Neighbours::Nnl, k),
+        Some(&bytes),
+        0,
+    );
+    assert_eq!(continued.particles.len(), 256);
+}
