@@ -301,6 +301,8 @@ fn approach<S: Surface>(
     let (sa, a, sb, b) = (search.sa, search.a, search.sb, search.b);
     let mut t = t1;
     let mut steps = 0;
+    // The axis of the step before: the next step's ascent starts there.
+    let mut axis: Option<V3> = None;
     loop {
         steps += 1;
         if steps > MAX_STEPS {
@@ -309,10 +311,12 @@ fn approach<S: Surface>(
             return None;
         }
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
-        let gap = match now.take() {
-            Some(gap) if t == 0.0 => gap,
+        let gap = match (now.take(), axis) {
+            (Some(gap), _) if t == 0.0 => gap,
+            (_, Some(n)) => separating_axis_from(sa, &pa, sb, &pb, &n),
             _ => separating_axis(sa, &pa, sb, &pb),
         };
+        axis = Some(gap.n);
         // A small gap may still prove the horizon free (a pair parting, a close horizon): then
         // no distance is needed at all.
         let safe = gap.safe_time(sa, a, sb, b);
@@ -369,6 +373,19 @@ pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Axis
     }
     let mut ascent = AxisAscent::start(sa, pa, sb, pb);
     ascent.step_to(sa, sb, AXIS_STEPS);
+    ascent.gap()
+}
+
+/// [`separating_axis`] started from the unit axis `n` (lab frame, from A to B) instead of the
+/// line of centres: an axis from a moment before is close to the best one, and
+/// [`WARM_AXIS_STEPS`] steps take it the rest of the way.
+pub fn separating_axis_from<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, n: &V3) -> AxisGap {
+    if elongated(sa) || elongated(sb) {
+        return gilbert_axis(sa, pa, sb, pb);
+    }
+    let mut ascent = AxisAscent::start(sa, pa, sb, pb);
+    ascent.n = pa.rot * n;
+    ascent.step_to(sa, sb, WARM_AXIS_STEPS);
     ascent.gap()
 }
 
