@@ -7,6 +7,8 @@ pub struct Ellipsoid {
     /// Semi-axes (a, b, c) along body axes 0, 1, 2.
     pub s: V3,
     inv2: V3,
+    /// The largest radius of curvature, asked of every bound the contact search makes.
+    rho_max: f64,
 }
 
 impl Ellipsoid {
@@ -15,6 +17,7 @@ impl Ellipsoid {
         Ellipsoid {
             s,
             inv2: V3::new(1.0 / (a * a), 1.0 / (b * b), 1.0 / (c * c)),
+            rho_max: s.max().powi(2) / s.min(),
         }
     }
 
@@ -80,7 +83,7 @@ impl Surface for Ellipsoid {
         dir / dir.component_mul(dir).dot(&self.inv2).sqrt()
     }
     fn max_curvature_radius(&self) -> f64 {
-        self.s.max().powi(2) / self.s.min()
+        self.rho_max
     }
     fn support_modulus(&self, _v: &V3) -> SupportModulus {
         SupportModulus::quadratic(self.max_curvature_radius())
