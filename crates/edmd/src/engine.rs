@@ -46,9 +46,9 @@ pub(crate) struct Engine<M: Model> {
     pub(crate) t: f64,
     nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
-    /// Candidate partners: (estimate, lower bound, partner, image shift, index in `near` or
-    /// [`FAR`]).
-    order: Vec<(f64, f64, u32, [i32; 3], u32)>,
+    /// Candidate partners: (estimate, lower bound, the time the search may stop at, partner,
+    /// image shift, index in `near` or [`FAR`]).
+    order: Vec<(f64, f64, f64, u32, [i32; 3], u32)>,
     /// Rigid candidates whose bounding spheres overlap now: the partner at the present, and what
     /// is known of the pair already (the quick bound's separating-axis gap, or the contact just
     /// resolved).
@@ -699,6 +699,12 @@ impl<M: Rigid> Engine<M> {
             if ju == i {
                 continue;
             }
+            // A contact after the partner leaves its box is the partner's to find: its rebuild
+            // predicts it anew against every box its new one meets (Sec. 3.3).
+            let until = match &self.nb {
+                Neighbourhood::Nnl { escape_at, .. } => best.t.min(escape_at[ju]),
+                Neighbourhood::Ll { .. } => best.t,
+            };
             // Where the bounding spheres are concerned, positions suffice; a body is rotated to
             // the present only when its orientation matters.
             let bj = &self.bodies[ju];
@@ -712,28 +718,29 @@ impl<M: Rigid> Engine<M> {
                     if let Some(contact) = self.contact_with(i, ju, a, &b) {
                         // The pair has just collided and parts: rarely the first to meet again,
                         // it is searched last, with the shortest horizon.
-                        order.push((f64::INFINITY, 0.0, j, shift, near.len() as u32));
+                        order.push((f64::INFINITY, 0.0, until, j, shift, near.len() as u32));
                         near.push((b, Some(contact)));
                         continue;
                     }
                     let start = self.axes.get(i, ju);
                     let q = self
                         .m
-                        .quick_bound([i, ju], a, &b, best.t - self.t, start.as_ref());
+                        .quick_bound([i, ju], a, &b, until - self.t, start.as_ref());
                     if let Some(n) = &q.axis {
                         self.axes.put(self.bodies.len(), i, ju, n);
                     }
-                    order.push((q.estimate, q.lower, j, shift, near.len() as u32));
+                    order.push((q.estimate, q.lower, until, j, shift, near.len() as u32));
                     near.push((b, q.now.map(Known::Gap)));
                 } else {
-                    order.push((t1, t1, j, shift, FAR));
+                    order.push((t1, t1, until, j, shift, FAR));
                 }
             }
         }
         order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         // Likely first partners first, so that the horizon shrinks early; the bound decides skipping.
-        for &(_, lower, j, shift, k) in &order {
-            if self.t + lower >= best.t {
+        for &(_, lower, until, j, shift, k) in &order {
+            let until = until.min(best.t);
+            if self.t + lower >= until {
                 continue;
             }
             let ju = j as usize;
@@ -746,7 +753,7 @@ impl<M: Rigid> Engine<M> {
                 (*b, now.take())
             };
             let failures = self.m.solver_stats().failures;
-            let hit = self.m.predict([i, ju], a, &b, best.t - self.t, now);
+            let hit = self.m.predict([i, ju], a, &b, until - self.t, now);
             let stats = self.m.solver_stats();
             if stats.failures > failures && self.failure.is_none() {
                 let arr = |v: V3| [v.x, v.y, v.z];
