@@ -233,36 +233,41 @@ fn time_frames_come_at_the_first_collision_after_each_interval() {
     }
 }
 
+/// A state file as an older version wrote it: every map entry `newer` names dropped, the version
+/// set to `version`; how many entries it dropped.
+fn as_version(
+    v: &mut ciborium::Value,
+    version: u32,
+    newer: &dyn Fn(&ciborium::Value, &ciborium::Value) -> bool,
+) -> usize {
+    use ciborium::Value;
+    match v {
+        Value::Map(entries) => {
+            let before = entries.len();
+            entries.retain(|(k, val)| !newer(k, val));
+            let mut dropped = before - entries.len();
+            for (k, val) in entries.iter_mut() {
+                if matches!(k, Value::Text(t) if t == "version") {
+                    *val = Value::Integer(version.into());
+                }
+                dropped += as_version(val, version, newer);
+            }
+            dropped
+        }
+        Value::Array(items) => items
+            .iter_mut()
+            .map(|x| as_version(x, version, newer))
+            .sum(),
+        _ => 0,
+    }
+}
+
 /// A state file of version 1, written before neighbour lists could spill past their room (no
 /// `spill` and `free` in its lists), is read and continues as the version 2 file it differs from;
 /// a later version is refused, naming it.
 #[test]
 fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
     use ciborium::Value;
-    // Drops the empty `spill` and `free` of every list; returns how many it dropped.
-    fn as_version_1(v: &mut Value) -> usize {
-        match v {
-            Value::Map(entries) => {
-                let before = entries.len();
-                entries.retain(|(k, val)| {
-                    !(matches!(k, Value::Text(t) if t == "spill" || t == "free")
-                        && matches!(val, Value::Array(a) if a.is_empty()))
-                });
-                let mut dropped = before - entries.len();
-                for (k, val) in entries.iter_mut() {
-                    if let Value::Text(t) = k
-                        && t == "version"
-                    {
-                        *val = Value::Integer(1.into());
-                    }
-                    dropped += as_version_1(val);
-                }
-                dropped
-            }
-            Value::Array(items) => items.iter_mut().map(as_version_1).sum(),
-            _ => 0,
-        }
-    }
     let encode = |v: &Value| {
         let mut out = Vec::new();
         ciborium::into_writer(v, &mut out).expect("encodes");
@@ -273,11 +278,12 @@ fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
     let (_, first) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), None, 0);
     let bytes = &first.last().expect("the final state").1;
     let mut v: Value = ciborium::from_reader(&bytes[..]).expect("CBOR");
-    assert_eq!(
-        as_version_1(&mut v),
-        2,
-        "no list spilled at the end of the first half"
-    );
+    // Drops the empty `spill` and `free` of every list.
+    let dropped = as_version(&mut v, 1, &|k, val| {
+        matches!(k, Value::Text(t) if t == "spill" || t == "free")
+            && matches!(val, Value::Array(a) if a.is_empty())
+    });
+    assert_eq!(dropped, 2, "no list spilled at the end of the first half");
     let v1 = encode(&v);
     let (continued, _) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), Some(&v1), 0);
     assert_same_bits(&whole, &continued, "from version 1");
@@ -304,32 +310,23 @@ fn a_version_1_state_file_continues_and_a_later_version_is_refused() {
 #[test]
 fn an_ellipsoid_state_without_kept_axes_continues() {
     use ciborium::Value;
-    fn drop_axes(v: &mut Value) -> usize {
-        match v {
-            Value::Map(entries) => {
-                let before = entries.len();
-                entries.retain(|(k, _)| !matches!(k, Value::Text(t) if t == "axes"));
-                let mut dropped = before - entries.len();
-                for (k, val) in entries.iter_mut() {
-                    if matches!(k, Value::Text(t) if t == "version") {
-                        *val = Value::Integer(2.into());
-                    }
-                    dropped += drop_axes(val);
-                }
-                dropped
-            }
-            Value::Array(items) => items.iter_mut().map(drop_axes).sum(),
-            _ => 0,
-        }
-    }
+    let axes = |k: &Value, _: &Value| matches!(k, Value::Text(t) if t == "axes");
     let decode = |bytes: &[u8]| -> Value { ciborium::from_reader(bytes).expect("CBOR") };
     let k = 2_000;
     let (_, spheres) = run(&scene(ShapeKind::Sphere, Neighbours::Nnl, k), None, 0);
     let mut v = decode(&spheres.last().expect("the final state").1);
-    assert_eq!(drop_axes(&mut v), 0, "a sphere's state keeps no axes");
+    assert_eq!(
+        as_version(&mut v, 2, &axes),
+        0,
+        "a sphere's state keeps no axes"
+    );
     let (_, first) = run(&scene(ShapeKind::Ellipsoid, Neighbours::Nnl, k), None, 0);
     let mut v = decode(&first.last().expect("the final state").1);
-    assert_eq!(drop_axes(&mut v), 1, "an ellipsoid's state keeps its axes");
+    assert_eq!(
+        as_version(&mut v, 2, &axes),
+        1,
+        "an ellipsoid's state keeps its axes"
+    );
     let mut bytes = Vec::new();
     ciborium::into_writer(&v, &mut bytes).expect("encodes");
     let (continued, _) = run(
