@@ -311,10 +311,9 @@ fn approach<S: Surface>(
             return None;
         }
         let (pa, pb) = (a.pose_after(t), b.pose_after(t));
-        let gap = match (now.take(), axis) {
-            (Some(gap), _) if t == 0.0 => gap,
-            (_, Some(n)) => separating_axis_from(sa, &pa, sb, &pb, &n),
-            _ => separating_axis(sa, &pa, sb, &pb),
+        let gap = match now.take() {
+            Some(gap) if t == 0.0 => gap,
+            _ => separating_axis_from(sa, &pa, sb, &pb, axis.as_ref()),
         };
         axis = Some(gap.n);
         // A small gap may still prove the horizon free (a pair parting, a close horizon): then
@@ -368,33 +367,33 @@ pub struct AxisGap {
 /// which bound how fast the support points move with n. No Newton–Raphson, no failure.
 /// Bodies of aspect ratio above 5 take [`gilbert_axis`] instead.
 pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
+    separating_axis_from(sa, pa, sb, pb, None)
+}
+
+/// [`separating_axis`] started from the unit axis `from` (lab frame, from A to B) where one is
+/// known: an axis from a moment before is close to the best one, and [`WARM_AXIS_STEPS`] steps
+/// take it the rest of the way.
+pub fn separating_axis_from<S: Surface>(
+    sa: &S,
+    pa: &Pose,
+    sb: &S,
+    pb: &Pose,
+    from: Option<&V3>,
+) -> AxisGap {
     if elongated(sa) || elongated(sb) {
         return gilbert_axis(sa, pa, sb, pb);
     }
-    let mut ascent = AxisAscent::start(sa, pa, sb, pb);
-    ascent.step_to(sa, sb, AXIS_STEPS);
+    let mut ascent = AxisAscent::start(sa, pa, sb, pb, from);
+    ascent.finish(sa, sb);
     ascent.gap()
 }
 
-/// [`separating_axis`] started from the unit axis `n` (lab frame, from A to B) instead of the
-/// line of centres: an axis from a moment before is close to the best one, and
-/// [`WARM_AXIS_STEPS`] steps take it the rest of the way.
-pub fn separating_axis_from<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, n: &V3) -> AxisGap {
-    if elongated(sa) || elongated(sb) {
-        return gilbert_axis(sa, pa, sb, pb);
-    }
-    let mut ascent = AxisAscent::start(sa, pa, sb, pb);
-    ascent.n = pa.rot * n;
-    ascent.step_to(sa, sb, WARM_AXIS_STEPS);
-    ascent.gap()
-}
-
-/// The ascent steps of [`separating_axis`].
+/// The ascent steps of [`separating_axis`] from the line of centres, and from a known axis.
 const AXIS_STEPS: usize = 4;
 const WARM_AXIS_STEPS: usize = 2;
 
 /// The gradient ascent of [`separating_axis`], stepped on demand: the engine orders and rules out
-/// most candidates on the gap of the first step, and takes the others to [`AXIS_STEPS`].
+/// most candidates on the gap of the first step, and takes the others to the whole ascent.
 #[derive(Clone, Copy, Debug)]
 struct AxisAscent {
     /// B's axes seen from A's body frame, where the ascent works.
@@ -409,13 +408,19 @@ struct AxisAscent {
     rot_a: M3,
     rot_b: M3,
     steps: usize,
+    /// The steps of a whole ascent: fewer from a known axis than from the line of centres.
+    full: usize,
 }
 
 impl AxisAscent {
-    /// Before the first step, from the line of centres.
-    fn start<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Self {
+    /// Before the first step, from the axis `from` (lab frame, from A to B) or else from the line
+    /// of centres.
+    fn start<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, from: Option<&V3>) -> Self {
         let r = pa.rot * (pb.r - pa.r);
-        let n = r.normalize();
+        let (n, full) = match from {
+            Some(n) => (pa.rot * n, WARM_AXIS_STEPS),
+            None => (r.normalize(), AXIS_STEPS),
+        };
         AxisAscent {
             b_to_a: pa.rot * pb.rot.transpose(),
             r,
@@ -427,7 +432,13 @@ impl AxisAscent {
             rot_a: pa.rot,
             rot_b: pb.rot,
             steps: 0,
+            full,
         }
+    }
+
+    /// Steps until the ascent has taken all its steps.
+    fn finish<S: Surface>(&mut self, sa: &S, sb: &S) {
+        self.step_to(sa, sb, self.full);
     }
 
     /// Steps until `steps` have been taken in all.
@@ -503,10 +514,7 @@ pub fn quick_bound<S: Surface>(
             axis: None,
         };
     }
-    let mut ascent = AxisAscent::start(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
-    if let Some(n) = start {
-        ascent.n = a.rot * n;
-    }
+    let mut ascent = AxisAscent::start(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0), start);
     ascent.step_to(sa, sb, 1);
     let gap = ascent.gap();
     let lower = gap.safe_time(sa, a, sb, b);
@@ -518,15 +526,7 @@ pub fn quick_bound<S: Surface>(
             axis: Some(ascent.next_axis()),
         };
     }
-    ascent.step_to(
-        sa,
-        sb,
-        if start.is_some() {
-            WARM_AXIS_STEPS
-        } else {
-            AXIS_STEPS
-        },
-    );
+    ascent.finish(sa, sb);
     let gap = ascent.gap();
     // Both gaps bound the distance; the safe time of either is rigorous.
     let lower = gap.safe_time(sa, a, sb, b).max(lower);

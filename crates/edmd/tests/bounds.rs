@@ -74,7 +74,7 @@ proptest! {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
         prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
         let gap = match start {
-            Some(n) => separating_axis_from(&e, &pa, &e, &pb, &(V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize()),
+            Some(n) => separating_axis_from(&e, &pa, &e, &pb, Some(&(V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize())),
             None => separating_axis(&e, &pa, &e, &pb),
         };
         if let Some(d) = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut SolverStats::default()) {
