@@ -562,8 +562,10 @@ fn short_run_of_superquadrics_at_p_10() {
 #[test]
 #[ignore = "hours on a shared machine: run with --ignored"]
 fn long_runs_of_extreme_ellipsoids() {
-    // N 160 at X0 = 0.1: with 128 the box (6.4629) is short of three linked cells (6.4633).
-    for (x0, n) in [(0.1, 160), (0.2, 128), (5.0, 256), (10.0, 512)] {
+    // Each N gives a box of three linked cells at least (6 bounding radii): at φ = 0.3, N 128
+    // is short of it at X0 = 0.1 (6.4629 for 6.4633), 256 at X0 = 5 (7.95 for 8.77), 512 at
+    // X0 = 10 (10.0 for 13.9).
+    for (x0, n) in [(0.1, 160), (0.2, 128), (5.0, 400), (10.0, 1600)] {
         for nb in [Neighbours::Nnl, Neighbours::Ll] {
             run_clean(x0, n, 0.3, nb, 100_000);
         }
