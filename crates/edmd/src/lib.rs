@@ -76,6 +76,7 @@
 pub mod audit;
 pub mod ball;
 pub mod body;
+pub mod bracket;
 pub mod calendar;
 pub mod cells;
 pub mod clock;
