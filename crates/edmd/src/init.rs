@@ -14,11 +14,12 @@
 //! measured (`run::RELAX_COLLISIONS_PER_PARTICLE`).
 
 use crate::EdmdError;
+use crate::bracket::outer_factor_squared;
 use crate::cells::Near;
 use crate::ellipsoid::Ellipsoid;
 use crate::geometry::{M3, Surface, V3, round_nearest};
 use crate::nnl::{Obp, overlap};
-use crate::pw::contact_scale;
+use crate::pw::{self, contact_scale};
 use crate::rigid::{Body, Inertia, orthonormalize, rotate};
 use crate::rng::Rng;
 use crate::scale;
@@ -99,6 +100,18 @@ impl Geom {
                 crate::pw::contact_scale_unless_above(a, rot_a, b, rot_b, r, k)
             }
             _ => Some(self.contact_scale(other, rot_a, rot_b, r)),
+        }
+    }
+
+    /// Whether this body and `other` touch or overlap once both are scaled by `k` (contact scale
+    /// ≤ `k`): for ellipsoids decided without the maximum where the bounds of
+    /// [`crate::pw::within`] suffice, the same decisions as [`Geom::contact_scale`]'s.
+    pub fn within(&self, other: &Geom, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
+        match (self, other) {
+            (Geom::Ellipsoid(a), Geom::Ellipsoid(b)) => pw::within(a, rot_a, b, rot_b, r, k),
+            _ => self
+                .contact_scale_unless_above(other, rot_a, rot_b, r, k)
+                .is_some_and(|mu| mu <= k),
         }
     }
 
@@ -563,6 +576,25 @@ pub fn initial_mixture(
     })
 }
 
+/// A mixture's κ² ([`Packing::kappa2`]): one per body where all are superquadrics (κ depends
+/// on the exponents alone: a run of bodies of the same exponents shares it), none otherwise.
+fn kappa2_of_each(shapes: &[Geom]) -> Vec<f64> {
+    let mut last: Option<(V3, f64)> = None;
+    let mut kappa2 = Vec::with_capacity(shapes.len());
+    for g in shapes {
+        let Geom::Superquadric(q) = g else {
+            return Vec::new();
+        };
+        let k2 = match last {
+            Some((e, k2)) if e == q.e => k2,
+            _ => outer_factor_squared(q.e.into()),
+        };
+        last = Some((q.e, k2));
+        kappa2.push(k2);
+    }
+    kappa2
+}
+
 /// The order [`sort_along_z_curve`] puts the bodies in: the index of the body that goes first,
 /// second, … (for a mixture, whose sizes must follow their bodies).
 pub fn z_curve_order(bodies: &[Body], l: f64) -> Vec<usize> {
@@ -709,6 +741,16 @@ struct Packing {
     /// The diameter where every body is the same sphere: a pair test is then a distance
     /// compared ([`Packing::partners_of`]), with the generic path's decisions and scales.
     one_sphere: Option<f64>,
+    /// Per body, the lab matrix A = Rᵀ diag(s²) R of its ellipsoid (a superquadric's inscribed
+    /// one), kept with its orientation, so that a pair's Perram–Wertheim test is one 3×3 solve
+    /// (ellipsoids and superquadrics; empty for spheres).
+    lab: Vec<M3>,
+    /// Every body is an ellipsoid: pairs are decided by their bounding spheres, then by
+    /// Perram–Wertheim alone ([`Packing::touch`]), without the boxes of [`Geom::surely_apart`].
+    ellipsoids: bool,
+    /// Superquadrics' κ² ([`crate::bracket`]): the circumscribed ellipsoid's lab matrix is κ² A.
+    /// One for every body, or one per body of a mixture; empty for other shapes.
+    kappa2: Vec<f64>,
 }
 
 impl Packing {
@@ -728,7 +770,14 @@ impl Packing {
                 Geom::Sphere { sigma } => Some(sigma),
                 _ => None,
             },
+            lab: Vec::new(),
+            ellipsoids: matches!(geom, Geom::Ellipsoid(_)),
+            kappa2: match geom {
+                Geom::Superquadric(q) => vec![outer_factor_squared(q.e.into())],
+                _ => Vec::new(),
+            },
         };
+        p.lab = p.labs();
         p.count_overlaps();
         p
     }
@@ -743,6 +792,9 @@ impl Packing {
         let mut p = Packing::new(pos, rot, l, largest);
         p.shapes = Some(shapes.to_vec());
         p.one_sphere = None;
+        p.ellipsoids = shapes.iter().all(|g| matches!(g, Geom::Ellipsoid(_)));
+        p.kappa2 = kappa2_of_each(shapes);
+        p.lab = p.labs();
         p.count_overlaps();
         p
     }
@@ -755,19 +807,115 @@ impl Packing {
         }
     }
 
-    /// The contact scale of bodies `i` (orientation `q`) and `j` at separation `r`.
-    #[inline]
-    fn pair_scale(&self, i: usize, j: usize, q: &M3, r: &V3) -> f64 {
-        self.geom_of(i)
-            .contact_scale(self.geom_of(j), q, &self.rot[j], r)
+    /// Every body's lab matrix ([`Packing::lab`]), none where one is a sphere.
+    fn labs(&self) -> Vec<M3> {
+        (0..self.pos.len())
+            .map(|i| self.lab_of(i, &self.rot[i]))
+            .collect::<Option<_>>()
+            .unwrap_or_default()
     }
 
-    /// [`Packing::pair_scale`], or `None` where it is proved above `k` without being computed
-    /// ([`Geom::contact_scale_unless_above`]).
+    /// Body `i`'s lab matrix at orientation `q` ([`Packing::lab`]).
     #[inline]
-    fn pair_scale_unless_above(&self, i: usize, j: usize, q: &M3, r: &V3, k: f64) -> Option<f64> {
+    fn lab_of(&self, i: usize, q: &M3) -> Option<M3> {
+        let s = match self.geom_of(i) {
+            Geom::Sphere { .. } => return None,
+            Geom::Ellipsoid(e) => e.s,
+            Geom::Superquadric(sq) => sq.s,
+        };
+        Some(q.transpose() * M3::from_diagonal(&s.component_mul(&s)) * q)
+    }
+
+    /// Body `i`'s lab matrix where it has one, else zeros (which no pair test reads).
+    #[inline]
+    fn lab_or_zero(&self, i: usize, q: &M3) -> M3 {
+        if self.lab.is_empty() {
+            M3::zeros()
+        } else {
+            self.lab_of(i, q).unwrap_or_else(M3::zeros)
+        }
+    }
+
+    #[inline]
+    fn kappa2_of(&self, i: usize) -> f64 {
+        self.kappa2[if self.kappa2.len() == 1 { 0 } else { i }]
+    }
+
+    /// Whether the bounding spheres of `i` and `j` at separation `r`, scaled by `k`, are apart.
+    #[inline]
+    fn spheres_apart(&self, i: usize, j: usize, r: &V3, k: f64) -> bool {
+        let reach = (self.geom_of(i).bounding_radius() + self.geom_of(j).bounding_radius()) * k;
+        r.norm_squared() >= reach * reach
+    }
+
+    /// The contact scale of bodies `i` and `j` at separation `r` (both where they are).
+    #[inline]
+    fn pair_scale(&self, i: usize, j: usize, r: &V3) -> f64 {
+        if self.ellipsoids {
+            return pw::contact_scale_lab(&self.lab[i], &self.lab[j], r);
+        }
+        self.geom_of(i)
+            .contact_scale(self.geom_of(j), &self.rot[i], &self.rot[j], r)
+    }
+
+    /// The contact scale of bodies `i` (orientation `q`, lab matrix `ai`) and `j` at separation
+    /// `r`, or `None` where it is proved above `k` without being computed (bounding spheres,
+    /// [`Geom::contact_scale_unless_above`], a superquadric's circumscribed ellipsoid).
+    #[inline]
+    fn pair_scale_unless_above(
+        &self,
+        i: usize,
+        j: usize,
+        q: &M3,
+        ai: &M3,
+        r: &V3,
+        k: f64,
+    ) -> Option<f64> {
+        if self.ellipsoids {
+            if self.spheres_apart(i, j, r, k) {
+                return None;
+            }
+            return pw::contact_scale_unless_above_lab(ai, &self.lab[j], r, k);
+        }
+        if self.surely_apart(i, j, q, r) || self.outer_ellipsoids_apart(i, j, ai, r, k) {
+            return None;
+        }
         self.geom_of(i)
             .contact_scale_unless_above(self.geom_of(j), q, &self.rot[j], r, k)
+    }
+
+    /// Whether superquadrics `i` (lab matrix `ai`) and `j` at separation `r` are proved more
+    /// than `k` from contact by their circumscribed ellipsoids (μ_SQ ≥ μ_outer > k).
+    #[inline]
+    fn outer_ellipsoids_apart(&self, i: usize, j: usize, ai: &M3, r: &V3, k: f64) -> bool {
+        !self.kappa2.is_empty()
+            && pw::contact_scale_unless_above_lab(
+                &(ai * self.kappa2_of(i)),
+                &(self.lab[j] * self.kappa2_of(j)),
+                r,
+                k,
+            )
+            .is_none_or(|mu| mu > k)
+    }
+
+    /// Whether bodies `i` (orientation `q`, lab matrix `ai`) and `j` at separation `r` touch or
+    /// overlap (contact scale ≤ 1 + GAP), as [`Packing::pair_scale_unless_above`] decides it.
+    /// Ellipsoids are decided by [`pw::within_lab`]; superquadrics whose inscribed ellipsoids
+    /// touch do (μ_SQ ≤ μ_inner) without their distance.
+    #[inline]
+    fn touch(&self, i: usize, j: usize, q: &M3, ai: &M3, r: &V3) -> bool {
+        let k = 1.0 + GAP;
+        if self.ellipsoids {
+            return !self.spheres_apart(i, j, r, k) && pw::within_lab(ai, &self.lab[j], r, k);
+        }
+        if self.surely_apart(i, j, q, r) || self.outer_ellipsoids_apart(i, j, ai, r, k) {
+            return false;
+        }
+        if !self.kappa2.is_empty() && pw::within_lab(ai, &self.lab[j], r, k) {
+            return true;
+        }
+        self.geom_of(i)
+            .within(self.geom_of(j), q, &self.rot[j], r, k)
     }
 
     /// Whether bodies `i` (orientation `q`) and `j` at separation `r` surely do not touch
@@ -779,13 +927,30 @@ impl Packing {
     }
 
     fn count_overlaps(&mut self) {
-        let [mut partners, other] = std::mem::take(&mut self.partners);
-        for i in 0..self.pos.len() {
-            self.partners_of(i, &self.pos[i], &self.rot[i], &mut partners);
-            self.touching[i] = partners.len() as u32;
+        if self.one_sphere.is_some() {
+            let [mut partners, other] = std::mem::take(&mut self.partners);
+            for i in 0..self.pos.len() {
+                let ai = self.lab_or_zero(i, &self.rot[i]);
+                self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
+                self.touching[i] = partners.len() as u32;
+            }
+            self.partners = [partners, other];
+        } else {
+            // Counts need no contact scales: [`Packing::touch`] decides each pair.
+            for i in 0..self.pos.len() {
+                let (p, q) = (self.pos[i], self.rot[i]);
+                let ai = self.lab_or_zero(i, &q);
+                let mut count = 0;
+                self.near.all_around(&p, |j| {
+                    if j != i && self.touch(i, j, &q, &ai, &min_image(self.pos[j] - p, self.l)) {
+                        count += 1;
+                    }
+                    true
+                });
+                self.touching[i] = count;
+            }
         }
         self.overlaps = self.touching.iter().map(|&c| c as usize).sum::<usize>() / 2;
-        self.partners = [partners, other];
     }
 
     /// Scales the box and the positions in it by `s`.
@@ -798,9 +963,9 @@ impl Packing {
         self.count_overlaps();
     }
 
-    /// The bodies that body `i`, placed at `p` with orientation `q`, touches or overlaps, with
-    /// their contact scales.
-    fn partners_of(&self, i: usize, p: &V3, q: &M3, out: &mut Vec<(usize, f64)>) {
+    /// The bodies that body `i`, placed at `p` with orientation `q` (lab matrix `ai`), touches
+    /// or overlaps, with their contact scales.
+    fn partners_of(&self, i: usize, p: &V3, q: &M3, ai: &M3, out: &mut Vec<(usize, f64)>) {
         out.clear();
         if let Some(sigma) = self.one_sphere {
             // `Geom::surely_apart`'s bound is the contact itself: spheres touch where r < σ.
@@ -817,8 +982,7 @@ impl Packing {
         self.near.all_around(p, |j| {
             let r = min_image(self.pos[j] - p, self.l);
             if j != i
-                && !self.surely_apart(i, j, q, &r)
-                && let Some(mu) = self.pair_scale_unless_above(i, j, q, &r, 1.0 + GAP)
+                && let Some(mu) = self.pair_scale_unless_above(i, j, q, ai, &r, 1.0 + GAP)
                 && mu <= 1.0 + GAP
             {
                 out.push((j, mu));
@@ -827,8 +991,9 @@ impl Packing {
         });
     }
 
-    /// Whether body `i` at `p` with orientation `q` touches or overlaps another body.
-    fn touches_any(&self, i: usize, p: &V3, q: &M3) -> bool {
+    /// Whether body `i` at `p` with orientation `q` (lab matrix `ai`) touches or overlaps
+    /// another body.
+    fn touches_any(&self, i: usize, p: &V3, q: &M3, ai: &M3) -> bool {
         if let Some(sigma) = self.one_sphere {
             let reach2 = sigma * sigma;
             return !self.near.all_around(p, |j| {
@@ -836,12 +1001,7 @@ impl Packing {
             });
         }
         !self.near.all_around(p, |j| {
-            let r = min_image(self.pos[j] - p, self.l);
-            j == i
-                || self.surely_apart(i, j, q, &r)
-                || self
-                    .pair_scale_unless_above(i, j, q, &r, 1.0 + GAP)
-                    .is_none_or(|mu| mu > 1.0 + GAP)
+            j == i || !self.touch(i, j, q, ai, &min_image(self.pos[j] - p, self.l))
         })
     }
 
@@ -855,11 +1015,13 @@ impl Packing {
         // In index order, which is the lattice's at first: neighbours then sit near in memory.
         for i in 0..n {
             let (p, q) = self.trial_move(i, steps, rng);
+            let ai = self.lab_or_zero(i, &q);
             let ok = if self.touching[i] == 0 {
-                !self.touches_any(i, &p, &q)
+                !self.touches_any(i, &p, &q, &ai)
             } else {
-                self.partners_of(i, &p, &q, &mut now);
-                self.partners_of(i, &self.pos[i], &self.rot[i], &mut was);
+                self.partners_of(i, &p, &q, &ai, &mut now);
+                let was_lab = self.lab_or_zero(i, &self.rot[i]);
+                self.partners_of(i, &self.pos[i], &self.rot[i], &was_lab, &mut was);
                 let ok = now
                     .iter()
                     .all(|&(j, mu)| was.iter().any(|&(k, old)| k == j && mu >= old));
@@ -876,6 +1038,9 @@ impl Packing {
                 self.near.moved(i, &p);
                 self.pos[i] = p;
                 self.rot[i] = q;
+                if !self.lab.is_empty() {
+                    self.lab[i] = ai;
+                }
                 accepted += 1;
             }
         }
@@ -898,11 +1063,12 @@ impl Packing {
         for _ in 0..PUSH_PASSES {
             let looked_at = std::mem::take(&mut pushed);
             for &i in &looked_at {
-                self.partners_of(i, &self.pos[i], &self.rot[i], &mut partners);
+                let ai = self.lab_or_zero(i, &self.rot[i]);
+                self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
                 for &(j, _) in &partners {
                     // Earlier pushes in this loop moved i: the pair is looked at anew.
                     let r = min_image(self.pos[j] - self.pos[i], self.l);
-                    let mu = self.pair_scale(i, j, &self.rot[i], &r);
+                    let mu = self.pair_scale(i, j, &r);
                     if mu > 1.0 + GAP {
                         continue;
                     }
@@ -1064,6 +1230,57 @@ mod tests {
                 for q in &packing.pos[..i] {
                     assert!(min_image(q - p, packing.l).norm() >= 1.0, "{squeeze}");
                 }
+            }
+        }
+    }
+
+    /// The Monte Carlo's pair decisions (bounding spheres and Perram–Wertheim's bounds for
+    /// ellipsoids, the bracketing ellipsoids for superquadrics) are those of the contact scale
+    /// itself: every body's count of bodies it touches, and each trial place's verdict, agree with
+    /// all pairs tested by [`Geom::contact_scale`] (an oracle without any shortcut), for
+    /// ellipsoids, superquadrics and a mixture of superquadrics, random places and orientations
+    /// dense enough that most bodies touch one.
+    #[test]
+    fn shortcut_pair_decisions_are_the_contact_scales() {
+        let mut rng = Rng::new(5);
+        let e = Ellipsoid::new(0.794, 0.397, 0.397);
+        let q = Superquadric::with_unit_volume([2.0, 1.0, 1.0], [2.0, 2.0, 4.0]).unwrap();
+        let flat = Superquadric::with_unit_volume([0.5, 1.0, 1.0], [3.0, 2.5, 6.0]).unwrap();
+        let n = 300;
+        let mixture: Vec<Geom> = (0..n)
+            .map(|i| Geom::Superquadric(if i % 3 == 0 { flat } else { q }))
+            .collect();
+        for shapes in [
+            vec![Geom::Ellipsoid(e); n],
+            vec![Geom::Superquadric(q); n],
+            mixture,
+        ] {
+            let l = (n as f64 * std::f64::consts::PI / 6.0 / 0.3).cbrt();
+            let pos: Vec<V3> = (0..n)
+                .map(|_| V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * l)
+                .collect();
+            let rot: Vec<M3> = (0..n).map(|_| random_rotation(&mut rng)).collect();
+            let packing = Packing::of_each(pos, rot, l, &shapes);
+            let oracle = |p: &Packing, i: usize, at: &V3, q: &M3, j: usize| {
+                shapes[i].contact_scale(&shapes[j], q, &p.rot[j], &min_image(p.pos[j] - at, l))
+                    <= 1.0 + GAP
+            };
+            let mut touching = 0;
+            for (i, shape) in shapes.iter().enumerate() {
+                let count = (0..n)
+                    .filter(|&j| j != i && oracle(&packing, i, &packing.pos[i], &packing.rot[i], j))
+                    .count();
+                assert_eq!(packing.touching[i] as usize, count, "{shape:?} body {i}");
+                touching += usize::from(count > 0);
+            }
+            assert!(touching > n / 3, "{touching}");
+            for _ in 0..200 {
+                let i = (rng.next_u64() % n as u64) as usize;
+                let at = V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * l;
+                let q = random_rotation(&mut rng);
+                let ai = packing.lab_or_zero(i, &q);
+                let any = (0..n).any(|j| j != i && oracle(&packing, i, &at, &q, j));
+                assert_eq!(packing.touches_any(i, &at, &q, &ai), any);
             }
         }
     }

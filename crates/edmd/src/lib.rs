@@ -78,6 +78,7 @@ pub mod audit;
 mod axes;
 pub mod ball;
 pub mod body;
+pub mod bracket;
 pub mod calendar;
 pub mod cells;
 pub mod clock;
