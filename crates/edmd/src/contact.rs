@@ -135,6 +135,7 @@ pub fn predict_from<S: Surface>(
     let mut failures = 0;
     // Step multiplier for the far regime (see below); 1 is the plain step of Eq. (39).
     let mut k: f64 = 1.0;
+    let growth = FarGrowth::of(sa, sb);
     // The secant jump, tried once per search, proves its contact the first with a curvature
     // bound, or on flat faces with their support modulus ([`Search::first_contact_after`]).
     let mut secant = true;
@@ -201,7 +202,7 @@ pub fn predict_from<S: Surface>(
             }
         }
         if far {
-            k = (k * 1.5).min(4.0);
+            k = (k * growth.factor).min(growth.max);
         }
         // Every step is either proved contact-free or no longer than ε_d/ḋ_max, so the first
         // sign change brackets the first contact. A sign change over a longer, uncertified step
@@ -287,6 +288,44 @@ pub fn predict_from<S: Surface>(
     search.stats.failures += 1;
     search.stats.failed = Some("contact time (Eq. 39 stepping)");
     None
+}
+
+/// How the far regime's step multiplier k of [`predict_from`] grows after each far step: its
+/// steps of k times the contact-free time are taken when the two-sided test proves them, and one
+/// that fails costs a distance for nothing.
+#[derive(Clone, Copy, Debug)]
+struct FarGrowth {
+    factor: f64,
+    max: f64,
+}
+
+impl FarGrowth {
+    /// Curved bodies: ×1.5 a step up to 4, where their safe times grow superlinearly with the gap.
+    const CURVED: FarGrowth = FarGrowth {
+        factor: 1.5,
+        max: 4.0,
+    };
+
+    /// Flat faces (a superquadric exponent above 2): their support modulus is a power
+    /// e/(e − 1) of the turn, nearly linear at e = 10, so the contact-free intervals forwards
+    /// from t and backwards from t + k·safe are each about d/(L|ω × n|): together they cover
+    /// at most about 2 safe times, less as the gap closes. The curved schedule's k = 2.25 and
+    /// beyond failed 44 % of its tries at p = 10 (X0 = 2, φ = 0.256, N 512, NNL: 97,000 of
+    /// 500,000 distances wasted); k = 1.75 from the second far step failed 1.5 %. Measured
+    /// (distances per collision): k = 1.5 37.1, 1.6 36.2, 1.7 34.5, 1.75 34.4, 1.8 34.6,
+    /// 1.9 34.3, 2 (reached ×1.25) 37.3, the curved schedule 50.4.
+    const FLAT: FarGrowth = FarGrowth {
+        factor: 1.75,
+        max: 1.75,
+    };
+
+    fn of<S: Surface>(sa: &S, sb: &S) -> Self {
+        if sa.max_curvature_radius().is_finite() && sb.max_curvature_radius().is_finite() {
+            Self::CURVED
+        } else {
+            Self::FLAT
+        }
+    }
 }
 
 /// The separating-axis stepping of [`predict_from`] from `t1`: the time the bodies are first

@@ -703,6 +703,15 @@ prop_compose! {
 /// A spinning pair of `q`s drawn as `spin`: no sampled time before the predicted contact (or
 /// the horizon, where none is predicted) has the bodies overlapping by Gilbert's algorithm.
 fn predicted_contact_is_the_first<S: Surface>(q: &S, spin: Spin) -> Result<(), TestCaseError> {
+    predicted_contact_is_the_first_sampled(q, spin, 100)
+}
+
+/// [`predicted_contact_is_the_first`] with `samples` times checked before the contact.
+fn predicted_contact_is_the_first_sampled<S: Surface>(
+    q: &S,
+    spin: Spin,
+    samples: u32,
+) -> Result<(), TestCaseError> {
     let Spin {
         dir,
         axes,
@@ -737,8 +746,8 @@ fn predicted_contact_is_the_first<S: Surface>(q: &S, spin: Spin) -> Result<(), T
     let hit = predict(q, &a, q, &b, horizon, &params(), &mut stats);
     prop_assert_eq!(stats.failures, 0);
     let end = hit.map_or(horizon, |h| h.t);
-    for k in 0..100 {
-        let t = end * k as f64 / 100.0;
+    for k in 0..samples {
+        let t = end * f64::from(k) / f64::from(samples);
         prop_assert!(
             !certainly_overlapping(q, &a, &b, t),
             "overlap at {} before {:?}",
@@ -766,6 +775,20 @@ proptest! {
         predicted_contact_is_the_first(&superquadric(x0, p), spin)?;
     }
 
+    /// Flat faces far apart (p = 10 and 6, gaps up to 1.5): their searches take many far steps
+    /// of 1.75 contact-free times, each proved by the two-sided test, before any distance near
+    /// contact; no sampled time before the predicted contact (or the horizon) has the bodies
+    /// overlapping by Gilbert's algorithm.
+    #[test]
+    fn the_predicted_contact_of_flat_faces_spinning_from_afar_is_the_first(
+        x0 in prop::sample::select(vec![0.5, 2.0]),
+        p in prop::sample::select(vec![6.0, 10.0]),
+        spin in spin(),
+        far in 0.05f64..1.5,
+    ) {
+        predicted_contact_is_the_first_sampled(&superquadric(x0, p), Spin { gap: far, ..spin }, 1000)?;
+    }
+
     /// Fast-spinning needles and plates (X0 = 10 and 0.1, whose searches step on Gilbert's
     /// separating axis and settle deep overlaps by Gilbert's certificate): no sampled time before
     /// the predicted contact (or the horizon) has the bodies overlapping by Gilbert's algorithm.
@@ -775,6 +798,76 @@ proptest! {
         spin in spin(),
     ) {
         predicted_contact_is_the_first(&ellipsoid(x0), spin)?;
+    }
+}
+
+/// Two superquadrics of the same orientation overlap exactly where the half of their separation
+/// (in the body frame) lies inside one of them: B = A + r meets A where r ∈ A − A = 2A, the
+/// body being convex and centrally symmetric. B passes over A's flat face (exponent p), moving
+/// along a curved axis at the height where the pass overlaps by `depth` in f: the overlap lasts
+/// only while |x/2a|² < depth, a chord of 4a√depth, and the first contact is at
+/// 3 − 2a√depth. Both bodies spinning alike keep the criterion; then the first contact is the
+/// first sign change of f along the path, scanned densely. Returns (predicted, exact) times.
+fn flat_face_pass(x0: f64, p: f64, depth: f64, spin: V3) -> (Option<f64>, Option<f64>) {
+    let q = superquadric(x0, p);
+    let s = q.semi_axes();
+    let rot = rotate(&M3::identity(), &V3::new(1.0, 2.0, 0.5), 0.9);
+    let start = V3::new(-3.0, 0.0, 2.0 * s.z * (1.0 - depth).powf(1.0 / p));
+    let a = still(V3::zeros(), V3::zeros(), rot, spin);
+    let b = still(
+        rot.transpose() * start,
+        rot.transpose() * V3::x(),
+        rot,
+        spin,
+    );
+    let inside = |t: f64| {
+        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        q.f(&(pa.rot * (pb.r - pa.r) * 0.5))
+    };
+    let horizon = 10.0;
+    let exact = if spin == V3::zeros() {
+        Some(3.0 - 2.0 * s.x * depth.sqrt())
+    } else {
+        let steps = 400_000;
+        (1..=steps)
+            .map(|k| horizon * f64::from(k) / f64::from(steps))
+            .find(|&t| inside(t) < 0.0)
+            .map(|hi| {
+                let (mut lo, mut hi) = (hi - horizon / f64::from(steps), hi);
+                for _ in 0..60 {
+                    let m = 0.5 * (lo + hi);
+                    if inside(m) < 0.0 { hi = m } else { lo = m }
+                }
+                hi
+            })
+    };
+    let mut stats = SolverStats::default();
+    let hit = predict(&q, &a, &q, &b, horizon, &params(), &mut stats).map(|h| h.t);
+    assert_eq!(stats.failures, 0, "x0 {x0} p {p} depth {depth}");
+    (hit, exact)
+}
+
+/// Flat faces passing each other with a brief overlap, from afar (the far regime's long steps,
+/// each proved by the two-sided test, must not step over it): the predicted contact is the
+/// exact first one.
+#[test]
+fn brief_passes_over_flat_faces_are_found_at_their_first_contact() {
+    for x0 in [0.5, 2.0] {
+        for p in [6.0, 10.0] {
+            for depth in [1e-4, 1e-8] {
+                for spin in [V3::zeros(), V3::new(0.05, -0.03, 0.02)] {
+                    let (hit, exact) = flat_face_pass(x0, p, depth, spin);
+                    let case = format!("x0 {x0} p {p} depth {depth} spin {spin:?}");
+                    match (hit, exact) {
+                        (Some(t), Some(e)) => {
+                            assert!((t - e).abs() < 1e-6, "{case}: hit at {t}, exact {e}")
+                        }
+                        (None, None) => {}
+                        _ => panic!("{case}: predicted {hit:?}, exact {exact:?}"),
+                    }
+                }
+            }
+        }
     }
 }
 
