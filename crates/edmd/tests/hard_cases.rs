@@ -705,6 +705,15 @@ prop_compose! {
 /// A spinning pair of `q`s drawn as `spin`: no sampled time before the predicted contact (or
 /// the horizon, where none is predicted) has the bodies overlapping by Gilbert's algorithm.
 fn predicted_contact_is_the_first<S: Surface>(q: &S, spin: Spin) -> Result<(), TestCaseError> {
+    predicted_contact_is_the_first_sampled(q, spin, 100)
+}
+
+/// [`predicted_contact_is_the_first`] with `samples` times checked before the contact.
+fn predicted_contact_is_the_first_sampled<S: Surface>(
+    q: &S,
+    spin: Spin,
+    samples: u32,
+) -> Result<(), TestCaseError> {
     let Spin {
         dir,
         axes,
@@ -739,8 +748,8 @@ fn predicted_contact_is_the_first<S: Surface>(q: &S, spin: Spin) -> Result<(), T
     let hit = predict(q, &a, q, &b, horizon, &params(), &mut stats);
     prop_assert_eq!(stats.failures, 0);
     let end = hit.map_or(horizon, |h| h.t);
-    for k in 0..100 {
-        let t = end * k as f64 / 100.0;
+    for k in 0..samples {
+        let t = end * f64::from(k) / f64::from(samples);
         prop_assert!(
             !certainly_overlapping(q, &a, &b, t),
             "overlap at {} before {:?}",
@@ -768,6 +777,20 @@ proptest! {
         predicted_contact_is_the_first(&superquadric(x0, p), spin)?;
     }
 
+    /// Flat faces far apart (p = 10 and 6, gaps up to 1.5): their searches take many far steps
+    /// of 1.75 contact-free times, each proved by the two-sided test, before any distance near
+    /// contact; no sampled time before the predicted contact (or the horizon) has the bodies
+    /// overlapping by Gilbert's algorithm.
+    #[test]
+    fn the_predicted_contact_of_flat_faces_spinning_from_afar_is_the_first(
+        x0 in prop::sample::select(vec![0.5, 2.0]),
+        p in prop::sample::select(vec![6.0, 10.0]),
+        spin in spin(),
+        far in 0.05f64..1.5,
+    ) {
+        predicted_contact_is_the_first_sampled(&superquadric(x0, p), Spin { gap: far, ..spin }, 1000)?;
+    }
+
     /// Fast-spinning needles and plates (X0 = 10 and 0.1, whose searches step on Gilbert's
     /// separating axis and settle deep overlaps by Gilbert's certificate): no sampled time before
     /// the predicted contact (or the horizon) has the bodies overlapping by Gilbert's algorithm.
@@ -777,6 +800,148 @@ proptest! {
         spin in spin(),
     ) {
         predicted_contact_is_the_first(&ellipsoid(x0), spin)?;
+    }
+}
+
+/// Two superquadrics of the same orientation overlap exactly where the half of their separation
+/// (in the body frame) lies inside one of them: B = A + r meets A where r ∈ A − A = 2A, the
+/// body being convex and centrally symmetric. B passes over A's flat face (exponent p), moving
+/// along a curved axis at the height where the pass overlaps by `depth` in f: the overlap lasts
+/// only while |x/2a|² < depth, a chord of 4a√depth, and the first contact is at
+/// 3 − 2a√depth. Both bodies spinning alike keep the criterion; then the first contact is the
+/// first sign change of f along the path, scanned densely. Returns (predicted, exact) times.
+fn flat_face_pass(x0: f64, p: f64, depth: f64, spin: V3) -> (Option<f64>, Option<f64>) {
+    let q = superquadric(x0, p);
+    let s = q.semi_axes();
+    let rot = rotate(&M3::identity(), &V3::new(1.0, 2.0, 0.5), 0.9);
+    let start = V3::new(-3.0, 0.0, 2.0 * s.z * (1.0 - depth).powf(1.0 / p));
+    let a = still(V3::zeros(), V3::zeros(), rot, spin);
+    let b = still(
+        rot.transpose() * start,
+        rot.transpose() * V3::x(),
+        rot,
+        spin,
+    );
+    let inside = |t: f64| {
+        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        q.f(&(pa.rot * (pb.r - pa.r) * 0.5))
+    };
+    let horizon = 10.0;
+    let exact = if spin == V3::zeros() {
+        Some(3.0 - 2.0 * s.x * depth.sqrt())
+    } else {
+        let steps = 400_000;
+        (1..=steps)
+            .map(|k| horizon * f64::from(k) / f64::from(steps))
+            .find(|&t| inside(t) < 0.0)
+            .map(|hi| {
+                let (mut lo, mut hi) = (hi - horizon / f64::from(steps), hi);
+                for _ in 0..60 {
+                    let m = 0.5 * (lo + hi);
+                    if inside(m) < 0.0 { hi = m } else { lo = m }
+                }
+                hi
+            })
+    };
+    let mut stats = SolverStats::default();
+    let hit = predict(&q, &a, &q, &b, horizon, &params(), &mut stats).map(|h| h.t);
+    assert_eq!(stats.failures, 0, "x0 {x0} p {p} depth {depth}");
+    (hit, exact)
+}
+
+/// Two bodies of shape `q` spinning alike (the same orientation at every time, `rot` at 0)
+/// from `r` apart (B − A) at relative velocity `v`: f at the half separation in the body frame,
+/// negative exactly where they overlap ([`flat_face_pass`]).
+fn alike_overlap<S: Surface>(q: &S, rot: M3, w: V3, r: V3, v: V3) -> impl Fn(f64) -> f64 + '_ {
+    move |t: f64| q.f(&(rotate(&rot, &w, t) * (r + v * t) * 0.5))
+}
+
+prop_compose! {
+    fn alike()(
+        dir in prop::array::uniform3(-1.0f64..1.0),
+        axes in prop::array::uniform3(-1.0f64..1.0),
+        angle in 0.0f64..3.2,
+        v in prop::array::uniform3(-0.2f64..0.2),
+        w in prop::array::uniform3(-6.0f64..6.0),
+        gap in 1e-5f64..0.01,
+    ) -> (V3, V3, f64, V3, V3, f64) {
+        (V3::from(dir), V3::from(axes), angle, V3::from(v), V3::from(w), gap)
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Flat faces spinning alike, where the exact first contact is known (the first zero of
+    /// [`alike_overlap`], scanned densely and bisected): the predicted contact is that one, not
+    /// a later one the search's jumps may land in first.
+    #[test]
+    fn the_predicted_contact_of_flat_faces_spinning_alike_is_the_exact_first(
+        x0 in prop::sample::select(vec![0.5, 2.0]),
+        p in prop::sample::select(vec![4.0, 10.0]),
+        (dir, axes, angle, v, w, gap) in alike(),
+    ) {
+        prop_assume!(dir.norm() > 0.1 && axes.norm() > 0.1);
+        let q = superquadric(x0, p);
+        let rot = rotate(&M3::identity(), &axes, angle);
+        // B along `dir`, where the half separation is on the surface, then `gap` further out.
+        let u = dir.normalize();
+        let (mut lo, mut hi) = (0.0, 4.0 * q.bounding_radius());
+        for _ in 0..60 {
+            let m = 0.5 * (lo + hi);
+            if q.f(&(rot * u * (0.5 * m))) < 0.0 { lo = m } else { hi = m }
+        }
+        let r = u * (hi + gap);
+        let overlap = alike_overlap(&q, rot, w, r, v);
+        let horizon = 1.0;
+        let steps = 20_000;
+        let first = (1..=steps)
+            .map(|k| horizon * f64::from(k) / f64::from(steps))
+            .find(|&t| overlap(t) < -1e-9)
+            .map(|end| {
+                let (mut lo, mut hi) = (end - horizon / f64::from(steps), end);
+                for _ in 0..60 {
+                    let m = 0.5 * (lo + hi);
+                    if overlap(m) < 0.0 { hi = m } else { lo = m }
+                }
+                hi
+            });
+        let a = still(V3::zeros(), V3::zeros(), rot, w);
+        let b = still(r, v, rot, w);
+        let mut stats = SolverStats::default();
+        let hit = predict(&q, &a, &q, &b, horizon, &params(), &mut stats).map(|h| h.t);
+        prop_assert_eq!(stats.failures, 0);
+        match (hit, first) {
+            (Some(t), Some(e)) => prop_assert!((t - e).abs() < 1e-6, "hit at {}, first contact {}", t, e),
+            // A graze too shallow for the scan.
+            (Some(t), None) => prop_assert!(overlap(t).abs() < 1e-7, "hit at {} of f {}", t, overlap(t)),
+            (None, Some(e)) => prop_assert!(false, "no hit, first contact {}", e),
+            (None, None) => {}
+        }
+    }
+}
+
+/// Flat faces passing each other with a brief overlap, from afar (the far regime's long steps,
+/// each proved by the two-sided test, must not step over it): the predicted contact is the
+/// exact first one.
+#[test]
+fn brief_passes_over_flat_faces_are_found_at_their_first_contact() {
+    for x0 in [0.5, 2.0] {
+        for p in [6.0, 10.0] {
+            for depth in [1e-4, 1e-8] {
+                for spin in [V3::zeros(), V3::new(0.05, -0.03, 0.02)] {
+                    let (hit, exact) = flat_face_pass(x0, p, depth, spin);
+                    let case = format!("x0 {x0} p {p} depth {depth} spin {spin:?}");
+                    match (hit, exact) {
+                        (Some(t), Some(e)) => {
+                            assert!((t - e).abs() < 1e-6, "{case}: hit at {t}, exact {e}")
+                        }
+                        (None, None) => {}
+                        _ => panic!("{case}: predicted {hit:?}, exact {exact:?}"),
+                    }
+                }
+            }
+        }
     }
 }
 
