@@ -105,51 +105,44 @@ impl Pw {
 
     /// Whether max F ≤ `k2` ([`within`]), by the iterates of [`Pw::scale`].
     fn within(&self, k2: f64) -> bool {
-        let (mut lo, mut hi, mut l) = (0.0_f64, 1.0_f64, 0.5_f64);
         // The latest tangents (λ, F, F′) where F rises and where it falls.
         let (mut rising, mut falling): (Option<Tangent>, Option<Tangent>) = (None, None);
-        let mut best = 0.0_f64;
-        for _ in 0..100 {
-            let (f, f1, f2) = self.derivatives(l);
+        let (best, verdict) = self.maximise(|l, f, f1| {
             if f > k2 {
-                return false;
+                return Some(false);
             }
-            best = best.max(f);
             if f1 > 0.0 {
-                lo = l;
                 rising = Some((l, f, f1));
             } else {
-                hi = l;
                 falling = Some((l, f, f1));
             }
-            if upper_bound(rising, falling) <= k2 {
-                return true;
-            }
-            let newton = l - f1 / f2;
-            let next = if f2 < 0.0 && newton > lo && newton < hi {
-                newton
-            } else {
-                0.5 * (lo + hi)
-            };
-            if (next - l).abs() <= 1e-9 * (1.0 + l) || hi - lo <= 1e-12 {
-                best = best.max(self.f(next));
-                break;
-            }
-            l = next;
-        }
-        best <= k2
+            (upper_bound(rising, falling) <= k2).then_some(true)
+        });
+        verdict.unwrap_or(best <= k2)
     }
 
-    /// μ = √(max_λ F(λ)): Newton on F′ = 0 from λ = ½, kept inside the bracket where F′ changes
+    /// μ = √(max_λ F(λ)) ([`Pw::maximise`]).
+    fn scale(&self) -> f64 {
+        self.maximise(|_, _, _| None).0.max(0.0).sqrt()
+    }
+
+    /// The maximum of F: Newton on F′ = 0 from λ = ½, kept inside the bracket where F′ changes
     /// sign (F′(0) = rᵀA⁻¹r > 0 > F′(1)), a bisection wherever a step leaves it. F is concave, so
     /// Newton converges quadratically, in 3–5 steps where Brent's search took a dozen and more
     /// evaluations to 10⁻¹⁰. The largest F seen is returned: every F(λ) is a lower bound of μ².
-    fn scale(&self) -> f64 {
+    /// `visit` sees every iterate (λ, F, F′) and may end the search with its verdict.
+    fn maximise(
+        &self,
+        mut visit: impl FnMut(f64, f64, f64) -> Option<bool>,
+    ) -> (f64, Option<bool>) {
         let (mut lo, mut hi, mut l) = (0.0_f64, 1.0_f64, 0.5_f64);
         let mut best = 0.0_f64;
         for _ in 0..100 {
             let (f, f1, f2) = self.derivatives(l);
             best = best.max(f);
+            if let Some(verdict) = visit(l, f, f1) {
+                return (best, Some(verdict));
+            }
             if f1 > 0.0 {
                 lo = l;
             } else {
@@ -168,7 +161,7 @@ impl Pw {
             }
             l = next;
         }
-        best.max(0.0).sqrt()
+        (best, None)
     }
 }
 
