@@ -227,22 +227,32 @@ mod tests {
         assert!(above > 100 && below > 100, "{above} above, {below} below");
     }
 
+    proptest::prop_compose! {
+        /// Two ellipsoids of aspect ratios up to 10, oriented at random, from deep overlap to far
+        /// apart: (A, its orientation, B, its orientation, B's centre from A's).
+        fn pair()(
+            s in proptest::array::uniform6(0.1f64..1.0),
+            angles in proptest::array::uniform6(-3.2f64..3.2),
+            r in proptest::array::uniform3(-3.0f64..3.0),
+        ) -> (Ellipsoid, M3, Ellipsoid, M3, V3) {
+            let rot = |a: &[f64]| crate::rigid::rotate(&M3::identity(), &V3::new(a[0], a[1], a[2]), 1.0);
+            (
+                Ellipsoid::new(s[0], s[1], s[2]),
+                rot(&angles[..3]),
+                Ellipsoid::new(s[3], s[4], s[5]),
+                rot(&angles[3..]),
+                V3::from(r),
+            )
+        }
+    }
+
     proptest::proptest! {
         /// Newton's maximum of F is Brent's (`contact::brent_min`, an independent search, to
         /// 10⁻¹³ in λ) within 10⁻⁹ relative, and no F(λ) on a grid exceeds it: random
         /// ellipsoids of aspect ratios up to 10, orientations and separations from deep overlap
         /// to far apart.
         #[test]
-        fn newton_finds_the_maximum_brent_finds(
-            s in proptest::array::uniform6(0.1f64..1.0),
-            angles in proptest::array::uniform6(-3.2f64..3.2),
-            r in proptest::array::uniform3(-3.0f64..3.0),
-        ) {
-            let ea = Ellipsoid::new(s[0], s[1], s[2]);
-            let eb = Ellipsoid::new(s[3], s[4], s[5]);
-            let ra = crate::rigid::rotate(&M3::identity(), &V3::new(angles[0], angles[1], angles[2]), 1.0);
-            let rb = crate::rigid::rotate(&M3::identity(), &V3::new(angles[3], angles[4], angles[5]), 1.0);
-            let r = V3::new(r[0], r[1], r[2]);
+        fn newton_finds_the_maximum_brent_finds((ea, ra, eb, rb, r) in pair()) {
             proptest::prop_assume!(r.norm() > 1e-3);
             let pw = Pw::new(&ea, &ra, &eb, &rb, &r);
             let mu = pw.scale();
@@ -262,17 +272,10 @@ mod tests {
         /// separations from deep overlap to far apart, thresholds on both sides and near μ.
         #[test]
         fn within_decides_as_the_maximum_does(
-            s in proptest::array::uniform6(0.1f64..1.0),
-            angles in proptest::array::uniform6(-3.2f64..3.2),
-            r in proptest::array::uniform3(-3.0f64..3.0),
+            (ea, ra, eb, rb, r) in pair(),
             near in -1e-3f64..1e-3,
             far in 0.5f64..2.0,
         ) {
-            let ea = Ellipsoid::new(s[0], s[1], s[2]);
-            let eb = Ellipsoid::new(s[3], s[4], s[5]);
-            let ra = crate::rigid::rotate(&M3::identity(), &V3::new(angles[0], angles[1], angles[2]), 1.0);
-            let rb = crate::rigid::rotate(&M3::identity(), &V3::new(angles[3], angles[4], angles[5]), 1.0);
-            let r = V3::new(r[0], r[1], r[2]);
             proptest::prop_assume!(r.norm() > 1e-3);
             let mu = contact_scale(&ea, &ra, &eb, &rb, &r);
             for k in [mu * (1.0 + near), mu * far, 1.0] {
