@@ -699,18 +699,18 @@ impl<M: Rigid> Engine<M> {
             if ju == i {
                 continue;
             }
-            // A contact after the partner leaves its box is the partner's to find: its rebuild
-            // predicts it anew against every box its new one meets (Sec. 3.3).
-            let until = match &self.nb {
-                Neighbourhood::Nnl { escape_at, .. } => best.t.min(escape_at[ju]),
-                Neighbourhood::Ll { .. } => best.t,
-            };
             // Where the bounding spheres are concerned, positions suffice; a body is rotated to
             // the present only when its orientation matters.
             let bj = &self.bodies[ju];
             let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
             let reach = lb + self.m.bounding_radius_of(ju);
             if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), reach) {
+                // A contact after the partner leaves its box is the partner's to find: its
+                // rebuild predicts it anew against every box its new one meets (Sec. 3.3).
+                let until = match &self.nb {
+                    Neighbourhood::Nnl { escape_at, .. } => best.t.min(escape_at[ju]),
+                    Neighbourhood::Ll { .. } => best.t,
+                };
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
                     let mut b = self.bodies[ju].at(self.t);
