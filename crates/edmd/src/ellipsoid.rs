@@ -28,9 +28,13 @@ impl Ellipsoid {
 
     /// Σ s_k² u_k u_kᵀ in the lab frame: the matrix A of the Perram–Wertheim function.
     pub fn a_lab(&self, rot: &M3) -> M3 {
-        let s2 = self.s.component_mul(&self.s);
-        rot.transpose() * M3::from_diagonal(&s2) * rot
+        lab_matrix(&self.s, rot)
     }
+}
+
+/// [`Ellipsoid::a_lab`] of the ellipsoid of semi-axes `s` (a superquadric's inscribed one).
+pub fn lab_matrix(s: &V3, rot: &M3) -> M3 {
+    rot.transpose() * M3::from_diagonal(&s.component_mul(s)) * rot
 }
 
 /// An ellipsoid at a pose: f = ½ dᵀ H d − 1 with d = x − r and the constant lab Hessian H = 2 Rᵀ X(0) R.

@@ -16,7 +16,7 @@
 use crate::EdmdError;
 use crate::bracket::outer_factor_squared;
 use crate::cells::Near;
-use crate::ellipsoid::Ellipsoid;
+use crate::ellipsoid::{Ellipsoid, lab_matrix};
 use crate::geometry::{M3, Surface, V3, round_nearest};
 use crate::nnl::{Obp, overlap};
 use crate::pw::{self, contact_scale};
@@ -818,15 +818,15 @@ impl Packing {
     /// Body `i`'s lab matrix at orientation `q` ([`Packing::lab`]).
     #[inline]
     fn lab_of(&self, i: usize, q: &M3) -> Option<M3> {
-        let s = match self.geom_of(i) {
-            Geom::Sphere { .. } => return None,
-            Geom::Ellipsoid(e) => e.s,
-            Geom::Superquadric(sq) => sq.s,
-        };
-        Some(q.transpose() * M3::from_diagonal(&s.component_mul(&s)) * q)
+        match self.geom_of(i) {
+            Geom::Sphere { .. } => None,
+            Geom::Ellipsoid(e) => Some(e.a_lab(q)),
+            Geom::Superquadric(sq) => Some(lab_matrix(&sq.s, q)),
+        }
     }
 
-    /// Body `i`'s lab matrix where it has one, else zeros (which no pair test reads).
+    /// Body `i`'s lab matrix at orientation `q` where it has one, else zeros (which no pair
+    /// test reads).
     #[inline]
     fn lab_or_zero(&self, i: usize, q: &M3) -> M3 {
         if self.lab.is_empty() {
@@ -834,6 +834,12 @@ impl Packing {
         } else {
             self.lab_of(i, q).unwrap_or_else(M3::zeros)
         }
+    }
+
+    /// Body `i`'s kept lab matrix, at its present orientation (zeros where it has none).
+    #[inline]
+    fn kept_lab(&self, i: usize) -> M3 {
+        self.lab.get(i).copied().unwrap_or_else(M3::zeros)
     }
 
     #[inline]
@@ -930,7 +936,7 @@ impl Packing {
         if self.one_sphere.is_some() {
             let [mut partners, other] = std::mem::take(&mut self.partners);
             for i in 0..self.pos.len() {
-                let ai = self.lab_or_zero(i, &self.rot[i]);
+                let ai = self.kept_lab(i);
                 self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
                 self.touching[i] = partners.len() as u32;
             }
@@ -938,8 +944,7 @@ impl Packing {
         } else {
             // Counts need no contact scales: [`Packing::touch`] decides each pair.
             for i in 0..self.pos.len() {
-                let (p, q) = (self.pos[i], self.rot[i]);
-                let ai = self.lab_or_zero(i, &q);
+                let (p, q, ai) = (self.pos[i], self.rot[i], self.kept_lab(i));
                 let mut count = 0;
                 self.near.all_around(&p, |j| {
                     if j != i && self.touch(i, j, &q, &ai, &min_image(self.pos[j] - p, self.l)) {
@@ -1020,7 +1025,7 @@ impl Packing {
                 !self.touches_any(i, &p, &q, &ai)
             } else {
                 self.partners_of(i, &p, &q, &ai, &mut now);
-                let was_lab = self.lab_or_zero(i, &self.rot[i]);
+                let was_lab = self.kept_lab(i);
                 self.partners_of(i, &self.pos[i], &self.rot[i], &was_lab, &mut was);
                 let ok = now
                     .iter()
@@ -1063,7 +1068,7 @@ impl Packing {
         for _ in 0..PUSH_PASSES {
             let looked_at = std::mem::take(&mut pushed);
             for &i in &looked_at {
-                let ai = self.lab_or_zero(i, &self.rot[i]);
+                let ai = self.kept_lab(i);
                 self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
                 for &(j, _) in &partners {
                     // Earlier pushes in this loop moved i: the pair is looked at anew.
