@@ -22,6 +22,21 @@ fn min_scale(e: &Ellipsoid, a: &Body, b: &Body, t_end: f64, samples: usize) -> f
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Whether the pair is apart now, by the independent Perram–Wertheim scale.
+fn apart_now(e: &Ellipsoid, a: &Body, b: &Body) -> bool {
+    let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+    contact_scale(e, &pa.rot, e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9
+}
+
+/// The contact search's knobs of these tests.
+fn params() -> ContactParams {
+    ContactParams {
+        eps_d: 1e-5,
+        brent_tol: 1e-12,
+        tol: Tolerances::default(),
+    }
+}
+
 prop_compose! {
     /// Two moving ellipsoids (semi-axes 0.15–1.5, so aspect ratios up to 10) that do not overlap now.
     fn pair()(
@@ -52,7 +67,7 @@ proptest! {
     #[test]
     fn no_overlap_within_the_safe_time_from_the_closest_points((e, a, b) in pair()) {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
-        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
+        prop_assume!(apart_now(&e, &a, &b));
         let d = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut SolverStats::default());
         prop_assume!(matches!(d, Some(d) if d.d > 0.0));
         let d = d.unwrap();
@@ -72,7 +87,7 @@ proptest! {
         start in prop::option::of(prop::array::uniform3(-1.0f64..1.0)),
     ) {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
-        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
+        prop_assume!(apart_now(&e, &a, &b));
         let gap = match start {
             Some(n) => separating_axis_from(&e, &pa, &e, &pb, Some(&(V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize())),
             None => separating_axis(&e, &pa, &e, &pb),
@@ -90,9 +105,8 @@ proptest! {
     /// the predicted contact is a contact, approached, and nothing overlaps before it.
     #[test]
     fn the_predicted_contact_is_the_first_and_the_bodies_approach_there((e, a, b) in pair()) {
-        let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
-        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
-        let params = ContactParams { eps_d: 1e-5, brent_tol: 1e-12, tol: Tolerances::default() };
+        prop_assume!(apart_now(&e, &a, &b));
+        let params = params();
         let mut stats = SolverStats::default();
         let horizon = 3.0;
         let hit = predict(&e, &a, &e, &b, horizon, &params, &mut stats);
@@ -122,7 +136,7 @@ proptest! {
         start in prop::option::of(prop::array::uniform3(-1.0f64..1.0)),
     ) {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
-        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
+        prop_assume!(apart_now(&e, &a, &b));
         let start = start.map(|n| (V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize());
         let q = quick_bound(&e, &a, &e, &b, horizon, start.as_ref());
         prop_assert!(q.lower >= 0.0 && q.estimate >= q.lower, "{} {}", q.lower, q.estimate);
@@ -132,7 +146,7 @@ proptest! {
             let scale = min_scale(&e, &a, &b, q.lower.min(3.0), 300);
             prop_assert!(scale > 1.0 - 1e-9, "overlap {scale} before the bound {}", q.lower);
         }
-        let params = ContactParams { eps_d: 1e-5, brent_tol: 1e-12, tol: Tolerances::default() };
+        let params = params();
         let mut stats = SolverStats::default();
         let hit = predict(&e, &a, &e, &b, 3.0, &params, &mut stats);
         if let Some(h) = hit {
@@ -166,9 +180,8 @@ proptest! {
     /// nothing overlaps before it.
     #[test]
     fn a_search_from_the_resolved_contact_finds_the_next_contact((e, a, b) in pair()) {
-        let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
-        prop_assume!(contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9);
-        let params = ContactParams { eps_d: 1e-5, brent_tol: 1e-12, tol: Tolerances::default() };
+        prop_assume!(apart_now(&e, &a, &b));
+        let params = params();
         let mut stats = SolverStats::default();
         let hit = predict(&e, &a, &e, &b, 3.0, &params, &mut stats);
         prop_assume!(hit.is_some());
