@@ -215,14 +215,25 @@ struct Schedule {
     max_step: f64,
     /// Sweeps after each compression step.
     relax_sweeps: usize,
+    /// Pairs that a step left in contact are pushed this many times the step's relative change
+    /// of the box side past contact (see [`Packing::push_apart`]).
+    push_ahead: f64,
 }
 
 /// A lattice of any shape.
+///
+/// Its pushes overshoot: a pair pushed to 1 + 2 Δ of contact (Δ the step) outlives the next step
+/// instead of touching again, and each step's pushes end in fewer passes. Ellipsoids X0 = 2,
+/// φ = 0.5, N 4096: pushed to 1 + Δ/2 with 50 passes allowed, the pushes failed at 5 of 31
+/// steps and each failure cost an unjamming (5 collisions per body); to 1 + 2 Δ with the
+/// passes of [`push_apart`](Packing::push_apart), none failed (see MEASUREMENTS.md, "Fast
+/// initial states, round 3").
 const LATTICE: Schedule = Schedule {
     melt_sweeps: MELT_SWEEPS,
     first_dr: 0.1,
     max_step: MAX_STEP,
     relax_sweeps: RELAX_SWEEPS,
+    push_ahead: 2.0,
 };
 
 /// Spheres of one size, from random sequential addition ([`random_sequential`]): no Monte Carlo
@@ -240,18 +251,32 @@ const SPHERES: Schedule = Schedule {
     first_dr: 0.6,
     max_step: 0.1,
     relax_sweeps: 0,
+    push_ahead: 0.5,
 };
 
 /// The largest compression step (relative change of the box side), and the smallest, below which
 /// the state is taken to be jammed.
-const MAX_STEP: f64 = 0.02;
+const MAX_STEP: f64 = 0.03;
 const MIN_STEP: f64 = 1e-6;
 /// Sweeps after each compression step. The overlaps they leave are pushed apart; a step that
 /// leaves none is followed by a larger one, a step whose overlaps cannot be pushed apart is
 /// undone and followed by a smaller one.
-const RELAX_SWEEPS: usize = 2;
-/// Passes of pushes over the overlapping pairs after which a compression step is undone.
-const PUSH_PASSES: usize = 50;
+const RELAX_SWEEPS: usize = 1;
+/// Passes of pushes without progress (the bodies pushed in a pass fewer by a tenth than the
+/// fewest before) after which a compression step is undone; it is undone at once where a pass
+/// pushes more than twice the fewest bodies (and N/50 more): the pushes spread instead of
+/// settling, as they do among long needles (X0 = 10), whose pushes along the line of centres
+/// mostly slide them into others. Dense packings (φ ≥ 0.4) take 100–250 passes whose count of
+/// pushed bodies falls slowly but steadily: a fixed count of 50 passes gave up on most of them,
+/// and an unjamming costs more than the passes it saves.
+const PUSH_STALL: usize = 50;
+/// Passes of pushes after which a compression step is undone whatever the progress.
+const PUSH_PASSES: usize = 2000;
+/// Visits of bodies by a step's pushes, per body, after which the step is undone whatever the
+/// progress: about what the unjamming that follows costs (5 collisions per body ≈ 80 µs per
+/// body, a visit ≈ 1 µs). Ellipsoids at N 10⁵ spent 34 s (350 visits per body) on the pushes
+/// of a step that failed; no step at N 4096 that succeeded needed more than 65.
+const PUSH_VISITS: usize = 100;
 /// Pushed pairs are left this far from contact at least (in contact-scale units), so that tiny
 /// steps do not build a network of pairs all but touching.
 const MIN_PUSH: f64 = 2e-3;
@@ -259,6 +284,49 @@ const MIN_PUSH: f64 = 2e-3;
 const UNJAM_COLLISIONS: u64 = 5;
 /// Sweeps allowed for the whole compression, whatever its steps.
 const MAX_SWEEPS: usize = 100_000;
+
+/// Whether the passes of [`Packing::push_apart`] still settle, from the count of bodies each
+/// pass pushes ([`PUSH_STALL`]), and whether they have cost what an unjamming would
+/// ([`PUSH_VISITS`]).
+struct PushProgress {
+    pass: usize,
+    fewest: usize,
+    fewest_at: usize,
+    /// Counts above twice the fewest by more than this (N/50) are spreading.
+    spread: usize,
+    /// Bodies visited so far, and the most allowed ([`PUSH_VISITS`] per body).
+    visits: usize,
+    most_visits: usize,
+}
+
+impl PushProgress {
+    /// Before the first pass, which pushes `first` of `n` bodies.
+    fn new(first: usize, n: usize) -> Self {
+        PushProgress {
+            pass: 0,
+            fewest: first,
+            fewest_at: 0,
+            spread: n / 50,
+            visits: 0,
+            most_visits: PUSH_VISITS * n,
+        }
+    }
+
+    /// Whether the pass about to push `count` bodies is one too many.
+    fn stalls(&mut self, count: usize) -> bool {
+        let pass = self.pass;
+        self.pass += 1;
+        self.visits += count;
+        if self.visits > self.most_visits {
+            return true;
+        }
+        if count * 10 < self.fewest * 9 {
+            (self.fewest, self.fewest_at) = (count, pass);
+            return false;
+        }
+        pass - self.fewest_at > PUSH_STALL || count > 2 * self.fewest + self.spread
+    }
+}
 
 /// Monte Carlo step sizes (displacement, rotation angle), kept near 30–50 % acceptance.
 struct Steps {
@@ -499,13 +567,18 @@ fn compress(
     let mut sweeps = 0;
     while packing.l > l_target {
         let before = (packing.pos.clone(), packing.rot.clone(), packing.l);
-        packing.scale((l_target / packing.l).max(1.0 / (1.0 + step)));
+        let shrink = (l_target / packing.l).max(1.0 / (1.0 + step));
+        // The last step is often smaller than `step`: pushes beyond what it took cost passes.
+        let taken = 1.0 / shrink - 1.0;
+        packing.scale(shrink);
         for _ in 0..schedule.relax_sweeps {
             let acc = packing.sweep(&steps, rng);
             steps.adapt(acc, packing.l);
         }
         sweeps += schedule.relax_sweeps;
-        if packing.overlaps == 0 || packing.push_apart(1.0 + 0.5 * step.max(MIN_PUSH)) {
+        let pushed = packing.overlaps == 0
+            || packing.push_apart(1.0 + schedule.push_ahead * taken.max(MIN_PUSH));
+        if pushed {
             step = (step * 1.5).min(schedule.max_step);
         } else {
             // The pushes of earlier steps left pairs near contact that block this one, and Monte
@@ -1058,14 +1131,18 @@ impl Packing {
     /// scale is homogeneous of degree one in the separation (scaling both bodies by μ about their
     /// centres is scaling the separation by 1/μ), so the push is exact for every shape. A push may
     /// bring a body into contact with a third, which the next pass sees. Returns whether no
-    /// contact is left within [`PUSH_PASSES`] passes.
+    /// contact is left before the passes stall ([`PUSH_STALL`]) or run out ([`PUSH_PASSES`]).
     fn push_apart(&mut self, target: f64) -> bool {
         let mut pushed: Vec<usize> = (0..self.pos.len())
             .filter(|&i| self.touching[i] > 0)
             .collect();
         let [mut partners, other] = std::mem::take(&mut self.partners);
         let mut clear = false;
+        let mut progress = PushProgress::new(pushed.len(), self.pos.len());
         for _ in 0..PUSH_PASSES {
+            if progress.stalls(pushed.len()) {
+                break;
+            }
             let looked_at = std::mem::take(&mut pushed);
             for &i in &looked_at {
                 let ai = self.kept_lab(i);
@@ -1237,6 +1314,39 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Pushes go on while the count of bodies pushed per pass falls, however slowly (the tail
+    /// of a dense step: 100–250 passes), and stop where it stays flat for [`PUSH_STALL`] passes,
+    /// spreads (needles, whose pushes slide them into others) or has visited [`PUSH_VISITS`]
+    /// bodies per body; the counts are those logged from ellipsoids X0 = 2 at φ 0.49 and X0 = 10
+    /// at φ 0.13.
+    #[test]
+    fn pushes_stop_where_they_stall_or_spread_not_where_they_settle_slowly() {
+        let passes = |counts: &[usize], n: usize| {
+            let mut p = PushProgress::new(counts[0], n);
+            counts.iter().position(|&c| p.stalls(c))
+        };
+        // Falls by 1.5 % a pass with noise of ±5 %, 250 passes.
+        let slow: Vec<usize> = (0..250)
+            .map(|k| (2000.0 * 0.985_f64.powi(k) * (1.0 + 0.05 * (k as f64).sin())) as usize)
+            .collect();
+        assert_eq!(passes(&slow, 4096), None);
+        // The same from 10⁴ of 4096 bodies visits 160 per body: it gives up past 100.
+        let costly: Vec<usize> = slow.iter().map(|c| c * 5).collect();
+        assert!(passes(&costly, 4096).is_some_and(|p| p > 60));
+        // Down to a handful that jostle for 40 passes before they clear.
+        let tail: Vec<usize> = [
+            9866, 6372, 4628, 3560, 2748, 2126, 1654, 1316, 964, 800, 618,
+        ]
+        .into_iter()
+        .chain((0..40).map(|k| [14, 16, 20, 24, 32, 22, 18][k % 7]))
+        .collect();
+        assert_eq!(passes(&tail, 4096), None);
+        let flat: Vec<usize> = (0..200).map(|k| 500 + k % 7).collect();
+        assert_eq!(passes(&flat, 4096), Some(PUSH_STALL + 1));
+        let needles = [304, 174, 200, 202, 192, 246, 280, 358, 378, 434, 448];
+        assert_eq!(passes(&needles, 512), Some(8));
     }
 
     /// The Monte Carlo's pair decisions (bounding spheres and Perram–Wertheim's bounds for
