@@ -226,8 +226,9 @@ struct Schedule {
 /// instead of touching again, and each step's pushes end in fewer passes. Ellipsoids X0 = 2,
 /// φ = 0.5, N 4096: pushed to 1 + Δ/2 with 50 passes allowed, the pushes failed at 5 of 31
 /// steps and each failure cost an unjamming (5 collisions per body); to 1 + 2 Δ with the
-/// passes of [`push_apart`](Packing::push_apart), none failed (see MEASUREMENTS.md, "Fast
-/// initial states, round 3").
+/// passes of [`push_apart`](Packing::push_apart), none failed (one of 15 at N 10⁵), and steps
+/// of up to 3 % with one sweep each instead of 2 % with two took 0.3 s less of 2.5 (see
+/// MEASUREMENTS.md, "Fast initial states, round 3").
 const LATTICE: Schedule = Schedule {
     melt_sweeps: MELT_SWEEPS,
     first_dr: 0.1,
@@ -1131,7 +1132,8 @@ impl Packing {
     /// scale is homogeneous of degree one in the separation (scaling both bodies by μ about their
     /// centres is scaling the separation by 1/μ), so the push is exact for every shape. A push may
     /// bring a body into contact with a third, which the next pass sees. Returns whether no
-    /// contact is left before the passes stall ([`PUSH_STALL`]) or run out ([`PUSH_PASSES`]).
+    /// contact is left before the passes stall, spread or cost an unjamming ([`PushProgress`]),
+    /// or run out ([`PUSH_PASSES`]).
     fn push_apart(&mut self, target: f64) -> bool {
         let mut pushed: Vec<usize> = (0..self.pos.len())
             .filter(|&i| self.touching[i] > 0)
