@@ -287,8 +287,8 @@ const UNJAM_COLLISIONS: u64 = 5;
 const MAX_SWEEPS: usize = 100_000;
 
 /// Whether the passes of [`Packing::push_apart`] still settle, from the count of bodies each
-/// pass pushes ([`PUSH_STALL`]), and whether they have cost what an unjamming would
-/// ([`PUSH_VISITS`]).
+/// pass pushes ([`PUSH_STALL`]), whether they have cost what an unjamming would
+/// ([`PUSH_VISITS`]), and whether they have run out ([`PUSH_PASSES`]).
 struct PushProgress {
     pass: usize,
     fewest: usize,
@@ -318,7 +318,7 @@ impl PushProgress {
         let pass = self.pass;
         self.pass += 1;
         self.visits += count;
-        if self.visits > self.most_visits {
+        if pass >= PUSH_PASSES || self.visits > self.most_visits {
             return true;
         }
         if count * 10 < self.fewest * 9 {
@@ -577,9 +577,9 @@ fn compress(
             steps.adapt(acc, packing.l);
         }
         sweeps += schedule.relax_sweeps;
-        let pushed = packing.overlaps == 0
+        let clear = packing.overlaps == 0
             || packing.push_apart(1.0 + schedule.push_ahead * taken.max(MIN_PUSH));
-        if pushed {
+        if clear {
             step = (step * 1.5).min(schedule.max_step);
         } else {
             // The pushes of earlier steps left pairs near contact that block this one, and Monte
@@ -1132,8 +1132,8 @@ impl Packing {
     /// scale is homogeneous of degree one in the separation (scaling both bodies by μ about their
     /// centres is scaling the separation by 1/μ), so the push is exact for every shape. A push may
     /// bring a body into contact with a third, which the next pass sees. Returns whether no
-    /// contact is left before the passes stall, spread or cost an unjamming ([`PushProgress`]),
-    /// or run out ([`PUSH_PASSES`]).
+    /// contact is left before the passes stall, spread, cost an unjamming or run out
+    /// ([`PushProgress`]).
     fn push_apart(&mut self, target: f64) -> bool {
         let mut pushed: Vec<usize> = (0..self.pos.len())
             .filter(|&i| self.touching[i] > 0)
@@ -1141,10 +1141,7 @@ impl Packing {
         let [mut partners, other] = std::mem::take(&mut self.partners);
         let mut clear = false;
         let mut progress = PushProgress::new(pushed.len(), self.pos.len());
-        for _ in 0..PUSH_PASSES {
-            if progress.stalls(pushed.len()) {
-                break;
-            }
+        while !progress.stalls(pushed.len()) {
             let looked_at = std::mem::take(&mut pushed);
             for &i in &looked_at {
                 let ai = self.kept_lab(i);
