@@ -12,15 +12,11 @@
 use edmd::{FrameEvery, Hooks, run_with_hooks};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
+#[path = "common/args.rs"]
+mod args;
+
 fn main() {
-    let src: String = std::env::args().skip(1).map(|a| a + "\n").collect();
-    let scene = match edmd::Scene::from_toml_str(&src) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("{e}");
-            std::process::exit(2);
-        }
-    };
+    let scene = args::scene_from_args();
     let mut measured: Option<(f64, f64)> = None;
     let mut first = |f: &edmd::Frame| {
         if measured.is_none() {
