@@ -809,6 +809,8 @@ struct Packing {
     overlaps: usize,
     /// Scratch: the bodies one body touches, with their contact scales, at two places.
     partners: [Vec<(usize, f64)>; 2],
+    /// The bounding radius of every body of a mixture, or of `geom` alone.
+    radii: Vec<f64>,
     /// Per-body shapes of a mixture ([`initial_mixture`]), whose `geom` is then the one of the
     /// largest bounding sphere; `None`: every body is `geom`.
     shapes: Option<Vec<Geom>>,
@@ -840,6 +842,7 @@ impl Packing {
             overlaps: 0,
             partners: [Vec::new(), Vec::new()],
             shapes: None,
+            radii: vec![geom.bounding_radius()],
             one_sphere: match geom {
                 Geom::Sphere { sigma } => Some(sigma),
                 _ => None,
@@ -865,6 +868,7 @@ impl Packing {
             .unwrap_or(Geom::Sphere { sigma: 1.0 });
         let mut p = Packing::new(pos, rot, l, largest);
         p.shapes = Some(shapes.to_vec());
+        p.radii = shapes.iter().map(Geom::bounding_radius).collect();
         p.one_sphere = None;
         p.ellipsoids = shapes.iter().all(|g| matches!(g, Geom::Ellipsoid(_)));
         p.kappa2 = kappa2_of_each(shapes);
@@ -921,10 +925,14 @@ impl Packing {
         self.kappa2[if self.kappa2.len() == 1 { 0 } else { i }]
     }
 
-    /// Whether the bounding spheres of `i` and `j` at separation `r`, scaled by `k`, are apart.
-    #[inline]
+    /// Whether the bounding spheres of `i` and `j` at separation `r`, scaled by `k`, are apart:
+    /// the test that rules out most candidates of a query, inlined in its loop.
+    #[inline(always)]
     fn spheres_apart(&self, i: usize, j: usize, r: &V3, k: f64) -> bool {
-        let reach = (self.geom_of(i).bounding_radius() + self.geom_of(j).bounding_radius()) * k;
+        let reach = match &self.shapes {
+            Some(_) => (self.radii[i] + self.radii[j]) * k,
+            None => self.radii[0] * 2.0 * k,
+        };
         r.norm_squared() >= reach * reach
     }
 
@@ -941,7 +949,7 @@ impl Packing {
     /// The contact scale of bodies `i` (orientation `q`, lab matrix `ai`) and `j` at separation
     /// `r`, or `None` where it is proved above `k` without being computed (bounding spheres,
     /// [`Geom::contact_scale_unless_above`], a superquadric's circumscribed ellipsoid).
-    #[inline]
+    #[inline(always)]
     fn pair_scale_unless_above(
         &self,
         i: usize,
@@ -951,10 +959,25 @@ impl Packing {
         r: &V3,
         k: f64,
     ) -> Option<f64> {
+        if self.spheres_apart(i, j, r, k) {
+            return None;
+        }
+        self.near_pair_scale_unless_above(i, j, q, ai, r, k)
+    }
+
+    /// [`Packing::pair_scale_unless_above`] of bodies whose bounding spheres meet: out of line,
+    /// so that the queries' loops keep only the bounding spheres' test.
+    #[inline(never)]
+    fn near_pair_scale_unless_above(
+        &self,
+        i: usize,
+        j: usize,
+        q: &M3,
+        ai: &M3,
+        r: &V3,
+        k: f64,
+    ) -> Option<f64> {
         if self.ellipsoids {
-            if self.spheres_apart(i, j, r, k) {
-                return None;
-            }
             return pw::contact_scale_unless_above_lab(ai, &self.lab[j], r, k);
         }
         if self.surely_apart(i, j, q, r) || self.outer_ellipsoids_apart(i, j, ai, r, k) {
@@ -982,11 +1005,17 @@ impl Packing {
     /// overlap (contact scale ≤ 1 + GAP), as [`Packing::pair_scale_unless_above`] decides it.
     /// Ellipsoids are decided by [`pw::within_lab`]; superquadrics whose inscribed ellipsoids
     /// touch do (μ_SQ ≤ μ_inner) without their distance.
-    #[inline]
+    #[inline(always)]
     fn touch(&self, i: usize, j: usize, q: &M3, ai: &M3, r: &V3) -> bool {
+        !self.spheres_apart(i, j, r, 1.0 + GAP) && self.near_touch(i, j, q, ai, r)
+    }
+
+    /// [`Packing::touch`] of bodies whose bounding spheres meet, out of line.
+    #[inline(never)]
+    fn near_touch(&self, i: usize, j: usize, q: &M3, ai: &M3, r: &V3) -> bool {
         let k = 1.0 + GAP;
         if self.ellipsoids {
-            return !self.spheres_apart(i, j, r, k) && pw::within_lab(ai, &self.lab[j], r, k);
+            return pw::within_lab(ai, &self.lab[j], r, k);
         }
         if self.surely_apart(i, j, q, r) || self.outer_ellipsoids_apart(i, j, ai, r, k) {
             return false;
@@ -1146,10 +1175,15 @@ impl Packing {
             for &i in &looked_at {
                 let ai = self.kept_lab(i);
                 self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
-                for &(j, _) in &partners {
-                    // Earlier pushes in this loop moved i: the pair is looked at anew.
+                for (nth, &(j, found)) in partners.iter().enumerate() {
                     let r = min_image(self.pos[j] - self.pos[i], self.l);
-                    let mu = self.pair_scale(i, j, &r);
+                    // The search's scale holds until the first push moves i; after it, the
+                    // pair is looked at anew.
+                    let mu = if nth == 0 {
+                        found
+                    } else {
+                        self.pair_scale(i, j, &r)
+                    };
                     if mu > 1.0 + GAP {
                         continue;
                     }

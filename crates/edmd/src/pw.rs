@@ -19,9 +19,9 @@ pub fn contact_scale_lab(a: &M3, b: &M3, r: &V3) -> f64 {
     Pw::lab(a, b, r).scale()
 }
 
-/// The contact scale, or `None` where it is proved above `k` without being computed: F is
-/// concave and its maximum is μ², so F(½) > k² suffices (and the maximisation starts at ½, so
-/// `contact_scale` then exceeds k as well). Monte Carlo only needs the scales of bodies in contact.
+/// The contact scale, or `None` where it is proved above `k` without being computed: every F(λ)
+/// is at most its maximum μ², so F(½) > k² decides most pairs, and any later iterate of the
+/// maximisation above k² ends it. Monte Carlo only needs the scales of bodies in contact.
 pub fn contact_scale_unless_above(
     ea: &Ellipsoid,
     rot_a: &M3,
@@ -35,8 +35,15 @@ pub fn contact_scale_unless_above(
 
 /// [`contact_scale_unless_above`] of the ellipsoids of lab matrices `a` and `b`.
 pub fn contact_scale_unless_above_lab(a: &M3, b: &M3, r: &V3, k: f64) -> Option<f64> {
-    let pw = Pw::lab(a, b, r);
-    (pw.f(0.5) <= k * k).then(|| pw.scale())
+    let (pw, k2) = (Pw::lab(a, b, r), k * k);
+    // F alone (one solve, where the iterates' derivatives take two) decides most pairs.
+    if pw.f(0.5) > k2 {
+        return None;
+    }
+    match pw.maximise(|_, f, _| (f > k2).then_some(true)) {
+        (_, Some(_)) => None,
+        (best, None) => Some(best.max(0.0).sqrt()),
+    }
 }
 
 /// Whether μ ≤ `k` (the ellipsoids scaled by `k` touch or overlap), decided as soon as either
