@@ -283,6 +283,10 @@ const PUSH_VISITS: usize = 100;
 const MIN_PUSH: f64 = 2e-3;
 /// Collisions per particle of the dynamics after a compression step was undone.
 const UNJAM_COLLISIONS: u64 = 5;
+/// Rounds of [`Packing::rescue`] at most, and the Monte Carlo sweeps of the bodies in contact in
+/// each.
+const RESCUE_ROUNDS: usize = 12;
+const RESCUE_SWEEPS: usize = 10;
 /// Sweeps allowed for the whole compression, whatever its steps.
 const MAX_SWEEPS: usize = 100_000;
 
@@ -578,7 +582,8 @@ fn compress(
         }
         sweeps += schedule.relax_sweeps;
         let clear = packing.overlaps == 0
-            || packing.push_apart(1.0 + schedule.push_ahead * taken.max(MIN_PUSH));
+            || packing.push_apart(1.0 + schedule.push_ahead * taken.max(MIN_PUSH))
+            || packing.rescue(&steps, rng);
         if clear {
             step = (step * 1.5).min(schedule.max_step);
         } else {
@@ -1117,11 +1122,21 @@ impl Packing {
     /// move is refused if it brings the body into contact with one it did not touch before, or
     /// deepens an overlap it had. Returns the acceptance ratio.
     fn sweep(&mut self, steps: &Steps, rng: &mut Rng) -> f64 {
-        let n = self.pos.len();
+        // In index order, which is the lattice's at first: neighbours then sit near in memory.
+        self.sweep_over(0..self.pos.len(), steps, rng)
+    }
+
+    /// [`Packing::sweep`] of the given bodies alone, in the order given.
+    fn sweep_over(
+        &mut self,
+        bodies: impl ExactSizeIterator<Item = usize>,
+        steps: &Steps,
+        rng: &mut Rng,
+    ) -> f64 {
+        let n = bodies.len();
         let mut accepted = 0;
         let [mut now, mut was] = std::mem::take(&mut self.partners);
-        // In index order, which is the lattice's at first: neighbours then sit near in memory.
-        for i in 0..n {
+        for i in bodies {
             let (p, q) = self.trial_move(i, steps, rng);
             let ai = self.lab_or_zero(i, &q);
             let ok = if self.touching[i] == 0 {
@@ -1212,6 +1227,38 @@ impl Packing {
             self.count_overlaps();
         }
         clear
+    }
+
+    /// Where pushes stalled with at most a quarter of the bodies in contact, Monte Carlo sweeps
+    /// of those bodies alone (which turn them where pushes only slide them, and never make a new
+    /// contact), in rounds of [`RESCUE_SWEEPS`] until no contact is left or a round clears less
+    /// than a fifth of the overlaps; those left then get one push to just past contact, without
+    /// the overshoot that would cascade (it may move their neighbours too). Returns whether no
+    /// contact is left. Measured (X0 = 2, φ = 0.5): at N = 4096 every step whose pushes stalled
+    /// (in 6 of 20 starts) was cleared, and at N = 10⁵ the one of seed 0 (21,925 bodies in 13,595
+    /// overlaps: 9 rounds and a push of 43), each instead of an unjamming (5 collisions per body)
+    /// and a smaller step.
+    fn rescue(&mut self, steps: &Steps, rng: &mut Rng) -> bool {
+        let in_contact = |p: &Packing| -> Vec<usize> {
+            (0..p.pos.len()).filter(|&i| p.touching[i] > 0).collect()
+        };
+        if 4 * in_contact(self).len() > self.pos.len() {
+            return false;
+        }
+        for _ in 0..RESCUE_ROUNDS {
+            let before = self.overlaps;
+            let stuck = in_contact(self);
+            for _ in 0..RESCUE_SWEEPS {
+                self.sweep_over(stuck.iter().copied(), steps, rng);
+            }
+            if self.overlaps == 0 {
+                return true;
+            }
+            if 5 * self.overlaps > 4 * before {
+                return self.push_apart(1.0 + MIN_PUSH);
+            }
+        }
+        false
     }
 
     /// A random displacement (and rotation) of body `i`.
@@ -1347,6 +1394,69 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Monte Carlo of the bodies in contact clears a few deep overlaps, moving hardly any other
+    /// body; with more than a quarter of the bodies in contact it leaves the packing as it is
+    /// (an unjamming is then due).
+    #[test]
+    fn a_rescue_clears_a_few_overlaps_where_they_are() {
+        let mut rng = Rng::new(5);
+        let e = Geom::Ellipsoid(Ellipsoid::new(0.794, 0.397, 0.397));
+        let n = 500;
+        let rot: Vec<M3> = (0..n).map(|_| random_rotation(&mut rng)).collect();
+        let melted = |rng: &mut Rng| {
+            let mut p = lattice(
+                &fcc_sites(n),
+                rot.clone(),
+                n as f64 * e.volume(),
+                0.35,
+                &|pos, rot, l| Packing::new(pos, rot, l, e),
+            );
+            let steps = Steps { dr: 0.1, dth: 0.1 };
+            for _ in 0..20 {
+                p.sweep(&steps, rng);
+            }
+            assert_eq!(p.overlaps, 0);
+            p
+        };
+        let steps = Steps { dr: 0.05, dth: 0.1 };
+        // Three bodies moved halfway onto a neighbour: deep overlaps among a handful of bodies.
+        let mut packing = melted(&mut rng);
+        for i in [7, 123, 301] {
+            let j = (0..n)
+                .filter(|&j| j != i)
+                .min_by(|&a, &b| {
+                    let d = |k: usize| min_image(packing.pos[k] - packing.pos[i], packing.l).norm();
+                    d(a).total_cmp(&d(b))
+                })
+                .expect("neighbours");
+            let to = packing.pos[i] + min_image(packing.pos[j] - packing.pos[i], packing.l) * 0.5;
+            packing.pos[i] = to.map(|x| x.rem_euclid(packing.l));
+            packing.near.moved(i, &packing.pos[i]);
+        }
+        packing.count_overlaps();
+        assert!(packing.overlaps >= 3, "{}", packing.overlaps);
+        let (was, in_contact): (Vec<V3>, Vec<bool>) = (
+            packing.pos.clone(),
+            packing.touching.iter().map(|&c| c > 0).collect(),
+        );
+        assert!(packing.rescue(&steps, &mut rng));
+        packing.count_overlaps();
+        assert_eq!(packing.overlaps, 0);
+        // The bodies in contact, and the few a last push reached (1 here): nothing far away.
+        let stuck = in_contact.iter().filter(|&&c| c).count();
+        let strays = (0..n)
+            .filter(|&i| !in_contact[i] && packing.pos[i] != was[i])
+            .count();
+        assert!(strays <= stuck / 2, "{strays} moved of {} apart", n - stuck);
+        // Squeezed by 8 %: most bodies in contact.
+        let mut packing = melted(&mut rng);
+        packing.scale(1.0 / 1.08);
+        assert!(4 * packing.touching.iter().filter(|&&c| c > 0).count() > n);
+        let was = packing.pos.clone();
+        assert!(!packing.rescue(&steps, &mut rng));
+        assert_eq!(packing.pos, was);
     }
 
     /// Pushes go on while the count of bodies pushed per pass falls, however slowly (the tail
