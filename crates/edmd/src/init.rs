@@ -954,28 +954,12 @@ impl Packing {
     }
 
     /// The contact scale of bodies `i` (orientation `q`, lab matrix `ai`) and `j` at separation
-    /// `r`, or `None` where it is proved above `k` without being computed (bounding spheres,
-    /// [`Geom::contact_scale_unless_above`], a superquadric's circumscribed ellipsoid).
-    #[inline(always)]
-    fn pair_scale_unless_above(
-        &self,
-        i: usize,
-        j: usize,
-        q: &M3,
-        ai: &M3,
-        r: &V3,
-        k: f64,
-    ) -> Option<f64> {
-        if self.spheres_apart(i, j, r, k) {
-            return None;
-        }
-        self.near_pair_scale_unless_above(i, j, q, ai, r, k)
-    }
-
-    /// [`Packing::pair_scale_unless_above`] of bodies whose bounding spheres meet: out of line,
-    /// so that the queries' loops keep only the bounding spheres' test.
+    /// `r`, whose bounding spheres meet, or `None` where it is proved above `k` without being
+    /// computed ([`Geom::contact_scale_unless_above`], a superquadric's circumscribed
+    /// ellipsoid). Out of line, so that the queries' loops keep only the bounding spheres' test
+    /// ([`Packing::spheres_apart`]).
     #[inline(never)]
-    fn near_pair_scale_unless_above(
+    fn pair_scale_unless_above(
         &self,
         i: usize,
         j: usize,
@@ -1097,6 +1081,7 @@ impl Packing {
         self.near.all_around(p, |j| {
             let r = min_image(self.pos[j] - p, self.l);
             if j != i
+                && !self.spheres_apart(i, j, &r, 1.0 + GAP)
                 && let Some(mu) = self.pair_scale_unless_above(i, j, q, ai, &r, 1.0 + GAP)
                 && mu <= 1.0 + GAP
             {
