@@ -1231,12 +1231,12 @@ impl Packing {
         let in_contact = |p: &Packing| -> Vec<usize> {
             (0..p.pos.len()).filter(|&i| p.touching[i] > 0).collect()
         };
-        if 2 * in_contact(self).len() > self.pos.len() {
+        let mut stuck = in_contact(self);
+        if 2 * stuck.len() > self.pos.len() {
             return false;
         }
         for _ in 0..RESCUE_ROUNDS {
             let before = self.overlaps;
-            let stuck = in_contact(self);
             for _ in 0..RESCUE_SWEEPS {
                 self.sweep_over(stuck.iter().copied(), steps, rng);
             }
@@ -1246,6 +1246,7 @@ impl Packing {
             if 5 * self.overlaps > 4 * before {
                 return self.push_apart(1.0 + MIN_PUSH);
             }
+            stuck = in_contact(self);
         }
         false
     }
