@@ -16,21 +16,25 @@ pub struct Body {
     pub w: V3,
 }
 
-/// Ω of Eq. (3): Ω x = w × x.
-pub fn omega(w: &V3) -> M3 {
-    w.cross_matrix()
-}
-
-/// R(t) = R(0)(I + M), M = −sin(wt)/w Ω + (1 − cos wt)/w² Ω² (Eqs. 4–5).
+/// R(t) = R(0)(I + M), M = −sin(wt)/w Ω + (1 − cos wt)/w² Ω², Ω x = w × x (Eqs. 3–5).
+///
+/// Row by row: a row uᵀ of R(0) becomes (u + Mᵀu)ᵀ, and Ωᵀ = −Ω gives
+/// Mᵀu = sin(wt)/w (w × u) + (1 − cos wt)/w² w × (w × u): two cross products a row instead of
+/// the two 3 × 3 products of R(0)(I + M), in a rotation that every candidate of a contact
+/// search pays (3.5 % of τ_c, ellipsoids X0 = 2, φ 0.5, N 256).
 pub fn rotate(rot: &M3, w: &V3, t: f64) -> M3 {
     let wn = w.norm();
     if wn == 0.0 {
         return *rot;
     }
-    let om = omega(w);
     let (s, c) = (wn * t).sin_cos();
-    let m = om * (-s / wn) + om * om * ((1.0 - c) / (wn * wn));
-    rot * (M3::identity() + m)
+    let (first, second) = (s / wn, (1.0 - c) / (wn * wn));
+    let turned = |k: usize| {
+        let u = rot.row(k).transpose();
+        let wu = w.cross(&u);
+        (u + wu * first + w.cross(&wu) * second).transpose()
+    };
+    M3::from_rows(&[turned(0), turned(1), turned(2)])
 }
 
 impl Body {
@@ -57,6 +61,15 @@ impl Body {
             t,
             ..*self
         }
+    }
+
+    /// Asks for the body's three cache lines ahead of their use.
+    #[inline]
+    pub fn prefetch(&self) {
+        // r, v, t and the start of the rotation; the rest of it; w.
+        crate::prefetch(&self.r);
+        crate::prefetch(&self.rot[1]);
+        crate::prefetch(&self.w);
     }
 
     /// Moves the stored state to time `t`.
@@ -353,6 +366,24 @@ mod tests {
         let r = rotate(&M3::identity(), &w, 0.25 * std::f64::consts::PI);
         // After a quarter turn about z the body x axis (row 0) points along lab y.
         assert!((r.row(0).transpose() - V3::new(0.0, 1.0, 0.0)).norm() < 1e-15);
+    }
+
+    proptest::proptest! {
+        /// Against nalgebra's axis–angle rotation Q (Rodrigues, right-handed about w): the body
+        /// axes turn as u(t) = Q u(0), so the rows of R(t) are those of R(0) Qᵀ.
+        #[test]
+        fn rotation_matches_the_axis_angle_rotation(
+            start in proptest::array::uniform3(-3.0f64..3.0),
+            w in proptest::array::uniform3(-20.0f64..20.0),
+            t in -2.0f64..2.0,
+        ) {
+            let rot = *nalgebra::Rotation3::new(V3::from(start)).matrix();
+            let w = V3::from(w);
+            let expected = rot * nalgebra::Rotation3::new(w * t).matrix().transpose();
+            let got = rotate(&rot, &w, t);
+            proptest::prop_assert!((got - expected).amax() < 1e-13, "{got} vs {expected}");
+            proptest::prop_assert!((got * got.transpose() - M3::identity()).amax() < 1e-13);
+        }
     }
 
     #[test]
