@@ -694,7 +694,12 @@ impl<M: Rigid> Engine<M> {
         order.clear();
         let mut near = std::mem::take(&mut self.near);
         near.clear();
-        for &(j, shift) in &cand {
+        for (k, &(j, shift)) in cand.iter().enumerate() {
+            // The bodies and kept axes of candidates a few ahead are seldom in cache at large N.
+            if let Some(&(ahead, _)) = cand.get(k + PREFETCH_AHEAD) {
+                self.bodies[ahead as usize].prefetch();
+                self.axes.prefetch(i, ahead as usize);
+            }
             let ju = j as usize;
             if ju == i {
                 continue;
@@ -811,6 +816,9 @@ impl<M: Rigid> Engine<M> {
             .then_some(Known::Contact { offset_a, offset_b })
     }
 }
+
+/// How many candidates ahead of the one looked at [`Engine::first_rigid_collision`] asks for.
+const PREFETCH_AHEAD: usize = 4;
 
 /// `order`'s mark of a candidate whose bounding spheres do not overlap yet.
 const FAR: u32 = u32::MAX;
