@@ -177,16 +177,17 @@ fn d_eps_d() -> f64 {
 fn d_eps_nnl() -> f64 {
     5e-3
 }
-/// The neighbour method of a scene that names none: the faster one measured for the shape.
-/// Spheres: NNL (τ_c 0.38–0.42 µs against LL's 0.5 at N = 256, φ = 0.45, and the gap grows with N;
-/// see the README's τ_c(N) table). Ellipsoids: LL, as in the paper's default runs. A point's id
-/// hashes the resolved method, so a plan written before NNL became the spheres' default names a
-/// different point than it did then and is simulated anew, never confused with the old results.
-pub fn default_neighbours(shape: ShapeKind) -> Neighbours {
-    match shape {
-        ShapeKind::Sphere => Neighbours::Nnl,
-        ShapeKind::Ellipsoid | ShapeKind::Superquadric => Neighbours::Ll,
-    }
+/// The neighbour method of a scene that names none: the faster one measured for the shape, NNL
+/// for every shape. Spheres: τ_c 0.38–0.42 µs against LL's 0.5 at N = 256, φ = 0.45, and the gap
+/// grows with N (see the README's τ_c(N) table). Ellipsoids and superquadrics (LL before, as in
+/// the paper's default runs): NNL took 1.4–9× less τ_c in every case measured, X0 0.5–5 at
+/// φ 0.2–0.5 and superquadrics of exponent 4 and 10, without LL's distance fallbacks (up to 2,092
+/// per 2·10⁴ collisions at X0 = 5), and it runs boxes too small for three cells a side
+/// (MEASUREMENTS.md, "Rigid bodies on neighbour lists by default"). A point's id hashes the
+/// resolved method, so a plan written before a default changed names a different point than it
+/// did then and is simulated anew, never confused with the old results.
+pub fn default_neighbours() -> Neighbours {
+    Neighbours::Nnl
 }
 
 /// Δ_NNL of a scene that names none: the faster one measured for the shape's lists.
@@ -195,8 +196,10 @@ pub fn default_neighbours(shape: ShapeKind) -> Neighbours {
 /// τ_c 0.84 against 1.30 µs at N = 256, and at N = 16384 callgrind counts 5631 instructions and
 /// 85 misses of a 512 KiB cache per collision against 6942 and 101 at 0.15 (Kolafa's Z the same
 /// to 1e-6; see MEASUREMENTS.md). Everything else keeps 0.15: the bounding parallelepipeds of
-/// rigid bodies have their own optimum (Figs. 10–11), and a sphere on linked cells has no lists,
-/// so its Δ_NNL, which hashes into the point's id, stays what it was.
+/// rigid bodies have their own optimum (Figs. 10–11), which moves with φ (at X0 = 2, N 256:
+/// 0.25 at φ 0.2, 0.15 at 0.3, 0.08–0.1 at 0.4, 0.06 at 0.5), and the campaign plans' points
+/// written without `delta_nnl` (Fig. 7's X0 = 1 ellipsoids) keep their ids; a sphere on linked
+/// cells has no lists, so its Δ_NNL, which hashes into the point's id, stays what it was.
 ///
 /// A default that changes what a point is changes its id: a sphere NNL point written without
 /// `delta_nnl` before this default names a different point now, and is simulated anew.
@@ -232,7 +235,7 @@ pub fn fill_shape_defaults(table: &mut toml::Table) {
         return;
     };
     if !table.contains_key("neighbours")
-        && let Ok(value) = toml::Value::try_from(default_neighbours(shape))
+        && let Ok(value) = toml::Value::try_from(default_neighbours())
     {
         table.insert("neighbours".into(), value);
     }
@@ -300,9 +303,9 @@ impl Scene {
             x0: d_x0(),
             exponents: (shape == ShapeKind::Superquadric).then_some([2.0; 3]),
             eps_d: d_eps_d(),
-            delta_nnl: default_delta_nnl(shape, default_neighbours(shape)),
+            delta_nnl: default_delta_nnl(shape, default_neighbours()),
             eps_nnl: d_eps_nnl(),
-            neighbours: default_neighbours(shape),
+            neighbours: default_neighbours(),
             collisions: d_collisions(),
             equilibrate: d_equilibrate(),
             seed: d_seed(),
@@ -712,7 +715,7 @@ mod tests {
     fn defaults_fill_optional_keys() {
         let s =
             Scene::from_toml_str("shape = \"ellipsoid\"\nn = 256\nphi = 0.3\nx0 = 2.0\n").unwrap();
-        assert_eq!(s.neighbours, Neighbours::Ll);
+        assert_eq!(s.neighbours, Neighbours::Nnl);
         let [a, b, c] = s.semi_axes();
         assert!((a / b - 2.0).abs() < 1e-15 && b == c);
         assert!((a * b * c - 0.125).abs() < 1e-15);
@@ -744,10 +747,8 @@ mod tests {
             ("shape = \"sphere\"\nneighbours = \"ll\"", 0.15),
             ("shape = \"ellipsoid\"\nx0 = 2", 0.15),
             ("shape = \"ellipsoid\"\nx0 = 2\nneighbours = \"nnl\"", 0.15),
-            (
-                "shape = \"superquadric\"\nexponents = [2, 2, 4]\nneighbours = \"nnl\"",
-                0.15,
-            ),
+            ("shape = \"ellipsoid\"\nx0 = 2\nneighbours = \"ll\"", 0.15),
+            ("shape = \"superquadric\"\nexponents = [2, 2, 4]", 0.15),
             ("shape = \"sphere\"\ndelta_nnl = 0.1", 0.1),
             (
                 "shape = \"ellipsoid\"\nneighbours = \"nnl\"\ndelta_nnl = 0.06",
@@ -901,7 +902,7 @@ mod species_tests {
     fn rigid_species_take_the_shape_keys_of_a_scene() {
         let s = Scene::from_toml_str(RIGID).unwrap();
         assert_eq!(s.shape, ShapeKind::Ellipsoid);
-        assert_eq!(s.neighbours, default_neighbours(ShapeKind::Ellipsoid));
+        assert_eq!(s.neighbours, default_neighbours());
         assert!(s.is_mixture());
         let sp = s.species.as_ref().unwrap();
         let [a, b, c] = sp[1].semi_axes();

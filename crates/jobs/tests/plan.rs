@@ -569,8 +569,9 @@ proptest! {
     }
 }
 
-/// Spheres default to neighbour lists; the id hashes the method the point runs with, so a sphere
-/// point without `neighbours` is the NNL point, not the LL point it named before that default.
+/// Every shape defaults to neighbour lists; the id hashes the method the point runs with, so a
+/// point without `neighbours` is the NNL point, not the LL point it named before that default
+/// (spheres since issue 13, ellipsoids and superquadrics since issue 29).
 #[test]
 fn the_default_neighbour_method_is_part_of_the_point() {
     let point = |extra: &str| {
@@ -597,7 +598,7 @@ fn the_default_neighbour_method_is_part_of_the_point() {
     let JobSpec::Edmd(scene) = &ellipsoid.jobs[0] else {
         panic!("an edmd job")
     };
-    assert_eq!(scene.neighbours, edmd::Neighbours::Ll);
+    assert_eq!(scene.neighbours, edmd::Neighbours::Nnl);
 }
 
 /// BLAKE3 of the sorted ids of `plan`'s EDMD points of the Figs. 7–11 campaign (Fig. 13's state
@@ -666,6 +667,8 @@ fn ids_of_existing_edmd_plans_are_stable() {
 /// The spheres' new default Δ_NNL moves no other point: ellipsoids and superquadrics (on either
 /// method) and spheres on cells written without `delta_nnl` keep the ids they had before it
 /// (taken on the code before issue 13's change of default), as if `delta_nnl = 0.15` were written.
+/// An ellipsoid that names no method is the NNL point since issue 29 (it was the LL point
+/// 19e58432…61da): the ids of the first two rows.
 #[test]
 fn a_shape_dependent_delta_nnl_moves_only_sphere_list_points() {
     for (text, id) in [
@@ -675,6 +678,10 @@ fn a_shape_dependent_delta_nnl_moves_only_sphere_list_points() {
         ),
         (
             "shape = \"ellipsoid\"\nx0 = 2",
+            "d54083ee97e0d396f1928e6a47280e18f06fc03ccf09dcfb412a42800c520cb9",
+        ),
+        (
+            "shape = \"ellipsoid\"\nx0 = 2\nneighbours = \"ll\"",
             "19e584324b2128592c9c327a63ca9a4c57ca111e1b3175b928d6561504a761da",
         ),
         (
