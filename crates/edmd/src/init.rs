@@ -7,7 +7,7 @@
 //! The compression follows the "quick compress" of hard-particle Monte Carlo codes: the box
 //! shrinks by a small step, which leaves some pairs overlapping; two sweeps in which no move may
 //! create an overlap or deepen one resolve many of them, and the rest are pushed apart along their
-//! lines of centres (Jodrey–Tory). Every pass is O(N) through cells ([`Near`]), and the number of
+//! lines of centres (Jodrey–Tory), ellipsoids along their contact normals. Every pass is O(N) through cells ([`Near`]), and the number of
 //! steps does not grow with N, unlike a compression limited by the closest pair (some pair is
 //! always nearly in contact, so its steps shrink as N grows: O(N²) in all). The pushes leave pairs
 //! near contact, which the engine relaxes with a few collisions per particle before anything is
@@ -266,8 +266,8 @@ const RELAX_SWEEPS: usize = 1;
 /// Passes of pushes without progress (the bodies pushed in a pass fewer by a tenth than the
 /// fewest before) after which a compression step is undone; it is undone at once where a pass
 /// pushes more than twice the fewest bodies (and N/50 more): the pushes spread instead of
-/// settling, as they do among long needles (X0 = 10), whose pushes along the line of centres
-/// mostly slide them into others. Dense packings (φ ≥ 0.4) take 100–250 passes whose count of
+/// settling, as they did among long needles (X0 = 10) pushed along their lines of centres, which
+/// mostly slid them into others. Dense packings (φ ≥ 0.4) take 100–250 passes whose count of
 /// pushed bodies falls slowly but steadily: a fixed count of 50 passes gave up on most of them,
 /// and an unjamming costs more than the passes it saves.
 const PUSH_STALL: usize = 50;
@@ -1166,11 +1166,12 @@ impl Packing {
     /// ([`pw::contact_scale_and_normal_lab`]), by (r·n)(target/μ − 1): r·n = μ(h_A + h_B) along
     /// n (h the support functions) becomes target·(h_A + h_B), so the bodies scaled by `target`
     /// touch there, to first order in the turn of n: the least move that parts them, where the
-    /// line of centres slides long bodies along each other into third ones. Measured (X0 = 2, φ 0.5, N 32,768): the step that took 50 visits per body and
-    /// an unjamming needs neither, 3.3 · 10⁶ visits against 5.3 · 10⁶; needles (X0 = 10) no
-    /// longer unjam at all (MEASUREMENTS.md, "Fast initial states, round 5"). A push may bring a
-    /// body into contact with a third, which the next pass sees. Returns whether no contact is
-    /// left before the passes stall, spread, cost an unjamming or run out ([`PushProgress`]).
+    /// line of centres slides long bodies along each other into third ones. Measured (X0 = 2,
+    /// φ 0.5, N 32,768): the step that took 50 visits per body and an unjamming needs neither,
+    /// 3.3 · 10⁶ visits against 5.3 · 10⁶; needles (X0 = 10) no longer unjam at all
+    /// (MEASUREMENTS.md, "Fast initial states, round 5"). A push may bring a body into contact
+    /// with a third, which the next pass sees. Returns whether no contact is left before the
+    /// passes stall, spread, cost an unjamming or run out ([`PushProgress`]).
     fn push_apart(&mut self, target: f64) -> bool {
         let mut pushed: Vec<usize> = (0..self.pos.len())
             .filter(|&i| self.touching[i] > 0)
