@@ -180,12 +180,12 @@ fn d_eps_nnl() -> f64 {
 /// The neighbour method of a scene that names none: the faster one measured for the shape, NNL
 /// for every shape. Spheres: τ_c 0.38–0.42 µs against LL's 0.5 at N = 256, φ = 0.45, and the gap
 /// grows with N (see the README's τ_c(N) table). Ellipsoids and superquadrics (LL before, as in
-/// the paper's default runs): NNL took 1.4–9× less τ_c in every case measured, X0 0.5–5 at
-/// φ 0.2–0.5 and superquadrics of exponent 4 and 10, without LL's distance fallbacks (up to 2,092
-/// per 2·10⁴ collisions at X0 = 5), and it runs boxes too small for three cells a side
-/// (MEASUREMENTS.md, "Rigid bodies on neighbour lists by default"). A point's id hashes the
-/// resolved method, so a plan written before a default changed names a different point than it
-/// did then and is simulated anew, never confused with the old results.
+/// the paper's default runs): NNL took 1.2–6× less τ_c at the default Δ_NNL (1.4–9× at 0.06) in
+/// every case measured, X0 0.5–5 at φ 0.3–0.5 and superquadrics of exponent 4 and 10, without
+/// LL's distance fallbacks (up to 2,092 per 2·10⁴ collisions at X0 = 5), and it runs boxes too
+/// small for three cells a side (MEASUREMENTS.md, "Rigid bodies on neighbour lists by default").
+/// A point's id hashes the resolved method, so a plan written before a default changed names a
+/// different point than it did then and is simulated anew, never confused with the old results.
 pub fn default_neighbours() -> Neighbours {
     Neighbours::Nnl
 }
