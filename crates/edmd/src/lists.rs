@@ -336,6 +336,10 @@ impl<R: Region> Lists<R> {
                 n += usize::from((m.wrapped + origin).norm_squared() <= reach2);
             }
         }
+        // The regions within reach lie wherever their bodies are numbered: asked for all at once.
+        for &(j, _) in &hits[..n] {
+            crate::prefetch(&self.regions[j as usize]);
+        }
         for &(j, k) in &hits[..n] {
             let j = j as usize;
             if !take(j) {
