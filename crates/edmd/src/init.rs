@@ -7,11 +7,11 @@
 //! The compression follows the "quick compress" of hard-particle Monte Carlo codes: the box
 //! shrinks by a small step, which leaves some pairs overlapping; two sweeps in which no move may
 //! create an overlap or deepen one resolve many of them, and the rest are pushed apart along their
-//! lines of centres (Jodrey–Tory), ellipsoids along their contact normals. Every pass is O(N) through cells ([`Near`]), and the number of
-//! steps does not grow with N, unlike a compression limited by the closest pair (some pair is
-//! always nearly in contact, so its steps shrink as N grows: O(N²) in all). The pushes leave pairs
-//! near contact, which the engine relaxes with a few collisions per particle before anything is
-//! measured (`run::RELAX_COLLISIONS_PER_PARTICLE`).
+//! lines of centres (Jodrey–Tory), ellipsoids along their contact normals. Every pass is O(N)
+//! through cells ([`Near`]), and the number of steps does not grow with N, unlike a compression
+//! limited by the closest pair (some pair is always nearly in contact, so its steps shrink as N
+//! grows: O(N²) in all). The pushes leave pairs near contact, which the engine relaxes with a few
+//! collisions per particle before anything is measured (`run::RELAX_COLLISIONS_PER_PARTICLE`).
 
 use crate::EdmdError;
 use crate::bracket::outer_factor_squared;
