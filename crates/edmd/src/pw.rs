@@ -25,17 +25,8 @@ pub fn contact_scale_lab(a: &M3, b: &M3, r: &V3) -> f64 {
 /// (Perram–Wertheim), and B's is opposite.
 pub fn contact_scale_and_normal_lab(a: &M3, b: &M3, r: &V3) -> (f64, V3) {
     let pw = Pw::lab(a, b, r);
-    let mut best = (f64::NEG_INFINITY, 0.5);
-    pw.maximise(|l, f, _| {
-        if f > best.0 {
-            best = (f, l);
-        }
-        None
-    });
-    (
-        best.0.max(0.0).sqrt(),
-        solve_spd(&pw.m(best.1), r).normalize(),
-    )
+    let (best, at, _) = pw.maximise(|_, _, _| None);
+    (best.max(0.0).sqrt(), solve_spd(&pw.m(at), r).normalize())
 }
 
 /// The contact scale, or `None` where it is proved above `k` without being computed: every F(λ)
@@ -60,8 +51,8 @@ pub fn contact_scale_unless_above_lab(a: &M3, b: &M3, r: &V3, k: f64) -> Option<
         return None;
     }
     match pw.maximise(|_, f, _| (f > k2).then_some(true)) {
-        (_, Some(_)) => None,
-        (best, None) => Some(best.max(0.0).sqrt()),
+        (_, _, Some(_)) => None,
+        (best, _, None) => Some(best.max(0.0).sqrt()),
     }
 }
 
@@ -133,7 +124,7 @@ impl Pw {
     fn within(&self, k2: f64) -> bool {
         // The latest tangents (λ, F, F′) where F rises and where it falls.
         let (mut rising, mut falling): (Option<Tangent>, Option<Tangent>) = (None, None);
-        let (best, verdict) = self.maximise(|l, f, f1| {
+        let (best, _, verdict) = self.maximise(|l, f, f1| {
             if f > k2 {
                 return Some(false);
             }
@@ -155,19 +146,23 @@ impl Pw {
     /// The maximum of F: Newton on F′ = 0 from λ = ½, kept inside the bracket where F′ changes
     /// sign (F′(0) = rᵀA⁻¹r > 0 > F′(1)), a bisection wherever a step leaves it. F is concave, so
     /// Newton converges quadratically, in 3–5 steps where Brent's search took a dozen and more
-    /// evaluations to 10⁻¹⁰. The largest F seen is returned: every F(λ) is a lower bound of μ².
-    /// `visit` sees every iterate (λ, F, F′) and may end the search with its verdict.
+    /// evaluations to 10⁻¹⁰. The largest F seen is returned, with the λ it was seen at: every
+    /// F(λ) is a lower bound of μ². `visit` sees every iterate (λ, F, F′) and may end the search
+    /// with its verdict.
     fn maximise(
         &self,
         mut visit: impl FnMut(f64, f64, f64) -> Option<bool>,
-    ) -> (f64, Option<bool>) {
+    ) -> (f64, f64, Option<bool>) {
         let (mut lo, mut hi, mut l) = (0.0_f64, 1.0_f64, 0.5_f64);
-        let mut best = 0.0_f64;
+        // The largest F so far, and where (a NaN is never the largest).
+        let (mut best, mut at) = (0.0_f64, l);
         for _ in 0..100 {
             let (f, f1, f2) = self.derivatives(l);
-            best = best.max(f);
+            if f > best {
+                (best, at) = (f, l);
+            }
             if let Some(verdict) = visit(l, f, f1) {
-                return (best, Some(verdict));
+                return (best, at, Some(verdict));
             }
             if f1 > 0.0 {
                 lo = l;
@@ -182,12 +177,15 @@ impl Pw {
             };
             // At the maximum F is flat: a step of 10⁻⁹ changes F by ~|F″|·10⁻¹⁸, below rounding.
             if (next - l).abs() <= 1e-9 * (1.0 + l) || hi - lo <= 1e-12 {
-                best = best.max(self.f(next));
+                let f = self.f(next);
+                if f > best {
+                    (best, at) = (f, next);
+                }
                 break;
             }
             l = next;
         }
-        (best, None)
+        (best, at, None)
     }
 }
 
