@@ -103,6 +103,9 @@ impl Surface for Ellipsoid {
     fn semi_axes(&self) -> V3 {
         self.s
     }
+    fn ellipsoid_semi_axes(&self) -> Option<V3> {
+        Some(self.s)
+    }
 }
 
 #[cfg(test)]

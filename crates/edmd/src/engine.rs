@@ -8,6 +8,7 @@ use crate::body::{Moving, SphereBody};
 use crate::calendar::{Calendar, Event, Kind};
 use crate::cells::Cells;
 use crate::contact::{Known, bounding_sphere_window};
+use crate::first_step::{Lane, first_steps};
 use crate::geometry::{V3, image_offset};
 use crate::lists::{Lists, Region};
 use crate::model::{MixedSphereModel, Model, Rigid, SphereModel};
@@ -46,13 +47,14 @@ pub(crate) struct Engine<M: Model> {
     pub(crate) t: f64,
     nb: Neighbourhood<M::Region>,
     scratch: Vec<(u32, [i32; 3])>,
-    /// Candidate partners: (estimate, lower bound, the time the search may stop at, partner,
-    /// image shift, index in `near` or [`FAR`]).
-    order: Vec<(f64, f64, f64, u32, [i32; 3], u32)>,
+    /// Candidate partners of a rigid prediction, in the order of their searches.
+    order: Vec<Order>,
     /// Rigid candidates whose bounding spheres overlap now: the partner at the present, and what
     /// is known of the pair already (the quick bound's separating-axis gap, or the contact just
     /// resolved).
     near: Vec<(Body, Option<Known>)>,
+    /// Rigid candidates whose bounding spheres overlap now, before their quick bounds.
+    close: Vec<Close>,
     /// While the two bodies of a collision are predicted anew: the pair, where they touched
     /// (`Extra`, the image offset of the second), so that each one's search for the other starts
     /// from that contact.
@@ -178,6 +180,7 @@ impl<M: FirstCollision> Engine<M> {
             scratch: Vec::new(),
             order: Vec::new(),
             near: Vec::new(),
+            close: Vec::new(),
             met: None,
             axes: PairAxes::default(),
             acc: Accounting {
@@ -233,6 +236,7 @@ impl<M: FirstCollision> Engine<M> {
             scratch: Vec::new(),
             order: Vec::new(),
             near: Vec::new(),
+            close: Vec::new(),
             met: None,
             axes: s.axes,
             acc: s.acc,
@@ -694,6 +698,9 @@ impl<M: Rigid> Engine<M> {
         order.clear();
         let mut near = std::mem::take(&mut self.near);
         near.clear();
+        let mut close = std::mem::take(&mut self.close);
+        close.clear();
+        let lanes = self.m.lanes();
         for (k, &(j, shift)) in cand.iter().enumerate() {
             // The bodies and kept axes of candidates a few ahead are seldom in cache at large N.
             if let Some(&(ahead, _)) = cand.get(k + PREFETCH_AHEAD) {
@@ -718,26 +725,53 @@ impl<M: Rigid> Engine<M> {
                 };
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
-                    let mut b = self.bodies[ju].at(self.t);
-                    b.r += image_offset(shift, self.l);
-                    if let Some(contact) = self.contact_with(i, ju, a, &b) {
-                        // The pair has just collided and parts: rarely the first to meet again,
-                        // it is searched last, with the shortest horizon.
-                        order.push((f64::INFINITY, 0.0, until, j, shift, near.len() as u32));
-                        near.push((b, Some(contact)));
-                        continue;
+                    if self.met_pair(i, ju) {
+                        let mut b = self.bodies[ju].at(self.t);
+                        b.r += image_offset(shift, self.l);
+                        if let Some(contact) = self.contact_with(i, ju, a, &b) {
+                            // The pair has just collided and parts: rarely the first to meet
+                            // again, it is searched last, with the shortest horizon.
+                            order.push((f64::INFINITY, 0.0, until, j, shift, near.len() as u32));
+                            near.push((b, Some(contact)));
+                            continue;
+                        }
                     }
-                    let start = self.axes.get(i, ju);
-                    let q = self
-                        .m
-                        .quick_bound([i, ju], a, &b, until - self.t, start.as_ref());
-                    if let Some(n) = &q.axis {
-                        self.axes.put(self.bodies.len(), i, ju, n);
-                    }
-                    order.push((q.estimate, q.lower, until, j, shift, near.len() as u32));
-                    near.push((b, q.now.map(Known::Gap)));
+                    close.push((j, shift, until, self.axes.get(i, ju)));
                 } else {
                     order.push((t1, t1, until, j, shift, FAR));
+                }
+            }
+        }
+        // Most close candidates are ruled out by the first step of their ascent: four at a time
+        // where the model can (a last group of fewer padded with its first), then the whole
+        // bound for the others.
+        match &lanes {
+            Some(shape) => {
+                for group in close.chunks(4) {
+                    let lane = |k: usize| {
+                        let (j, shift, _, start) = group[if k < group.len() { k } else { 0 }];
+                        Lane {
+                            body: &self.bodies[j as usize],
+                            offset: image_offset(shift, self.l),
+                            start,
+                        }
+                    };
+                    let steps =
+                        first_steps(shape, a, self.t, &[lane(0), lane(1), lane(2), lane(3)]);
+                    for (&(j, shift, until, start), step) in group.iter().zip(steps) {
+                        if step.lower >= until - self.t {
+                            // No contact before the horizon: nothing to search.
+                            self.axes
+                                .put(self.bodies.len(), i, j as usize, &step.next_axis);
+                        } else {
+                            self.bound_close(i, a, (j, shift, until, start), &mut order, &mut near);
+                        }
+                    }
+                }
+            }
+            None => {
+                for &c in &close {
+                    self.bound_close(i, a, c, &mut order, &mut near);
                 }
             }
         }
@@ -789,7 +823,39 @@ impl<M: Rigid> Engine<M> {
         self.near = near;
         self.order = order;
         self.scratch = cand;
+        self.close = close;
         best
+    }
+
+    /// The quick bound of close candidate `c` (index, image shift, time it must meet before, kept
+    /// axis) of body `i` (`a`), entered in `order` and `near`.
+    fn bound_close(
+        &mut self,
+        i: usize,
+        a: &Body,
+        (j, shift, until, start): Close,
+        order: &mut Vec<Order>,
+        near: &mut Vec<(Body, Option<Known>)>,
+    ) {
+        let ju = j as usize;
+        let mut b = self.bodies[ju].at(self.t);
+        b.r += image_offset(shift, self.l);
+        let q = self
+            .m
+            .quick_bound([i, ju], a, &b, until - self.t, start.as_ref());
+        if let Some(n) = &q.axis {
+            self.axes.put(self.bodies.len(), i, ju, n);
+        }
+        order.push((q.estimate, q.lower, until, j, shift, near.len() as u32));
+        near.push((b, q.now.map(Known::Gap)));
+    }
+
+    /// Whether `i` and `j` are the pair of the collision just resolved.
+    fn met_pair(&self, i: usize, j: usize) -> bool {
+        self.met.is_some_and(|(p, q, ..)| {
+            let (p, q) = (p as usize, q as usize);
+            (i, j) == (p, q) || (i, j) == (q, p)
+        })
     }
 
     /// Where `a` (body `i`) and `b` (body `j`'s candidate image) touch, if they are the pair of
@@ -819,6 +885,14 @@ impl<M: Rigid> Engine<M> {
 
 /// How many candidates ahead of the one looked at [`Engine::first_rigid_collision`] asks for.
 const PREFETCH_AHEAD: usize = 4;
+
+/// A candidate of a rigid prediction in the order of its search: (estimate, lower bound, time it
+/// must meet before, index, image shift, index in `near` or [`FAR`]).
+type Order = (f64, f64, f64, u32, [i32; 3], u32);
+
+/// A candidate of a rigid prediction whose bounding spheres overlap, before its quick bound:
+/// (index, image shift, time it must meet before, the pair's kept axis).
+type Close = (u32, [i32; 3], f64, Option<V3>);
 
 /// `order`'s mark of a candidate whose bounding spheres do not overlap yet.
 const FAR: u32 = u32::MAX;

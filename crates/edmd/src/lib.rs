@@ -18,6 +18,8 @@
 //!   stops the run with [`EdmdError::Unresolved`], naming the pair.
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
+//!   [`first_step`]: the first step of its quick bound for one ellipsoid shape, four candidates
+//!   at a time on AVX2, which rules out most candidates of a prediction.
 //! - [`calendar`]: one event per particle in a 4-ary heap that knows where each particle's is.
 //! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
@@ -86,6 +88,7 @@ pub mod contact;
 pub mod distance;
 pub mod ellipsoid;
 pub mod engine;
+pub mod first_step;
 pub mod geometry;
 pub mod init;
 pub mod lists;

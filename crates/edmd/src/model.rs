@@ -4,8 +4,9 @@
 use crate::ball::{Ball, SizedBall};
 use crate::body::{Moving, SphereBody};
 use crate::contact::{ContactParams, Known, QuickBound, predict_from, quick_bound};
-use crate::distance::SolverStats;
+use crate::distance::{SolverStats, elongated};
 use crate::ellipsoid::Ellipsoid;
+use crate::first_step::EllipsoidLanes;
 use crate::geometry::{Surface, V3};
 use crate::lists::Region;
 use crate::nnl::Obp;
@@ -342,6 +343,11 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
         start: Option<&V3>,
     ) -> QuickBound;
     fn solver_stats(&self) -> &SolverStats;
+    /// The shape of every body where [`crate::first_step::first_steps`] bounds four candidates at
+    /// once (one ellipsoid shape, not elongated); `None` otherwise.
+    fn lanes(&self) -> Option<EllipsoidLanes> {
+        None
+    }
 }
 
 /// The rotational kinetic energy ½ I w² of a body of the given inertia.
@@ -390,6 +396,7 @@ fn predict_pair<S: Surface>(
 /// X0, including 1) and superquadrics, each monomorphised on its own shape.
 pub(crate) struct RigidModel<S> {
     e: S,
+    lanes: Option<EllipsoidLanes>,
     params: ContactParams,
     inertia: Inertia,
     pub(crate) stats: SolverStats,
@@ -430,8 +437,13 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
 
 impl<S: Surface + Copy> RigidModel<S> {
     pub(crate) fn new(e: S, params: ContactParams, inertia: Inertia) -> Self {
+        let lanes = e
+            .ellipsoid_semi_axes()
+            .filter(|_| !elongated(&e))
+            .and_then(EllipsoidLanes::of);
         RigidModel {
             e,
+            lanes,
             params,
             inertia,
             stats: SolverStats::default(),
@@ -475,6 +487,9 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats
+    }
+    fn lanes(&self) -> Option<EllipsoidLanes> {
+        self.lanes
     }
 }
 

@@ -1,0 +1,427 @@
+//! The first step of [`crate::contact::quick_bound`] for one ellipsoid against four candidates at
+//! once, on AVX2: the candidates moved to the present (Eqs. 3–6), one ascent step along the kept
+//! axis or the line of centres, and the safe time of its gap ([`crate::rigid::gap_safe_time`]).
+//!
+//! At φ = 0.5, X0 = 2 nine in ten of the candidates whose bounding spheres overlap are ruled out
+//! by this first step alone (their safe time reaches the horizon). One at a time, each is a chain
+//! of square roots and divisions that waits on the one before; in four lanes one instruction
+//! carries four such chains.
+//!
+//! The step is the scalar one worked in the lab frame instead of A's: the support point of an
+//! ellipsoid of semi-axes s along the body-frame unit u is s∘s∘u / |s∘u|, and that of B along −n
+//! needs R_B n, not R_A R_Bᵀ. The gap and the bound differ from the scalar ones by rounding alone,
+//! and are rigorous by the same argument: any unit direction n gives a lower bound on the
+//! distance, n·(r_B − r_A) − h_A(n) − h_B(−n).
+
+use crate::geometry::V3;
+use crate::rigid::Body;
+
+/// What the first step finds for one candidate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstStep {
+    /// A lower bound on the contact time, after the present.
+    pub lower: f64,
+    /// The unit axis (lab frame, from A towards B) the ascent would try next: the pair's next
+    /// start.
+    pub next_axis: V3,
+}
+
+/// One ellipsoid shape, as the lanes need it.
+#[derive(Clone, Copy, Debug)]
+pub struct EllipsoidLanes {
+    /// Semi-axes along the body axes.
+    pub s: V3,
+    /// Bounding radius L (Eq. 33).
+    pub l: f64,
+    /// Largest radius of curvature ρ_max.
+    pub rho: f64,
+}
+
+impl EllipsoidLanes {
+    /// The lanes of an ellipsoid of semi-axes `s`, where the CPU has AVX2.
+    pub fn of(s: V3) -> Option<Self> {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            return Some(EllipsoidLanes {
+                s,
+                l: s.max(),
+                rho: s.max().powi(2) / s.min(),
+            });
+        }
+        None
+    }
+}
+
+/// One candidate as the lanes take it: its stored state, the image offset of its box and the
+/// start of its ascent (the pair's kept unit axis, lab frame, from A towards B), if any.
+#[derive(Clone, Copy)]
+pub struct Lane<'a> {
+    pub body: &'a Body,
+    pub offset: V3,
+    pub start: Option<V3>,
+}
+
+/// [`FirstStep`] of body `a` (at time `now`) against each of four candidates, every one moved
+/// freely from its own time to `now`, all of shape `shape` ([`EllipsoidLanes::of`] checked AVX2).
+pub fn first_steps(
+    shape: &EllipsoidLanes,
+    a: &Body,
+    now: f64,
+    lanes: &[Lane; 4],
+) -> [FirstStep; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: an `EllipsoidLanes` exists only where the CPU has AVX2.
+        unsafe { avx2::first_steps(shape, a, now, lanes) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    unreachable!("no lanes without AVX2: {shape:?}")
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::{EllipsoidLanes, FirstStep, Lane};
+    use crate::geometry::V3;
+    use crate::rigid::Body;
+
+    /// A vector of three components, four lanes each.
+    type V4 = [__m256d; 3];
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn splat(x: f64) -> __m256d {
+        _mm256_set1_pd(x)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lanes(f: impl Fn(usize) -> f64) -> __m256d {
+        _mm256_set_pd(f(3), f(2), f(1), f(0))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_add_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn sub(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_sub_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn mul(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_mul_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn div(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_div_pd(a, b)
+    }
+
+    /// `yes` where `mask` is set, else `no`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn select(mask: __m256d, yes: __m256d, no: __m256d) -> __m256d {
+        _mm256_blendv_pd(no, yes, mask)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn dot(a: &V4, b: &V4) -> __m256d {
+        add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn norm(a: &V4) -> __m256d {
+        _mm256_sqrt_pd(dot(a, a))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn cross(a: &V4, b: &V4) -> V4 {
+        [
+            sub(mul(a[1], b[2]), mul(a[2], b[1])),
+            sub(mul(a[2], b[0]), mul(a[0], b[2])),
+            sub(mul(a[0], b[1]), mul(a[1], b[0])),
+        ]
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn plus(a: &V4, b: &V4) -> V4 {
+        [add(a[0], b[0]), add(a[1], b[1]), add(a[2], b[2])]
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn minus(a: &V4, b: &V4) -> V4 {
+        [sub(a[0], b[0]), sub(a[1], b[1]), sub(a[2], b[2])]
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn times(a: &V4, f: __m256d) -> V4 {
+        [mul(a[0], f), mul(a[1], f), mul(a[2], f)]
+    }
+
+    /// rot·v: `v` (lab frame) in the body frame of `rot` (rows = body axes).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn to_body(rot: &[V4; 3], v: &V4) -> V4 {
+        [dot(&rot[0], v), dot(&rot[1], v), dot(&rot[2], v)]
+    }
+
+    /// rotᵀ·v: `v` (body frame of `rot`) in the lab frame.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn to_lab(rot: &[V4; 3], v: &V4) -> V4 {
+        let column = |q: usize| [rot[0][q], rot[1][q], rot[2][q]];
+        [dot(&column(0), v), dot(&column(1), v), dot(&column(2), v)]
+    }
+
+    /// The support point s∘s∘u / |s∘u| of the ellipsoid of semi-axes `s` along the body-frame
+    /// unit u.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn support_point(s: &V3, u: &V4) -> V4 {
+        let su = [0, 1, 2].map(|c| mul(splat(s[c]), u[c]));
+        let h = norm(&su);
+        [0, 1, 2].map(|c| div(mul(splat(s[c]), su[c]), h))
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn first_steps(
+        shape: &EllipsoidLanes,
+        a: &Body,
+        now: f64,
+        lanes4: &[Lane; 4],
+    ) -> [FirstStep; 4] {
+        let body = |k: usize| -> &Body { lanes4[k].body };
+        let field = |f: fn(&Body) -> f64| lanes(|k| f(body(k)));
+        let vector = |f: fn(&Body) -> V3| -> V4 { [0, 1, 2].map(|c| lanes(|k| f(body(k))[c])) };
+        // B at the present: r + v τ and R(τ) row by row (rigid::rotate), unturned where w or τ
+        // is 0.
+        let tau = sub(splat(now), field(|b| b.t));
+        let w_b = vector(|b| b.w);
+        let w_norm_b = norm(&w_b);
+        let (mut sin, mut cos) = ([0.0; 4], [1.0; 4]);
+        let (mut wn, mut t) = ([0.0; 4], [0.0; 4]);
+        // SAFETY: four f64 to four f64.
+        unsafe {
+            _mm256_storeu_pd(wn.as_mut_ptr(), w_norm_b);
+            _mm256_storeu_pd(t.as_mut_ptr(), tau);
+        }
+        let mut turns = [0.0; 4];
+        for k in 0..4 {
+            if wn[k] != 0.0 && t[k] != 0.0 {
+                (sin[k], cos[k]) = (wn[k] * t[k]).sin_cos();
+                turns[k] = f64::from_bits(u64::MAX);
+            }
+        }
+        let turns = lanes(|k| turns[k]);
+        let zero = _mm256_setzero_pd();
+        // sin(wτ)/w and (1 − cos wτ)/w² of Eq. (5).
+        let first = select(turns, div(lanes(|k| sin[k]), w_norm_b), zero);
+        let second = select(
+            turns,
+            div(sub(splat(1.0), lanes(|k| cos[k])), mul(w_norm_b, w_norm_b)),
+            zero,
+        );
+        let rot_b: [V4; 3] = [0, 1, 2].map(|p| {
+            let u: V4 = [0, 1, 2].map(|c| lanes(|k| body(k).rot[(p, c)]));
+            let wu = cross(&w_b, &u);
+            let wwu = cross(&w_b, &wu);
+            plus(&plus(&u, &times(&wu, first)), &times(&wwu, second))
+        });
+        let v_b = vector(|b| b.v);
+        let offset: V4 = [0, 1, 2].map(|c| lanes(|k| lanes4[k].offset[c]));
+        let r_b = plus(&plus(&vector(|b| b.r), &times(&v_b, tau)), &offset);
+        let r = minus(&r_b, &[0, 1, 2].map(|c| splat(a.r[c])));
+        // The axis: kept, or the line of centres.
+        let kept = lanes(|k| {
+            f64::from_bits(if lanes4[k].start.is_some() {
+                u64::MAX
+            } else {
+                0
+            })
+        });
+        let start: V4 = [0, 1, 2].map(|c| lanes(|k| lanes4[k].start.map_or(0.0, |n| n[c])));
+        let r_norm = norm(&r);
+        let n: V4 = [0, 1, 2].map(|c| select(kept, start[c], div(r[c], r_norm)));
+        let rot_a: [V4; 3] = [0, 1, 2].map(|p| [0, 1, 2].map(|c| splat(a.rot[(p, c)])));
+        let off_a = to_lab(&rot_a, &support_point(&shape.s, &to_body(&rot_a, &n)));
+        let minus_n = [0, 1, 2].map(|c| sub(zero, n[c]));
+        let off_b = to_lab(&rot_b, &support_point(&shape.s, &to_body(&rot_b, &minus_n)));
+        let between = minus(&plus(&r, &off_b), &off_a);
+        let gap = dot(&n, &between);
+        // The ascent's next axis, damped by the radii of curvature (contact::AxisAscent).
+        let damping = splat(1.0 / (2.0 * shape.rho));
+        let along = plus(&n, &times(&minus(&between, &times(&n, gap)), damping));
+        let along_norm = norm(&along);
+        let next = [0, 1, 2].map(|c| div(along[c], along_norm));
+        // The safe time of the gap: rigid::gap_safe_time with quadratic moduli.
+        let (w_a, v_a) = (
+            [0, 1, 2].map(|c| splat(a.w[c])),
+            [0, 1, 2].map(|c| splat(a.v[c])),
+        );
+        let (l, rho) = (splat(shape.l), splat(shape.rho));
+        let turn_a = norm(&cross(&w_a, &n));
+        let turn_b = norm(&cross(&w_b, &n));
+        let opening = dot(&n, &minus(&v_b, &v_a));
+        let closing = sub(add(mul(turn_a, l), mul(turn_b, l)), opening);
+        let infinity = splat(f64::INFINITY);
+        let linear = select(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(closing, zero),
+            div(gap, closing),
+            infinity,
+        );
+        let rate = dot(
+            &n,
+            &minus(
+                &plus(&v_b, &cross(&w_b, &off_b)),
+                &plus(&v_a, &cross(&w_a, &off_a)),
+            ),
+        );
+        // rigid::support_acceleration_bound: |w × n| (|w × n| ρ + |w| L), 0 while n does not turn.
+        let accel_of = |turn: __m256d, w_norm: __m256d| {
+            select(
+                _mm256_cmp_pd::<_CMP_EQ_OQ>(turn, zero),
+                zero,
+                mul(turn, add(mul(turn, rho), mul(w_norm, l))),
+            )
+        };
+        let accel = add(
+            accel_of(turn_a, splat(a.w.norm())),
+            accel_of(turn_b, w_norm_b),
+        );
+        // rigid::positive_for.
+        let root = div(
+            add(
+                rate,
+                _mm256_sqrt_pd(add(mul(rate, rate), mul(mul(splat(2.0), accel), gap))),
+            ),
+            accel,
+        );
+        let no_accel = select(
+            _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero),
+            div(gap, sub(zero, rate)),
+            infinity,
+        );
+        let curved = select(_mm256_cmp_pd::<_CMP_GT_OQ>(accel, zero), root, no_accel);
+        // f64::max(linear, curved); a gap that is not positive (or NaN) proves nothing.
+        let lower = select(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(gap, zero),
+            _mm256_max_pd(curved, linear),
+            zero,
+        );
+        let (mut lower4, mut next4) = ([0.0; 4], [[0.0; 4]; 3]);
+        // SAFETY: four f64 to four f64.
+        unsafe {
+            _mm256_storeu_pd(lower4.as_mut_ptr(), lower);
+            for c in 0..3 {
+                _mm256_storeu_pd(next4[c].as_mut_ptr(), next[c]);
+            }
+        }
+        [0, 1, 2, 3].map(|k| FirstStep {
+            lower: lower4[k],
+            next_axis: V3::new(next4[0][k], next4[1][k], next4[2][k]),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::contact::quick_bound;
+    use crate::distance::elongated;
+    use crate::ellipsoid::Ellipsoid;
+    use crate::geometry::M3;
+    use crate::pw::contact_scale;
+    use crate::rigid::rotate;
+
+    prop_compose! {
+        /// A body near the origin, its own time before `now` = 1 (so that the lanes turn it).
+        fn body()(
+            r in prop::array::uniform3(-1.2f64..1.2),
+            v in prop::array::uniform3(-3.0f64..3.0),
+            axis in prop::array::uniform3(-1.0f64..1.0),
+            angle in 0.0f64..6.3,
+            w in prop::array::uniform3(-8.0f64..8.0),
+            still in prop::bool::weighted(0.1),
+            t in prop_oneof![Just(1.0), 0.9f64..1.0],
+        ) -> Body {
+            let rot = rotate(&M3::identity(), &(V3::from(axis) + V3::new(1e-3, 0.0, 0.0)), angle);
+            let w = if still { V3::zeros() } else { V3::from(w) };
+            Body { r: V3::from(r), v: V3::from(v), t, rot, w }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Each lane is the scalar quick bound's first step (to rounding) of the candidate moved
+        /// to the present, from its kept axis or the line of centres; where the bodies are apart
+        /// nothing overlaps before the bound (by the independent Perram–Wertheim scale), and
+        /// the next axis is a unit one.
+        #[test]
+        fn each_lane_is_the_first_step_of_the_quick_bound_and_comes_before_any_contact(
+            s in prop::array::uniform3(0.3f64..1.5),
+            a in body(),
+            bs in prop::array::uniform4(body()),
+            offsets in prop::array::uniform4(prop::array::uniform3(-1i32..=1)),
+            starts in prop::array::uniform4(prop::option::of(prop::array::uniform3(-1.0f64..1.0))),
+        ) {
+            let e = Ellipsoid::new(s[0], s[1], s[2]);
+            prop_assume!(!elongated(&e));
+            let Some(shape) = EllipsoidLanes::of(e.s) else { return Ok(()) };
+            let now = 1.0;
+            let a = a.at(now);
+            let box_l = 3.0;
+            let starts = starts.map(|n| n.map(|n| (V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize()));
+            let lanes: [Lane; 4] = [0, 1, 2, 3].map(|k| Lane {
+                body: &bs[k],
+                offset: V3::from(offsets[k].map(f64::from)) * box_l,
+                start: starts[k],
+            });
+            let steps = first_steps(&shape, &a, now, &lanes);
+            for k in 0..4 {
+                let mut b = bs[k].at(now);
+                b.r += lanes[k].offset;
+                let scalar = quick_bound(&e, &a, &e, &b, 0.0, starts[k].as_ref());
+                let lane = steps[k];
+                prop_assert!(lane.lower >= 0.0);
+                prop_assert!(
+                    lane.lower == scalar.lower
+                        || (lane.lower - scalar.lower).abs() <= 1e-9 * (1.0 + scalar.lower),
+                    "lane {k}: {} against the scalar {}", lane.lower, scalar.lower
+                );
+                let axis = scalar.axis.expect("the ascent's next axis");
+                prop_assert!((lane.next_axis - axis).norm() < 1e-9, "{:?} {:?}", lane.next_axis, axis);
+                prop_assert!((lane.next_axis.norm() - 1.0).abs() < 1e-12);
+                let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+                let apart = contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r)) > 1.0 + 1e-9;
+                if apart && lane.lower > 0.0 {
+                    let end = lane.lower.min(2.0);
+                    for i in 0..200 {
+                        let t = end * i as f64 / 200.0;
+                        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+                        let mu = contact_scale(&e, &pa.rot, &e, &pb.rot, &(pb.r - pa.r));
+                        prop_assert!(mu > 1.0 - 1e-9, "overlap {mu} at {t} before the bound {}", lane.lower);
+                    }
+                }
+            }
+        }
+    }
+}
