@@ -172,6 +172,16 @@ impl<X: Copy> Calendar<X> {
         }
     }
 
+    /// The time of particle `a`'s event, +∞ where it has none.
+    #[inline]
+    pub fn time_of(&self, a: usize) -> f64 {
+        if self.pos[a] == NONE {
+            f64::INFINITY
+        } else {
+            self.events[a].t
+        }
+    }
+
     /// The earliest event.
     pub fn first(&self) -> Option<Event<X>> {
         (self.len > 0).then(|| {
@@ -283,6 +293,9 @@ mod tests {
                 table[a] = t;
                 let want = table.iter().flatten().fold(f64::INFINITY, |m, &t| m.min(t));
                 prop_assert_eq!(cal.len, table.iter().flatten().count());
+                for (b, t) in table.iter().enumerate() {
+                    prop_assert_eq!(cal.time_of(b), t.unwrap_or(f64::INFINITY));
+                }
                 prop_assert_eq!(cal.first().map_or(f64::INFINITY, |e| e.t), want);
                 if let Some(e) = cal.first() {
                     prop_assert_eq!(table[e.a as usize], Some(want));

@@ -702,9 +702,11 @@ impl<M: Rigid> Engine<M> {
         close.clear();
         let lanes = self.m.lanes();
         for (k, &(j, shift)) in cand.iter().enumerate() {
-            // The bodies and kept axes of candidates a few ahead are seldom in cache at large N.
+            // The bodies, events and kept axes of candidates a few ahead are seldom in cache at
+            // large N.
             if let Some(&(ahead, _)) = cand.get(k + PREFETCH_AHEAD) {
                 self.bodies[ahead as usize].prefetch();
+                self.cal.prefetch(ahead as usize);
                 self.axes.prefetch(i, ahead as usize);
             }
             let ju = j as usize;
@@ -716,13 +718,18 @@ impl<M: Rigid> Engine<M> {
             let bj = &self.bodies[ju];
             let r = bj.r + bj.v * (self.t - bj.t) + image_offset(shift, self.l);
             let reach = lb + self.m.bounding_radius_of(ju);
-            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), reach) {
-                // A contact after the partner leaves its box is the partner's to find: its
-                // rebuild predicts it anew against every box its new one meets (Sec. 3.3).
-                let until = match &self.nb {
-                    Neighbourhood::Nnl { escape_at, .. } => best.t.min(escape_at[ju]),
-                    Neighbourhood::Ll { .. } => best.t,
-                };
+            // A contact after the partner's own next event is the partner's to find: every
+            // event predicts its body anew against all it may meet (a box escape against every
+            // box its new one meets, Sec. 3.3), and a collision of the partner's with a third
+            // changes its path. Whichever of the two is predicted last before their contact
+            // sees the other's next event after it, so the contact is found then.
+            let until = best.t.min(self.cal.time_of(ju));
+            if until <= self.t {
+                continue;
+            }
+            if let Some((t1, _)) = bounding_sphere_window(&(r - a.r), &(bj.v - a.v), reach)
+                && self.t + t1 < until
+            {
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
                     if self.met_pair(i, ju) {

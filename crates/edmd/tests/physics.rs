@@ -1,7 +1,10 @@
 //! Physics of whole runs: conservation laws, the overlap audit, the hard-sphere equation of state
 //! (Kolafa), X0 = 1 ellipsoids = spheres, and linked cells vs neighbour lists.
 
-use edmd::{Neighbours, RunReport, Scene, ShapeKind, run};
+use edmd::ellipsoid::Ellipsoid;
+use edmd::init::min_image;
+use edmd::pw::contact_scale;
+use edmd::{FrameEvery, Hooks, Neighbours, RunReport, Scene, ShapeKind, run, run_with_hooks};
 
 fn scene(
     shape: ShapeKind,
@@ -274,6 +277,43 @@ fn linked_cells_and_neighbour_lists_give_the_same_pressure() {
         nnl.pressure_z,
         nnl.pressure_z_err
     );
+}
+
+/// A rigid body's search for a partner ends at the partner's own next event (on NNL, never after
+/// it leaves its box), which leaves the contact to whichever of the two is predicted last: a
+/// contact both left to the other would let the bodies pass into each other. Every pair of a
+/// dense run is checked by the independent Perram–Wertheim scale every 250 collisions, on both
+/// neighbour methods.
+#[test]
+fn no_pair_ever_overlaps_in_a_dense_ellipsoid_run() {
+    for nb in [Neighbours::Nnl, Neighbours::Ll] {
+        let s = scene(ShapeKind::Ellipsoid, 128, 0.5, 2.0, nb, 20_000, 0);
+        let [a, b, c] = s.semi_axes();
+        let e = Ellipsoid::new(a, b, c);
+        let (mut frames, mut closest) = (0, f64::INFINITY);
+        let mut on_frame = |f: &edmd::Frame| {
+            frames += 1;
+            for (i, p) in f.bodies.iter().enumerate() {
+                for q in &f.bodies[i + 1..] {
+                    let r = min_image(q.r - p.r, f.box_length);
+                    closest = closest.min(contact_scale(&e, &p.rot, &e, &q.rot, &r));
+                }
+            }
+            Ok(())
+        };
+        let hooks = Hooks {
+            frame_every: FrameEvery::Collisions(250),
+            on_frame: Some(&mut on_frame),
+            ..Hooks::default()
+        };
+        let (r, _) = run_with_hooks(&s, &mut |_| {}, hooks).expect("run");
+        assert_eq!((r.overlaps, r.solver_failures), (0, 0), "{nb:?}");
+        assert_eq!(frames, 81, "{nb:?}");
+        assert!(
+            closest > 1.0 - 1e-9,
+            "{nb:?}: contact scale {closest} at a frame"
+        );
+    }
 }
 
 #[test]
