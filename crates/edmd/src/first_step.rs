@@ -347,9 +347,10 @@ mod tests {
     use crate::contact::quick_bound;
     use crate::distance::elongated;
     use crate::ellipsoid::Ellipsoid;
-    use crate::geometry::M3;
+    use crate::geometry::{M3, Surface};
     use crate::pw::contact_scale;
     use crate::rigid::rotate;
+    use crate::superquadric::Superquadric;
 
     prop_compose! {
         /// A body near the origin, its own time before `now` = 1 (so that the lanes turn it).
@@ -406,6 +407,16 @@ mod tests {
                     lane.lower == scalar.lower
                         || (lane.lower - scalar.lower).abs() <= 1e-9 * (1.0 + scalar.lower),
                     "lane {k}: {} against the scalar {}", lane.lower, scalar.lower
+                );
+                // A superquadric of exponents 2 is the same ellipsoid, through its own support
+                // functions.
+                let q = Superquadric::new(s, [2.0; 3]).expect("a valid superquadric");
+                prop_assert_eq!(q.ellipsoid_semi_axes(), Some(e.s));
+                let generic = quick_bound(&q, &a, &q, &b, 0.0, starts[k].as_ref());
+                prop_assert!(
+                    lane.lower == generic.lower
+                        || (lane.lower - generic.lower).abs() <= 1e-9 * (1.0 + generic.lower),
+                    "lane {k}: {} against the superquadric's {}", lane.lower, generic.lower
                 );
                 let axis = scalar.axis.expect("the ascent's next axis");
                 prop_assert!((lane.next_axis - axis).norm() < 1e-9, "{:?} {:?}", lane.next_axis, axis);

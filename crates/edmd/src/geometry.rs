@@ -54,8 +54,9 @@ pub trait Surface {
     fn support_modulus(&self, v: &V3) -> SupportModulus;
     /// Semi-axes, for the guess of Sec. 3.2 (Eq. 51) and the bounding parallelepiped (Eq. 52).
     fn semi_axes(&self) -> V3;
-    /// The semi-axes where the body is an ellipsoid, whose support point along u is
-    /// s∘s∘u / |s∘u| ([`crate::first_step`] spells it out); `None` for other shapes.
+    /// The semi-axes where the body is an ellipsoid (a superquadric of exponents 2 included),
+    /// whose support point along u is s∘s∘u / |s∘u| ([`crate::first_step`] spells it out);
+    /// `None` for other shapes.
     fn ellipsoid_semi_axes(&self) -> Option<V3> {
         None
     }

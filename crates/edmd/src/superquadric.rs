@@ -369,6 +369,9 @@ impl Surface for Superquadric {
     fn semi_axes(&self) -> V3 {
         self.s
     }
+    fn ellipsoid_semi_axes(&self) -> Option<V3> {
+        self.e.iter().all(|&e| e == 2.0).then_some(self.s)
+    }
 }
 
 #[cfg(test)]
