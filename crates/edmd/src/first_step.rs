@@ -26,15 +26,16 @@ pub struct FirstStep {
     pub next_axis: V3,
 }
 
-/// One ellipsoid shape, as the lanes need it.
+/// One ellipsoid shape, as the lanes need it. Made only by [`EllipsoidLanes::of`], where the
+/// CPU has AVX2: holding one is what makes [`first_steps`] safe.
 #[derive(Clone, Copy, Debug)]
 pub struct EllipsoidLanes {
     /// Semi-axes along the body axes.
-    pub s: V3,
+    s: V3,
     /// Bounding radius L (Eq. 33).
-    pub l: f64,
+    l: f64,
     /// Largest radius of curvature ρ_max.
-    pub rho: f64,
+    rho: f64,
 }
 
 impl EllipsoidLanes {
