@@ -17,7 +17,7 @@ use std::collections::VecDeque;
 use std::io::{self, Read};
 use std::os::unix::process::CommandExt;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
@@ -54,6 +54,30 @@ pub struct Outcome {
     pub cpu_s: f64,
 }
 
+/// Spawns of a program refused as "text file busy" tried again, the first after 1 ms and each
+/// after twice as long as the one before (about 1 s in all).
+const BUSY_RETRIES: u32 = 10;
+
+/// Spawns `command`, and the instant just before the spawn that succeeded. A program that was
+/// just written can be refused for a moment with ETXTBSY: a thread of this process that forked
+/// while the file was open for writing holds it until that child execs (Linux; cargo and Go's
+/// os/exec retry the same way). A program still busy after the retries is an error.
+fn spawn_when_not_busy(command: &mut Command) -> io::Result<(Child, Instant)> {
+    let mut wait = Duration::from_millis(1);
+    for _ in 0..BUSY_RETRIES {
+        let start = Instant::now();
+        match command.spawn() {
+            Err(e) if e.raw_os_error() == Some(libc::ETXTBSY) => {
+                thread::sleep(wait);
+                wait *= 2;
+            }
+            other => return other.map(|child| (child, start)),
+        }
+    }
+    let start = Instant::now();
+    command.spawn().map(|child| (child, start))
+}
+
 /// Runs `program` with `args` to its end or until `timeout` (`None`: no limit).
 pub fn run(program: &Path, args: &[String], timeout: Option<Duration>) -> io::Result<Outcome> {
     let mut command = Command::new(program);
@@ -65,8 +89,7 @@ pub fn run(program: &Path, args: &[String], timeout: Option<Duration>) -> io::Re
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .process_group(0);
-    let start = Instant::now();
-    let mut child = command.spawn()?;
+    let (mut child, start) = spawn_when_not_busy(&mut command)?;
     let pid = child.id() as libc::pid_t;
     let stdout = child.stdout.take();
     let stderr = child.stderr.take();
@@ -281,6 +304,39 @@ mod tests {
         assert_eq!(out.stderr_tail.len(), STDERR_LINES);
         assert_eq!(out.stderr_tail.first().map(String::as_str), Some("err11"));
         assert_eq!(out.stderr_tail.last().map(String::as_str), Some("err30"));
+    }
+
+    /// A program held open for writing (as by a thread that forked while it was being written)
+    /// is run once it is closed, within the retries; one held past them is an error that says
+    /// the file is busy.
+    #[test]
+    fn a_program_busy_for_a_moment_runs_once_it_is_free() {
+        use std::io::Write;
+        use std::os::unix::fs::OpenOptionsExt;
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("prog");
+        let mut file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .mode(0o755)
+            .open(&path)
+            .expect("create");
+        file.write_all(b"#!/bin/sh\necho '{\"ok\": 1}'\n")
+            .expect("write");
+        let held = thread::spawn(move || {
+            thread::sleep(Duration::from_millis(30));
+            drop(file);
+        });
+        let out = run(&path, &[], None).expect("runs once closed");
+        held.join().expect("join");
+        assert_eq!(out.end, End::Exited(0));
+        assert_eq!(String::from_utf8_lossy(&out.stdout), "{\"ok\": 1}\n");
+        let _busy = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .expect("open");
+        let err = run(&path, &[], None).expect_err("busy past the retries");
+        assert_eq!(err.raw_os_error(), Some(libc::ETXTBSY), "{err}");
     }
 
     #[test]
