@@ -732,16 +732,12 @@ impl<M: Rigid> Engine<M> {
             {
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
-                    if self.met_pair(i, ju) {
-                        let mut b = self.bodies[ju].at(self.t);
-                        b.r += image_offset(shift, self.l);
-                        if let Some(contact) = self.contact_with(i, ju, a, &b) {
-                            // The pair has just collided and parts: rarely the first to meet
-                            // again, it is searched last, with the shortest horizon.
-                            order.push((f64::INFINITY, 0.0, until, j, shift, near.len() as u32));
-                            near.push((b, Some(contact)));
-                            continue;
-                        }
+                    if let Some((b, contact)) = self.contact_with(i, ju, a, shift) {
+                        // The pair has just collided and parts: rarely the first to meet again,
+                        // it is searched last, with the shortest horizon.
+                        order.push((f64::INFINITY, 0.0, until, j, shift, near.len() as u32));
+                        near.push((b, Some(contact)));
+                        continue;
                     }
                     close.push((j, shift, until, self.axes.get(i, ju)));
                 } else {
@@ -857,25 +853,20 @@ impl<M: Rigid> Engine<M> {
         near.push((b, q.now.map(Known::Gap)));
     }
 
-    /// Whether `i` and `j` are the pair of the collision just resolved.
-    fn met_pair(&self, i: usize, j: usize) -> bool {
-        self.met.is_some_and(|(p, q, ..)| {
-            let (p, q) = (p as usize, q as usize);
-            (i, j) == (p, q) || (i, j) == (q, p)
-        })
-    }
-
-    /// Where `a` (body `i`) and `b` (body `j`'s candidate image) touch, if they are the pair of
-    /// the collision just resolved.
-    fn contact_with(&self, i: usize, j: usize, a: &Body, b: &Body) -> Option<Known> {
+    /// Body `j`'s candidate image (image shift `shift`) at the present and where it touches `a`
+    /// (body `i`), if they are the pair of the collision just resolved.
+    fn contact_with(&self, i: usize, j: usize, a: &Body, shift: [i32; 3]) -> Option<(Body, Known)> {
         let (p, q, (xc, _), offset) = self.met?;
         let (p, q) = (p as usize, q as usize);
-        // Every candidate of the pair's two predictions asks: the pair is looked for first.
+        // Every close candidate of every prediction asks: the pair is looked for first, and the
+        // candidate moved to the present only for it.
         let first = match (i, j) {
             _ if (i, j) == (p, q) => true,
             _ if (i, j) == (q, p) => false,
             _ => return None,
         };
+        let mut b = self.bodies[j].at(self.t);
+        b.r += image_offset(shift, self.l);
         // The contact point as the event's first body saw it, its partner's image `offset` away.
         let (off_p, off_q) = (xc - self.bodies[p].r, xc - (self.bodies[q].r + offset));
         let seen = self.bodies[q].r + offset - self.bodies[p].r;
@@ -886,7 +877,7 @@ impl<M: Rigid> Engine<M> {
         };
         // Another image of the partner (any other is a box length away) did not collide.
         ((b.r - a.r - seen).norm_squared() < 0.25 * self.l * self.l)
-            .then_some(Known::Contact { offset_a, offset_b })
+            .then_some((b, Known::Contact { offset_a, offset_b }))
     }
 }
 
