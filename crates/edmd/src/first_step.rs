@@ -5,7 +5,8 @@
 //! At φ = 0.5, X0 = 2 nine in ten of the candidates whose bounding spheres overlap are ruled out
 //! by this first step alone (their safe time reaches the horizon). One at a time, each is a chain
 //! of square roots and divisions that waits on the one before; in four lanes one instruction
-//! carries four such chains.
+//! carries four such chains. The turns of Eqs. 3–6 take their sines and cosines four at a time
+//! too, to the bit those of [`crate::rigid::rotate`] (`libm::sincos`).
 //!
 //! The step is the scalar one worked in the lab frame instead of A's: the support point of an
 //! ellipsoid of semi-axes s along the body-frame unit u is s∘s∘u / |s∘u|, and that of B along −n
@@ -198,6 +199,74 @@ mod avx2 {
         [0, 1, 2].map(|c| div(mul(splat(s[c]), su[c]), h))
     }
 
+    /// `libm::sincos` of the lanes of `x` where `wanted` is set: where 2⁻²⁷√2 ≤ |x| ≲ π/4 (the
+    /// angles of a body's turn between events, nearly all), by the kernels of fdlibm (Sun, 1993)
+    /// that `libm::sincos` takes there, the same operations in the same order, so the same
+    /// numbers; elsewhere by `libm::sincos`, lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn sin_cos(x: __m256d, wanted: __m256d) -> (__m256d, __m256d) {
+        // fdlibm's coefficients (k_sin.c, k_cos.c), by their bits.
+        const S: [u64; 6] = [
+            0xbfc5_5555_5555_5549,
+            0x3f81_1111_1110_f8a6,
+            0xbf2a_01a0_19c1_61d5,
+            0x3ec7_1de3_57b1_fe7d,
+            0xbe5a_e5e6_8a2b_9ceb,
+            0x3de5_d93a_5acf_d57c,
+        ];
+        const C: [u64; 6] = [
+            0x3fa5_5555_5555_554c,
+            0xbf56_c16c_16c1_5177,
+            0x3efa_01a0_19cb_1590,
+            0xbe92_7e4f_809c_52ad,
+            0x3e21_ee9e_bdb4_b1c4,
+            0xbda8_fae9_be88_38d4,
+        ];
+        let c = |k: usize| splat(f64::from_bits(C[k]));
+        let (z, sc) = (mul(x, x), |k: usize| splat(f64::from_bits(S[k])));
+        let w = mul(z, z);
+        // k_sin(x, 0, 0) = x + z x (S1 + z r).
+        let r = add(
+            add(sc(1), mul(z, add(sc(2), mul(z, sc(3))))),
+            mul(mul(z, w), add(sc(4), mul(z, sc(5)))),
+        );
+        let sin = add(x, mul(mul(z, x), add(sc(0), mul(z, r))));
+        // k_cos(x, 0) = (1 − z/2) + (((1 − (1 − z/2)) − z/2) + z r).
+        let r = add(
+            mul(z, add(c(0), mul(z, add(c(1), mul(z, c(2)))))),
+            mul(mul(w, w), add(c(3), mul(z, add(c(4), mul(z, c(5)))))),
+        );
+        let half_z = mul(splat(0.5), z);
+        let one_less = sub(splat(1.0), half_z);
+        let cos = add(
+            one_less,
+            add(sub(sub(splat(1.0), one_less), half_z), mul(z, r)),
+        );
+        // libm::sincos takes the kernels where the high word of |x| lies in
+        // [0x3e46a09e, 0x3fe921fb].
+        let abs = _mm256_andnot_pd(splat(-0.0), x);
+        let kernels = _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GE_OQ>(abs, splat(f64::from_bits(0x3e46_a09e_0000_0000))),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(abs, splat(f64::from_bits(0x3fe9_21fc_0000_0000))),
+        );
+        let others = _mm256_movemask_pd(_mm256_andnot_pd(kernels, wanted));
+        if others == 0 {
+            return (sin, cos);
+        }
+        let (mut xs, mut sins, mut coss) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+        // SAFETY: four f64 to four f64.
+        unsafe {
+            _mm256_storeu_pd(xs.as_mut_ptr(), x);
+            _mm256_storeu_pd(sins.as_mut_ptr(), sin);
+            _mm256_storeu_pd(coss.as_mut_ptr(), cos);
+        }
+        for k in (0..4).filter(|k| others & (1 << k) != 0) {
+            (sins[k], coss[k]) = libm::sincos(xs[k]);
+        }
+        (lanes(|k| sins[k]), lanes(|k| coss[k]))
+    }
+
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
@@ -215,27 +284,17 @@ mod avx2 {
         let tau = sub(splat(now), field(|b| b.t));
         let w_b = vector(|b| b.w);
         let w_norm_b = norm(&w_b);
-        let (mut sin, mut cos) = ([0.0; 4], [1.0; 4]);
-        let (mut wn, mut t) = ([0.0; 4], [0.0; 4]);
-        // SAFETY: four f64 to four f64.
-        unsafe {
-            _mm256_storeu_pd(wn.as_mut_ptr(), w_norm_b);
-            _mm256_storeu_pd(t.as_mut_ptr(), tau);
-        }
-        let mut turns = [0.0; 4];
-        for k in 0..4 {
-            if wn[k] != 0.0 && t[k] != 0.0 {
-                (sin[k], cos[k]) = (wn[k] * t[k]).sin_cos();
-                turns[k] = f64::from_bits(u64::MAX);
-            }
-        }
-        let turns = lanes(|k| turns[k]);
         let zero = _mm256_setzero_pd();
+        let turns = _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_NEQ_UQ>(w_norm_b, zero),
+            _mm256_cmp_pd::<_CMP_NEQ_UQ>(tau, zero),
+        );
+        let (sin, cos) = sin_cos(mul(w_norm_b, tau), turns);
         // sin(wτ)/w and (1 − cos wτ)/w² of Eq. (5).
-        let first = select(turns, div(lanes(|k| sin[k]), w_norm_b), zero);
+        let first = select(turns, div(sin, w_norm_b), zero);
         let second = select(
             turns,
-            div(sub(splat(1.0), lanes(|k| cos[k])), mul(w_norm_b, w_norm_b)),
+            div(sub(splat(1.0), cos), mul(w_norm_b, w_norm_b)),
             zero,
         );
         let rot_b: [V4; 3] = [0, 1, 2].map(|p| {
@@ -370,8 +429,59 @@ mod tests {
         }
     }
 
+    /// Angles about the kernels' edges (2⁻²⁷√2 and π/4), beyond them and anywhere between.
+    fn angle() -> impl Strategy<Value = f64> {
+        let edge = |bits: u64| {
+            (-40i64..40, prop::bool::ANY).prop_map(move |(ulps, neg)| {
+                let x = f64::from_bits(bits.wrapping_add_signed(ulps));
+                if neg { -x } else { x }
+            })
+        };
+        prop_oneof![
+            -1.0f64..1.0,
+            edge(0x3e46_a09e_0000_0000),
+            edge(0x3fe9_21fc_0000_0000),
+            -1e3f64..1e3,
+            Just(0.0),
+            Just(-0.0),
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+        ]
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// The lanes' sine and cosine are `libm::sincos`'s to the bit, in every lane asked for.
+        #[cfg(target_arch = "x86_64")]
+        #[test]
+        fn four_angles_turn_to_the_bit_as_libm_does(
+            x in prop::array::uniform4(angle()),
+            wanted in prop::array::uniform4(prop::bool::weighted(0.9)),
+        ) {
+            use std::arch::x86_64::{_mm256_set_pd, _mm256_storeu_pd};
+            if !std::is_x86_feature_detected!("avx2") {
+                return Ok(());
+            }
+            let mask = wanted.map(|w| if w { f64::from_bits(u64::MAX) } else { 0.0 });
+            let (mut sin, mut cos) = ([0.0; 4], [0.0; 4]);
+            // SAFETY: the CPU has AVX2 (checked above); four f64 to four f64.
+            unsafe {
+                let (s, c) = avx2::sin_cos(
+                    _mm256_set_pd(x[3], x[2], x[1], x[0]),
+                    _mm256_set_pd(mask[3], mask[2], mask[1], mask[0]),
+                );
+                _mm256_storeu_pd(sin.as_mut_ptr(), s);
+                _mm256_storeu_pd(cos.as_mut_ptr(), c);
+            }
+            for k in (0..4).filter(|&k| wanted[k]) {
+                let (s, c) = libm::sincos(x[k]);
+                prop_assert!(
+                    s.to_bits() == sin[k].to_bits() && c.to_bits() == cos[k].to_bits(),
+                    "{:e}: ({:e}, {:e}) against libm's ({s:e}, {c:e})", x[k], sin[k], cos[k]
+                );
+            }
+        }
 
         /// Each lane is the scalar quick bound's first step (to rounding) of the candidate moved
         /// to the present, from its kept axis or the line of centres; where the bodies are apart

@@ -21,13 +21,16 @@ pub struct Body {
 /// Row by row: a row uᵀ of R(0) becomes (u + Mᵀu)ᵀ, and Ωᵀ = −Ω gives
 /// Mᵀu = sin(wt)/w (w × u) + (1 − cos wt)/w² w × (w × u): two cross products a row instead of
 /// the two 3 × 3 products of R(0)(I + M), in a rotation that every candidate of a contact
-/// search pays (3.5 % of τ_c, ellipsoids X0 = 2, φ 0.5, N 256).
+/// search pays (3.5 % of τ_c, ellipsoids X0 = 2, φ 0.5, N 256). Its sine and cosine are
+/// `libm::sincos` (fdlibm's, under an ulp), cheaper than the C library's (MEASUREMENTS.md, "The
+/// turns' sines and cosines"), and which [`crate::first_step`] computes four at a time to the
+/// same bits.
 pub fn rotate(rot: &M3, w: &V3, t: f64) -> M3 {
     let wn = w.norm();
     if wn == 0.0 {
         return *rot;
     }
-    let (s, c) = (wn * t).sin_cos();
+    let (s, c) = libm::sincos(wn * t);
     let (first, second) = (s / wn, (1.0 - c) / (wn * wn));
     let turned = |k: usize| {
         let u = rot.row(k).transpose();
