@@ -105,18 +105,19 @@ impl Drawing for LinePlot {
             // A logarithmic axis shorter than a decade would show no tick label at all.
             let x_log = panel.x_log && x_hi / x_lo > 10.0;
             let y_log = panel.y_log && y_hi / y_lo > 10.0;
-            let log = |lo: f64, hi: f64| {
+            let log = |lo: f64, hi: f64, labelled: Option<Vec<f64>>| {
                 let (bold, light) = log_ticks(lo, hi);
                 (lo..hi)
                     .log_scale()
-                    .with_key_points(bold)
+                    .with_key_points(labelled.unwrap_or(bold))
                     .with_light_points(light)
             };
+            let x_log_range = || log(x_lo, x_hi, panel.swept_x());
             match (x_log, y_log) {
                 (false, false) => panel.draw_on(area, x_lo..x_hi, y_lo..y_hi)?,
-                (true, false) => panel.draw_on(area, log(x_lo, x_hi), y_lo..y_hi)?,
-                (false, true) => panel.draw_on(area, x_lo..x_hi, log(y_lo, y_hi))?,
-                (true, true) => panel.draw_on(area, log(x_lo, x_hi), log(y_lo, y_hi))?,
+                (true, false) => panel.draw_on(area, x_log_range(), y_lo..y_hi)?,
+                (false, true) => panel.draw_on(area, x_lo..x_hi, log(y_lo, y_hi, None))?,
+                (true, true) => panel.draw_on(area, x_log_range(), log(y_lo, y_hi, None))?,
             }
         }
         Ok(())
@@ -195,7 +196,29 @@ fn tick(v: f64) -> String {
     }
 }
 
+/// A sweep over at most this many x values has them labelled on a logarithmic x axis.
+const SWEPT_LABELS: usize = 8;
+
 impl Panel {
+    /// The x values of the series where they are a sweep over a few points ([`SWEPT_LABELS`]),
+    /// each at least a quarter more than the one before and labelled differently: a logarithmic
+    /// x axis labels them instead of its decades and their 2s and 5s, which left Fig. 8's
+    /// X0 = 0.25 and 4 unlabelled.
+    fn swept_x(&self) -> Option<Vec<f64>> {
+        let mut xs: Vec<f64> = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.0))
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .collect();
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+        let apart = xs
+            .windows(2)
+            .all(|w| w[1] >= 1.25 * w[0] && tick(w[0]) != tick(w[1]));
+        ((2..=SWEPT_LABELS).contains(&xs.len()) && apart).then_some(xs)
+    }
+
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
         let points = || self.series.iter().flat_map(|s| s.points.iter());
         let x = padded(points().map(|p| p.0), self.x_log, 0.0);
@@ -303,6 +326,42 @@ mod tests {
         let (bold, light) = log_ticks(0.05, 800.0);
         assert_eq!(bold, [0.1, 1.0, 10.0, 100.0]);
         assert_eq!(light, bold);
+    }
+
+    /// Fig. 8's sweep over X0 is labelled at each X0; many values, or values too close to read
+    /// apart, keep the decades.
+    #[test]
+    fn a_sweep_over_a_few_values_labels_each_one() {
+        let panel = |xs: &[f64]| Panel {
+            title: String::new(),
+            x_desc: String::new(),
+            y_desc: String::new(),
+            x_log: true,
+            y_log: true,
+            series: vec![
+                Series {
+                    label: "LL".into(),
+                    points: xs.iter().map(|&x| (x, 1.0 + x)).collect(),
+                    style: Style::Measured,
+                    colour: 0,
+                },
+                Series {
+                    label: "NNL".into(),
+                    points: xs.iter().rev().map(|&x| (x, 2.0 + x)).collect(),
+                    style: Style::Measured,
+                    colour: 1,
+                },
+            ],
+            notes: Vec::new(),
+        };
+        assert_eq!(
+            panel(&[4.0, 0.25, 0.5, 1.0, 2.0]).swept_x(),
+            Some(vec![0.25, 0.5, 1.0, 2.0, 4.0])
+        );
+        let many: Vec<f64> = (0..12).map(|k| 1.5f64.powi(k)).collect();
+        assert_eq!(panel(&many).swept_x(), None);
+        assert_eq!(panel(&[1.0, 1.1, 4.0]).swept_x(), None);
+        assert_eq!(panel(&[2.0]).swept_x(), None);
     }
 
     #[test]
