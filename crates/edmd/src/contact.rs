@@ -9,7 +9,7 @@ use crate::distance::{
 };
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
 use crate::rigid::{
-    Body, GapSide, Towards, ddot_max, gap_safe_time, gap_safe_time_towards,
+    Body, Flight, GapSide, Towards, ddot_max, gap_safe_time, gap_safe_time_towards,
     support_acceleration_bound,
 };
 use crate::support_distance::{Certified, certify, support_point_lab};
@@ -92,14 +92,7 @@ pub fn predict_from<S: Surface>(
     if ddmax == 0.0 {
         return None;
     }
-    let mut search = Search {
-        sa,
-        a,
-        sb,
-        b,
-        p,
-        stats,
-    };
+    let mut search = Search::new(sa, a, sb, b, p, stats);
     let (mut t, mut cur) = match known {
         Some(Known::Contact { offset_a, offset_b }) if t1 == 0.0 => {
             let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
@@ -372,7 +365,7 @@ fn approach<S: Surface>(
             search.stats.failed = Some("contact time (separating-axis stepping)");
             return None;
         }
-        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        let (pa, pb) = (search.fa.pose_after(t), search.fb.pose_after(t));
         let gap = match now.take() {
             Some(gap) if t == 0.0 => gap,
             _ => separating_axis_from(sa, &pa, sb, &pb, axis.as_ref()),
@@ -746,14 +739,37 @@ struct Search<'a, S: Surface> {
     a: &'a Body,
     sb: &'a S,
     b: &'a Body,
+    /// The bodies' flights, which give their poses ([`Flight`]).
+    fa: Flight,
+    fb: Flight,
     p: &'a ContactParams,
     stats: &'a mut SolverStats,
 }
 
-impl<S: Surface> Search<'_, S> {
+impl<'a, S: Surface> Search<'a, S> {
+    fn new(
+        sa: &'a S,
+        a: &'a Body,
+        sb: &'a S,
+        b: &'a Body,
+        p: &'a ContactParams,
+        stats: &'a mut SolverStats,
+    ) -> Self {
+        Search {
+            sa,
+            a,
+            sb,
+            b,
+            fa: Flight::of(a),
+            fb: Flight::of(b),
+            p,
+            stats,
+        }
+    }
+
     fn dist(&mut self, t: f64, warm: Option<&Distance>) -> Option<Distance> {
-        let pa = self.a.pose_after(t);
-        let pb = self.b.pose_after(t);
+        let pa = self.fa.pose_after(t);
+        let pb = self.fb.pose_after(t);
         // Successive times are close, so the previous closest point is a good start as it stands.
         let g: Option<Guess> = warm.map(|w| Guess {
             xa_body: pa.to_body(&w.xa),
@@ -779,8 +795,8 @@ impl<S: Surface> Search<'_, S> {
     /// any u) changes the bound by terms of order ε, however fast a flat face's support point
     /// runs with the direction.
     fn safe_time_towards(&self, t: f64, d: &Distance, towards: Towards) -> f64 {
-        let pa = self.a.pose_after(t);
-        let pb = self.b.pose_after(t);
+        let pa = self.fa.pose_after(t);
+        let pb = self.fb.pose_after(t);
         let n = self.sa.place(&pa).grad(&d.xa).normalize();
         gap_safe_time_towards(
             &GapSide::new(self.sa, self.a, &pa.rot, d.xa - pa.r, &n),
@@ -813,7 +829,7 @@ impl<S: Surface> Search<'_, S> {
     /// with one more distance (at 90 % of that window before the contact).
     fn first_contact_after(&mut self, t0: f64, d0: &Distance, h: &Hit) -> Proof {
         let (a, b) = (self.a, self.b);
-        let (pa, pb) = (a.pose_after(h.t), b.pose_after(h.t));
+        let (pa, pb) = (self.fa.pose_after(h.t), self.fb.pose_after(h.t));
         let rate =
             h.n.dot(&((b.v + b.w.cross(&(h.xc - pb.r))) - (a.v + a.w.cross(&(h.xc - pa.r)))));
         let m = support_acceleration_bound(
@@ -1019,8 +1035,8 @@ impl<S: Surface> Search<'_, S> {
         let slack = 1e-9 * (t_hi - t_lo) + 1e-15 * t_hi.abs();
         for _ in 0..tol.nr_max_iter {
             self.stats.nr_iterations += 1;
-            let pa = a.pose_after(t);
-            let pb = b.pose_after(t);
+            let pa = self.fa.pose_after(t);
+            let pb = self.fb.pose_after(t);
             let ea = self.sa.place(&pa).eval(&x);
             let eb = self.sb.place(&pb).eval(&x);
             let ua = a.v + a.w.cross(&(x - pa.r));
@@ -1077,7 +1093,7 @@ impl<S: Surface> Search<'_, S> {
     /// normal (the terms of the turning normal vanish, x_B − x_A being parallel to it).
     fn slope(&self, t: f64, d: &Distance) -> f64 {
         let (a, b) = (self.a, self.b);
-        let (pa, pb) = (a.pose_after(t), b.pose_after(t));
+        let (pa, pb) = (self.fa.pose_after(t), self.fb.pose_after(t));
         let n = self.sa.place(&pa).grad(&d.xa).normalize();
         let ua = a.v + a.w.cross(&(d.xa - pa.r));
         let ub = b.v + b.w.cross(&(d.xb - pb.r));
@@ -1087,16 +1103,21 @@ impl<S: Surface> Search<'_, S> {
     /// Whether the bodies approach at the contact `h` (the collision rule's u·n > 0).
     fn closing_at(&self, h: &Hit) -> bool {
         let (a, b) = (self.a, self.b);
-        let (pa, pb) = (a.pose_after(h.t), b.pose_after(h.t));
+        let (pa, pb) = (self.fa.pose_after(h.t), self.fb.pose_after(h.t));
         let u = (a.v + a.w.cross(&(h.xc - pa.r))) - (b.v + b.w.cross(&(h.xc - pb.r)));
         u.dot(&h.n) > 0.0
     }
 
     /// The midpoint of the closest points of time `t`, each carried with its body to time `to`.
     fn carried_midpoint(&self, t: f64, d: &Distance, to: f64) -> V3 {
-        let (a, b) = (self.a, self.b);
-        let xa = a.pose_after(to).to_lab(&a.pose_after(t).to_body(&d.xa));
-        let xb = b.pose_after(to).to_lab(&b.pose_after(t).to_body(&d.xb));
+        let xa = self
+            .fa
+            .pose_after(to)
+            .to_lab(&self.fa.pose_after(t).to_body(&d.xa));
+        let xb = self
+            .fb
+            .pose_after(to)
+            .to_lab(&self.fb.pose_after(t).to_body(&d.xb));
         (xa + xb) * 0.5
     }
 
@@ -1119,7 +1140,7 @@ impl<S: Surface> Search<'_, S> {
     }
 
     fn hit_from_distance(&self, d: &Distance, t: f64) -> Hit {
-        let pa = self.a.pose_after(t);
+        let pa = self.fa.pose_after(t);
         let xc = (d.xa + d.xb) * 0.5;
         let g = self.sa.place(&pa).grad(&d.xa);
         Hit {
@@ -1347,14 +1368,7 @@ mod tests {
             };
             let (a, b) = (body(V3::zeros(), V3::zeros()), body(r, v));
             let mut stats = SolverStats::default();
-            let mut search = Search {
-                sa: &q,
-                a: &a,
-                sb: &q,
-                b: &b,
-                p: &params,
-                stats: &mut stats,
-            };
+            let mut search = Search::new(&q, &a, &q, &b, &params, &mut stats);
             let Some(d0) = search.dist(0.0, None) else {
                 continue;
             };

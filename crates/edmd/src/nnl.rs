@@ -3,7 +3,7 @@
 
 use crate::geometry::{M3, Surface, V3};
 use crate::lists::Region;
-use crate::rigid::{Body, positive_for, support_acceleration_bound};
+use crate::rigid::{Body, Flight, positive_for, support_acceleration_bound};
 
 /// Oriented bounding parallelepiped, immobile between two rebuilds.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -132,9 +132,9 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
     // root of g + ġτ − ½Mτ² (the contact search's bound, applied to the six planes).
     let (l, rho_max) = (s.bounding_radius(), s.max_curvature_radius());
     let accel = axes.map(|u| support_acceleration_bound(&body.w, &u, l, rho_max));
-    let mut tau = 0.0;
+    let (mut tau, flight) = (0.0, Flight::of(body));
     for _ in 0..100_000 {
-        let p = body.pose_after(tau);
+        let p = flight.pose_after(tau);
         let mut dt = f64::INFINITY;
         for (k, u) in axes.iter().enumerate() {
             let support = p.rot.transpose() * s.support_point(&(p.rot * u));
