@@ -201,9 +201,10 @@ const SWEPT_LABELS: usize = 8;
 
 impl Panel {
     /// The x values of the series where they are a sweep over a few points ([`SWEPT_LABELS`]),
-    /// each at least a quarter more than the one before and labelled differently: a logarithmic
-    /// x axis labels them instead of its decades and their 2s and 5s, which left Fig. 8's
-    /// X0 = 0.25 and 4 unlabelled.
+    /// each at least a quarter more than the one before and labelled differently, within two
+    /// decades: a logarithmic x axis labels them instead of its decades and their 2s and 5s,
+    /// which left Fig. 8's X0 = 0.25 and 4 unlabelled. Wider sweeps keep the decades (Fig. 9's
+    /// ε_d, 3.2·10⁻⁷ to 3.2·10⁻³, reads better on 10⁻⁶ … 10⁻³).
     fn swept_x(&self) -> Option<Vec<f64>> {
         let mut xs: Vec<f64> = self
             .series
@@ -216,7 +217,11 @@ impl Panel {
         let apart = xs
             .windows(2)
             .all(|w| w[1] >= 1.25 * w[0] && tick(w[0]) != tick(w[1]));
-        ((2..=SWEPT_LABELS).contains(&xs.len()) && apart).then_some(xs)
+        let within = xs
+            .first()
+            .zip(xs.last())
+            .is_some_and(|(lo, hi)| hi / lo <= 100.0);
+        ((2..=SWEPT_LABELS).contains(&xs.len()) && apart && within).then_some(xs)
     }
 
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
@@ -328,8 +333,8 @@ mod tests {
         assert_eq!(light, bold);
     }
 
-    /// Fig. 8's sweep over X0 is labelled at each X0; many values, or values too close to read
-    /// apart, keep the decades.
+    /// Fig. 8's sweep over X0 is labelled at each X0; many values, values too close to read
+    /// apart, or spread over more than two decades keep the decades.
     #[test]
     fn a_sweep_over_a_few_values_labels_each_one() {
         let panel = |xs: &[f64]| Panel {
@@ -361,6 +366,11 @@ mod tests {
         let many: Vec<f64> = (0..12).map(|k| 1.5f64.powi(k)).collect();
         assert_eq!(panel(&many).swept_x(), None);
         assert_eq!(panel(&[1.0, 1.1, 4.0]).swept_x(), None);
+        assert_eq!(panel(&[3.2e-7, 3.2e-5, 3.2e-3]).swept_x(), None);
+        assert_eq!(
+            panel(&[0.1, 1.0, 10.0]).swept_x(),
+            Some(vec![0.1, 1.0, 10.0])
+        );
         assert_eq!(panel(&[2.0]).swept_x(), None);
     }
 
