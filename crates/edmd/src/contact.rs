@@ -740,8 +740,8 @@ struct Search<'a, S: Surface> {
     sb: &'a S,
     b: &'a Body,
     /// The bodies' flights, which give their poses ([`Flight`]).
-    fa: Flight,
-    fb: Flight,
+    fa: Flight<'a>,
+    fb: Flight<'a>,
     p: &'a ContactParams,
     stats: &'a mut SolverStats,
 }

@@ -30,46 +30,50 @@ pub fn rotate(rot: &M3, w: &V3, t: f64) -> M3 {
     if wn == 0.0 {
         return *rot;
     }
+    turn(rot, wn, &turn_axes(rot, w), t)
+}
+
+/// w × u and w × (w × u) for the rows u of `rot`: what Eq. (5)'s turn of `rot` by w does not
+/// take from the time.
+fn turn_axes(rot: &M3, w: &V3) -> [(V3, V3); 3] {
+    [0, 1, 2].map(|k| {
+        let wu = w.cross(&rot.row(k).transpose());
+        (wu, w.cross(&wu))
+    })
+}
+
+/// [`rotate`] of `rot` by t, given |w| (not 0) and [`turn_axes`].
+fn turn(rot: &M3, w_norm: f64, axes: &[(V3, V3); 3], t: f64) -> M3 {
+    let wn = w_norm;
     let (s, c) = libm::sincos(wn * t);
     let (first, second) = (s / wn, (1.0 - c) / (wn * wn));
     let turned = |k: usize| {
-        let u = rot.row(k).transpose();
-        let wu = w.cross(&u);
-        (u + wu * first + w.cross(&wu) * second).transpose()
+        let (wu, wwu) = &axes[k];
+        (rot.row(k).transpose() + wu * first + wwu * second).transpose()
     };
     M3::from_rows(&[turned(0), turned(1), turned(2)])
 }
 
 /// A body's free flight from its own time, for the many poses a contact search asks along it:
-/// the cross products of Eq. (5) that every pose shares (w × u and w × (w × u) for each row u of
-/// R(0)) are taken once, and the last pose is kept, which the search asks for again (the distance,
-/// the slope and the safe time at one time). Each pose is [`Body::pose_after`]'s, to the bit.
-pub struct Flight {
-    r: V3,
-    v: V3,
-    rot: M3,
+/// the cross products of Eq. (5) that every pose shares ([`turn_axes`]) are taken once, and the
+/// last pose is kept, which the search asks for again (the distance, the slope and the safe time
+/// at one time). Each pose is [`Body::pose_after`]'s, to the bit.
+pub struct Flight<'a> {
+    body: &'a Body,
     w_norm: f64,
-    /// w × u and w × (w × u) for the rows u of R(0); `None` where |w| is 0.
-    turns: Option<[(V3, V3); 3]>,
+    /// [`turn_axes`] of the body; `None` where |w| is 0.
+    axes: Option<[(V3, V3); 3]>,
     last: std::cell::Cell<Option<(f64, Pose)>>,
 }
 
-impl Flight {
-    pub fn of(b: &Body) -> Self {
-        let w_norm = b.w.norm();
-        // `rotate` leaves a body whose |w| is 0 unturned, underflowed or not.
-        let turns = (w_norm != 0.0).then(|| {
-            [0, 1, 2].map(|k| {
-                let wu = b.w.cross(&b.rot.row(k).transpose());
-                (wu, b.w.cross(&wu))
-            })
-        });
+impl<'a> Flight<'a> {
+    pub fn of(body: &'a Body) -> Self {
+        let w_norm = body.w.norm();
         Flight {
-            r: b.r,
-            v: b.v,
-            rot: b.rot,
+            body,
             w_norm,
-            turns,
+            // `rotate` leaves a body whose |w| is 0 unturned, underflowed or not.
+            axes: (w_norm != 0.0).then(|| turn_axes(&body.rot, &body.w)),
             last: std::cell::Cell::new(None),
         }
     }
@@ -82,21 +86,13 @@ impl Flight {
         {
             return pose;
         }
-        let rot = match &self.turns {
-            Some(turns) if tau != 0.0 => {
-                let wn = self.w_norm;
-                let (s, c) = libm::sincos(wn * tau);
-                let (first, second) = (s / wn, (1.0 - c) / (wn * wn));
-                let turned = |k: usize| {
-                    let (wu, wwu) = &turns[k];
-                    (self.rot.row(k).transpose() + wu * first + wwu * second).transpose()
-                };
-                M3::from_rows(&[turned(0), turned(1), turned(2)])
-            }
-            _ => self.rot,
+        let b = self.body;
+        let rot = match &self.axes {
+            Some(axes) if tau != 0.0 => turn(&b.rot, self.w_norm, axes, tau),
+            _ => b.rot,
         };
         let pose = Pose {
-            r: self.r + self.v * tau,
+            r: b.r + b.v * tau,
             rot,
         };
         self.last.set(Some((tau, pose)));
