@@ -837,11 +837,13 @@ impl<'a, S: Surface> Search<'a, S> {
             &h.n,
             self.sa.bounding_radius(),
             self.sa.max_curvature_radius(),
+            self.sa.min_support(),
         ) + support_acceleration_bound(
             &b.w,
             &h.n,
             self.sb.bounding_radius(),
             self.sb.max_curvature_radius(),
+            self.sb.min_support(),
         );
         if !(rate < 0.0 && h.t > t0) {
             return Proof::Nothing;

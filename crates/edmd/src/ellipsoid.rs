@@ -89,6 +89,9 @@ impl Surface for Ellipsoid {
     fn max_curvature_radius(&self) -> f64 {
         self.rho_max
     }
+    fn min_support(&self) -> f64 {
+        self.s.min()
+    }
     fn support_modulus(&self, _v: &V3) -> SupportModulus {
         SupportModulus::quadratic(self.max_curvature_radius())
     }

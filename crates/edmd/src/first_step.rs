@@ -37,6 +37,8 @@ pub struct EllipsoidLanes {
     l: f64,
     /// Largest radius of curvature ρ_max.
     rho: f64,
+    /// The smallest semi-axis ([`crate::geometry::Surface::min_support`]).
+    h_min: f64,
 }
 
 impl EllipsoidLanes {
@@ -48,6 +50,7 @@ impl EllipsoidLanes {
                 s,
                 l: s.max(),
                 rho: s.max().powi(2) / s.min(),
+                h_min: s.min(),
             });
         }
         None
@@ -337,6 +340,7 @@ mod avx2 {
         let (l, rho) = (splat(shape.l), splat(shape.rho));
         let turn_a = norm(&cross(&w_a, &n));
         let turn_b = norm(&cross(&w_b, &n));
+        let (along_a, along_b) = (dot(&w_a, &n), dot(&w_b, &n));
         let opening = dot(&n, &minus(&v_b, &v_a));
         let closing = sub(add(mul(turn_a, l), mul(turn_b, l)), opening);
         let infinity = splat(f64::INFINITY);
@@ -352,25 +356,29 @@ mod avx2 {
                 &plus(&v_a, &cross(&w_a, &off_a)),
             ),
         );
-        // rigid::support_acceleration_bound: |w × n| (|w × n| ρ + |w| L), 0 while n does not turn.
-        let accel_of = |turn: __m256d, w_norm: __m256d| {
+        // rigid::support_acceleration_bound: |w × n|² ρ + |w| min(|w × n| L, |w·n| L − |w| h_min),
+        // not below 0, and 0 while n does not turn.
+        let h_min = splat(shape.h_min);
+        let accel_of = |turn: __m256d, along: __m256d, w_norm: __m256d| {
+            let abs_along = _mm256_andnot_pd(splat(-0.0), along);
+            let swing = _mm256_min_pd(mul(turn, l), sub(mul(abs_along, l), mul(w_norm, h_min)));
+            let m = add(mul(mul(turn, turn), rho), mul(w_norm, swing));
             select(
                 _mm256_cmp_pd::<_CMP_EQ_OQ>(turn, zero),
                 zero,
-                mul(turn, add(mul(turn, rho), mul(w_norm, l))),
+                select(_mm256_cmp_pd::<_CMP_LT_OQ>(m, zero), zero, m),
             )
         };
         let accel = add(
-            accel_of(turn_a, splat(a.w.norm())),
-            accel_of(turn_b, w_norm_b),
+            accel_of(turn_a, along_a, splat(a.w.norm())),
+            accel_of(turn_b, along_b, w_norm_b),
         );
-        // rigid::positive_for.
-        let root = div(
-            add(
-                rate,
-                _mm256_sqrt_pd(add(mul(rate, rate), mul(mul(splat(2.0), accel), gap))),
-            ),
-            accel,
+        // rigid::positive_for: 2g / (|ġ| + √(ġ² + 2Mg)) where the gap closes, (ġ + √…)/M else.
+        let root_term = _mm256_sqrt_pd(add(mul(rate, rate), mul(mul(splat(2.0), accel), gap)));
+        let root = select(
+            _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero),
+            div(mul(splat(2.0), gap), sub(root_term, rate)),
+            div(add(rate, root_term), accel),
         );
         let no_accel = select(
             _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero),

@@ -49,6 +49,9 @@ pub trait Surface {
     /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
     /// support function: for an ellipsoid s_max²/s_min.
     fn max_curvature_radius(&self) -> f64;
+    /// The least value of the support function over all directions: the half-width of the body
+    /// across its thinnest direction (its smallest semi-axis for an ellipsoid).
+    fn min_support(&self) -> f64;
     /// The bound on how far the support function rises above its tangent plane at the unit
     /// body-frame direction `v`.
     fn support_modulus(&self, v: &V3) -> SupportModulus;

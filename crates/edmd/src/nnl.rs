@@ -130,8 +130,12 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
     // Each face gap g = e_k ∓ o − h changes at the exact rate ġ = ∓v·u_k − ḣ (ḣ = u_k·(w × p), p
     // the support point) with |g̈| ≤ M from `support_acceleration_bound`: g stays positive for the
     // root of g + ġτ − ½Mτ² (the contact search's bound, applied to the six planes).
-    let (l, rho_max) = (s.bounding_radius(), s.max_curvature_radius());
-    let accel = axes.map(|u| support_acceleration_bound(&body.w, &u, l, rho_max));
+    let (l, rho_max, h_min) = (
+        s.bounding_radius(),
+        s.max_curvature_radius(),
+        s.min_support(),
+    );
+    let accel = axes.map(|u| support_acceleration_bound(&body.w, &u, l, rho_max, h_min));
     let (mut tau, flight) = (0.0, Flight::of(body));
     for _ in 0..100_000 {
         let p = flight.pose_after(tau);

@@ -369,6 +369,11 @@ impl Surface for Superquadric {
     fn semi_axes(&self) -> V3 {
         self.s
     }
+    fn min_support(&self) -> f64 {
+        // Exponents of 2 or more: the body holds the ellipsoid of its semi-axes, whose support is
+        // at least s_min, and its half-width along its shortest axis is s_min.
+        self.s.min()
+    }
     fn ellipsoid_semi_axes(&self) -> Option<V3> {
         self.e.iter().all(|&e| e == 2.0).then_some(self.s)
     }
