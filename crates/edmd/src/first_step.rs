@@ -270,6 +270,21 @@ mod avx2 {
         (lanes(|k| sins[k]), lanes(|k| coss[k]))
     }
 
+    /// One number of each lane's body. Generic, not over a `fn` pointer: the compiler did not
+    /// always see through the pointer, and then called it for every number of every lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn of_bodies(lanes4: &[Lane; 4], f: impl Fn(&Body) -> f64) -> __m256d {
+        lanes(|k| f(lanes4[k].body))
+    }
+
+    /// One vector of each lane's body, as [`of_bodies`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn vectors_of_bodies(lanes4: &[Lane; 4], f: impl Fn(&Body) -> V3) -> V4 {
+        [0, 1, 2].map(|c| lanes(|k| f(lanes4[k].body)[c]))
+    }
+
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
@@ -280,12 +295,10 @@ mod avx2 {
         lanes4: &[Lane; 4],
     ) -> [FirstStep; 4] {
         let body = |k: usize| -> &Body { lanes4[k].body };
-        let field = |f: fn(&Body) -> f64| lanes(|k| f(body(k)));
-        let vector = |f: fn(&Body) -> V3| -> V4 { [0, 1, 2].map(|c| lanes(|k| f(body(k))[c])) };
         // B at the present: r + v τ and R(τ) row by row (rigid::rotate), unturned where w or τ
         // is 0.
-        let tau = sub(splat(now), field(|b| b.t));
-        let w_b = vector(|b| b.w);
+        let tau = sub(splat(now), of_bodies(lanes4, |b| b.t));
+        let w_b = vectors_of_bodies(lanes4, |b| b.w);
         let w_norm_b = norm(&w_b);
         let zero = _mm256_setzero_pd();
         let turns = _mm256_and_pd(
@@ -306,9 +319,12 @@ mod avx2 {
             let wwu = cross(&w_b, &wu);
             plus(&plus(&u, &times(&wu, first)), &times(&wwu, second))
         });
-        let v_b = vector(|b| b.v);
+        let v_b = vectors_of_bodies(lanes4, |b| b.v);
         let offset: V4 = [0, 1, 2].map(|c| lanes(|k| lanes4[k].offset[c]));
-        let r_b = plus(&plus(&vector(|b| b.r), &times(&v_b, tau)), &offset);
+        let r_b = plus(
+            &plus(&vectors_of_bodies(lanes4, |b| b.r), &times(&v_b, tau)),
+            &offset,
+        );
         let r = minus(&r_b, &[0, 1, 2].map(|c| splat(a.r[c])));
         // The axis: kept, or the line of centres.
         let kept = lanes(|k| {
