@@ -61,8 +61,9 @@ pub fn predict<S: Surface>(
 /// What the caller of [`predict_from`] may know already of A and B as they are now.
 #[derive(Clone, Copy, Debug)]
 pub enum Known {
-    /// Their [`separating_axis`] gap: the search's first step.
-    Gap(AxisGap),
+    /// Their [`separating_axis`] gap and its safe time ([`AxisGap::safe_time`]): the search's
+    /// first step.
+    Gap(AxisGap, f64),
     /// They touch, at these offsets from their centres (lab frame): the contact just resolved,
     /// which they leave. The search starts from it instead of a distance at their contact.
     Contact { offset_a: V3, offset_b: V3 },
@@ -109,7 +110,7 @@ pub fn predict_from<S: Surface>(
         }
         _ => {
             let now = match known {
-                Some(Known::Gap(gap)) => Some(gap),
+                Some(Known::Gap(gap, safe)) => Some((gap, safe)),
                 _ => None,
             };
             let (t, near) = approach(&mut search, t1, t2, now)?;
@@ -357,7 +358,7 @@ fn approach<S: Surface>(
     search: &mut Search<'_, S>,
     t1: f64,
     t2: f64,
-    mut now: Option<AxisGap>,
+    mut now: Option<(AxisGap, f64)>,
 ) -> Option<(f64, Distance)> {
     let (sa, a, sb, b) = (search.sa, search.a, search.sb, search.b);
     let mut t = t1;
@@ -372,14 +373,16 @@ fn approach<S: Surface>(
             return None;
         }
         let (pa, pb) = (search.fa.pose_after(t), search.fb.pose_after(t));
-        let gap = match now.take() {
-            Some(gap) if t == 0.0 => gap,
-            _ => separating_axis_from(sa, &pa, sb, &pb, axis.as_ref()),
+        let (gap, safe) = match now.take() {
+            Some(known) if t == 0.0 => known,
+            _ => {
+                let gap = separating_axis_from(sa, &pa, sb, &pb, axis.as_ref());
+                (gap, gap.safe_time(sa, a, sb, b))
+            }
         };
         axis = Some(gap.n);
         // A small gap may still prove the horizon free (a pair parting, a close horizon): then
         // no distance is needed at all.
-        let safe = gap.safe_time(sa, a, sb, b);
         if t + safe > t2 {
             return None;
         }
@@ -541,9 +544,10 @@ impl AxisAscent {
 pub struct QuickBound {
     pub lower: f64,
     pub estimate: f64,
-    /// The separating-axis gap of the bodies as they are, for the contact search to start from;
-    /// `None` where the bound was not worth the whole ascent, or is the contact time (spheres).
-    pub now: Option<AxisGap>,
+    /// The separating-axis gap of the bodies as they are and its safe time, for the contact
+    /// search to start from ([`Known::Gap`]); `None` where the bound was not worth the whole
+    /// ascent, or is the contact time (spheres).
+    pub now: Option<(AxisGap, f64)>,
     /// Where the pair's next bound should start its ascent (a unit axis from A towards B, lab
     /// frame): the direction this one would have tried next.
     pub axis: Option<V3>,
@@ -555,7 +559,9 @@ pub struct QuickBound {
 /// last bound found) or else from the line of centres. A bound at or beyond `horizon` needs no
 /// tighter one: there the first step of the ascent is enough. Measured at X0 = 2, φ = 0.5, NNL:
 /// the engine's contact searches are the same as with the whole ascent for every candidate, at
-/// 8 % less τ_c.
+/// 8 % less τ_c. `first` is the bound of the first step where the caller has it already (the
+/// four lanes of [`crate::first_step`], which found it short of the horizon): the whole ascent
+/// is then taken at once.
 pub fn quick_bound<S: Surface>(
     sa: &S,
     a: &Body,
@@ -563,6 +569,7 @@ pub fn quick_bound<S: Surface>(
     b: &Body,
     horizon: f64,
     start: Option<&V3>,
+    first: Option<f64>,
 ) -> QuickBound {
     if elongated(sa) || elongated(sb) {
         // Needles and plates: the ascent stalls near the line of centres, Gilbert's axis does not.
@@ -571,30 +578,36 @@ pub fn quick_bound<S: Surface>(
         return QuickBound {
             lower,
             estimate: gap.closing_estimate(a, b).max(lower),
-            now: Some(gap),
+            now: Some((gap, lower)),
             axis: None,
         };
     }
     let mut ascent = AxisAscent::start(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0), start);
-    ascent.step_to(sa, sb, 1);
-    let gap = ascent.gap();
-    let lower = gap.safe_time(sa, a, sb, b);
-    if lower >= horizon {
-        return QuickBound {
-            lower,
-            estimate: lower,
-            now: None,
-            axis: Some(ascent.next_axis()),
-        };
-    }
+    let first = match first {
+        Some(lower) => lower,
+        None => {
+            ascent.step_to(sa, sb, 1);
+            let lower = ascent.gap().safe_time(sa, a, sb, b);
+            if lower >= horizon {
+                return QuickBound {
+                    lower,
+                    estimate: lower,
+                    now: None,
+                    axis: Some(ascent.next_axis()),
+                };
+            }
+            lower
+        }
+    };
     ascent.finish(sa, sb);
     let gap = ascent.gap();
     // Both gaps bound the distance; the safe time of either is rigorous.
-    let lower = gap.safe_time(sa, a, sb, b).max(lower);
+    let safe = gap.safe_time(sa, a, sb, b);
+    let lower = safe.max(first);
     QuickBound {
         lower,
         estimate: gap.closing_estimate(a, b).max(lower),
-        now: Some(gap),
+        now: Some((gap, safe)),
         axis: Some(ascent.next_axis()),
     }
 }

@@ -767,14 +767,15 @@ impl<M: Rigid> Engine<M> {
                             self.axes
                                 .put(self.bodies.len(), i, j as usize, &step.next_axis);
                         } else {
-                            self.bound_close(i, a, (j, shift, until, start), &mut order, &mut near);
+                            let c = (j, shift, until, start);
+                            self.bound_close(i, a, c, Some(step.lower), &mut order, &mut near);
                         }
                     }
                 }
             }
             None => {
                 for &c in &close {
-                    self.bound_close(i, a, c, &mut order, &mut near);
+                    self.bound_close(i, a, c, None, &mut order, &mut near);
                 }
             }
         }
@@ -831,12 +832,14 @@ impl<M: Rigid> Engine<M> {
     }
 
     /// The quick bound of close candidate `c` (index, image shift, time it must meet before, kept
-    /// axis) of body `i` (`a`), entered in `order` and `near`.
+    /// axis) of body `i` (`a`), entered in `order` and `near`; `first`, the bound of its ascent's
+    /// first step where the lanes took it.
     fn bound_close(
         &mut self,
         i: usize,
         a: &Body,
         (j, shift, until, start): Close,
+        first: Option<f64>,
         order: &mut Vec<Order>,
         near: &mut Vec<(Body, Option<Known>)>,
     ) {
@@ -845,12 +848,12 @@ impl<M: Rigid> Engine<M> {
         b.r += image_offset(shift, self.l);
         let q = self
             .m
-            .quick_bound([i, ju], a, &b, until - self.t, start.as_ref());
+            .quick_bound([i, ju], a, &b, until - self.t, start.as_ref(), first);
         if let Some(n) = &q.axis {
             self.axes.put(self.bodies.len(), i, ju, n);
         }
         order.push((q.estimate, q.lower, until, j, shift, near.len() as u32));
-        near.push((b, q.now.map(Known::Gap)));
+        near.push((b, q.now.map(|(gap, safe)| Known::Gap(gap, safe))));
     }
 
     /// Body `j`'s candidate image (image shift `shift`) at the present and where it touches `a`

@@ -535,7 +535,7 @@ mod tests {
             for k in 0..4 {
                 let mut b = bs[k].at(now);
                 b.r += lanes[k].offset;
-                let scalar = quick_bound(&e, &a, &e, &b, 0.0, starts[k].as_ref());
+                let scalar = quick_bound(&e, &a, &e, &b, 0.0, starts[k].as_ref(), None);
                 let lane = steps[k];
                 prop_assert!(lane.lower >= 0.0);
                 prop_assert!(
@@ -547,7 +547,7 @@ mod tests {
                 // functions.
                 let q = Superquadric::new(s, [2.0; 3]).expect("a valid superquadric");
                 prop_assert_eq!(q.ellipsoid_semi_axes(), Some(e.s));
-                let generic = quick_bound(&q, &a, &q, &b, 0.0, starts[k].as_ref());
+                let generic = quick_bound(&q, &a, &q, &b, 0.0, starts[k].as_ref(), None);
                 prop_assert!(
                     lane.lower == generic.lower
                         || (lane.lower - generic.lower).abs() <= 1e-9 * (1.0 + generic.lower),

@@ -333,7 +333,8 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
     ) -> Option<(f64, (V3, V3))>;
     /// Without any solver, a lower bound on the contact time of two bodies whose bounding spheres
     /// overlap, and an estimate of it to order the searches by; a bound at or beyond `horizon`
-    /// (a time after the present) need not be tight.
+    /// (a time after the present) need not be tight. `first`: the bound of the ascent's first
+    /// step, where the caller has it ([`crate::contact::quick_bound`]).
     fn quick_bound(
         &self,
         pair: [usize; 2],
@@ -341,6 +342,7 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
         b: &Body,
         horizon: f64,
         start: Option<&V3>,
+        first: Option<f64>,
     ) -> QuickBound;
     fn solver_stats(&self) -> &SolverStats;
     /// The shape of every body where [`crate::first_step::first_steps`] bounds four candidates at
@@ -482,8 +484,9 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
         b: &Body,
         horizon: f64,
         start: Option<&V3>,
+        first: Option<f64>,
     ) -> QuickBound {
-        quick_bound(&self.e, a, &self.e, b, horizon, start)
+        quick_bound(&self.e, a, &self.e, b, horizon, start, first)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats
@@ -637,6 +640,7 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
         b: &Body,
         horizon: f64,
         start: Option<&V3>,
+        first: Option<f64>,
     ) -> QuickBound {
         if self.round[i] && self.round[j] {
             let tau = self.sphere_contact([i, j], a, b);
@@ -647,7 +651,15 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
                 axis: None,
             };
         }
-        quick_bound(&self.shapes[i], a, &self.shapes[j], b, horizon, start)
+        quick_bound(
+            &self.shapes[i],
+            a,
+            &self.shapes[j],
+            b,
+            horizon,
+            start,
+            first,
+        )
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats

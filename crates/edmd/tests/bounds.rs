@@ -138,7 +138,17 @@ proptest! {
         let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
         prop_assume!(apart_now(&e, &a, &b));
         let start = start.map(|n| (V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize());
-        let q = quick_bound(&e, &a, &e, &b, horizon, start.as_ref());
+        let q = quick_bound(&e, &a, &e, &b, horizon, start.as_ref(), None);
+        // Given the first step's bound (the engine's four lanes take it), the whole ascent at
+        // once: the same bound and the same gap, whatever the horizon.
+        let first = quick_bound(&e, &a, &e, &b, 0.0, start.as_ref(), None).lower;
+        let given = quick_bound(&e, &a, &e, &b, horizon, start.as_ref(), Some(first));
+        let bits = |q: &edmd::contact::QuickBound| q.now.map(|(g, safe)| (g.gap.to_bits(), safe.to_bits()));
+        prop_assert!(given.now.is_some());
+        if q.now.is_some() {
+            prop_assert_eq!(bits(&given), bits(&q));
+            prop_assert_eq!(given.lower.to_bits(), q.lower.to_bits());
+        }
         prop_assert!(q.lower >= 0.0 && q.estimate >= q.lower, "{} {}", q.lower, q.estimate);
         // Only a bound beyond the horizon may stop at the first step.
         prop_assert!(q.now.is_some() || q.lower >= horizon);
@@ -152,12 +162,12 @@ proptest! {
         if let Some(h) = hit {
             prop_assert!(q.lower <= h.t, "bound {} after the contact {}", q.lower, h.t);
         }
-        if let Some(gap) = q.now {
+        if let Some((gap, safe)) = q.now {
             if let Some(d) = distance(&e, &pa, &e, &pb, None, &Tolerances::default(), &mut SolverStats::default()) {
                 prop_assert!(gap.gap <= d.d + 1e-12, "gap {} above the distance {}", gap.gap, d.d);
             }
             let mut again = SolverStats::default();
-            let from_gap = predict_from(&e, &a, &e, &b, 3.0, Some(Known::Gap(gap)), &params, &mut again);
+            let from_gap = predict_from(&e, &a, &e, &b, 3.0, Some(Known::Gap(gap, safe)), &params, &mut again);
             if start.is_none() {
                 prop_assert_eq!(from_gap, hit);
                 prop_assert_eq!(again.distance_calls, stats.distance_calls);
