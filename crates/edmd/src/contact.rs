@@ -2,10 +2,8 @@
 //! overestimate ḋ_max (Eqs. 32, 39), quadratic interpolation and Brent's method for grazing
 //! encounters, and Newton–Raphson on Eqs. (30)–(31) for the exact time and point.
 
-use nalgebra::{SMatrix, SVector};
-
 use crate::distance::{
-    Distance, Guess, SolverStats, Tolerances, distance, elongated, multipliers_guess, solve5,
+    Bordered, Distance, Guess, SolverStats, Tolerances, distance, elongated, multipliers_guess,
 };
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
 use crate::rigid::{
@@ -1095,20 +1093,15 @@ impl<'a, S: Surface> Search<'a, S> {
             let gt = -eb.grad.dot(&ub);
             let fxt = a.w.cross(&ea.grad) - ea.hess * ua;
             let gxt = b.w.cross(&eb.grad) - eb.hess * ub;
-            let mut j = SMatrix::<f64, 5, 5>::zeros();
-            j.fixed_view_mut::<3, 3>(0, 0)
-                .copy_from(&(ea.hess + eb.hess * a2));
-            j.fixed_view_mut::<3, 1>(0, 3)
-                .copy_from(&(eb.grad * (2.0 * alpha)));
-            j.fixed_view_mut::<3, 1>(0, 4).copy_from(&(fxt + gxt * a2));
-            j.fixed_view_mut::<1, 3>(3, 0)
-                .copy_from(&ea.grad.transpose());
-            j.fixed_view_mut::<1, 3>(4, 0)
-                .copy_from(&eb.grad.transpose());
-            j[(3, 4)] = ft;
-            j[(4, 4)] = gt;
-            let rhs = SVector::<f64, 5>::new(-f1.x, -f1.y, -f1.z, -ea.f, -eb.f);
-            let s = solve5(&j, &rhs)?;
+            let jacobian = Bordered {
+                a: ea.hess + eb.hess * a2,
+                u: eb.grad * (2.0 * alpha),
+                w: fxt + gxt * a2,
+                f: ea.grad,
+                g: eb.grad,
+                d: [[0.0, ft], [0.0, gt]],
+            };
+            let s = jacobian.solve(&-f1, -ea.f, -eb.f)?;
             let mut xi: f64 = 1.0;
             let da2 = (2.0 * alpha * s[3]).abs();
             if da2 > tol.nr_relax * a2 {

@@ -93,12 +93,14 @@ impl Distance {
 pub(crate) type M5 = SMatrix<f64, 5, 5>;
 pub(crate) type V5 = SVector<f64, 5>;
 
-/// The Jacobian of Eqs. (24)–(25), a 3×3 block bordered by two columns and two rows:
+/// A 3×3 block bordered by two columns and two rows and a 2×2 corner D: the Jacobian of
+/// Eqs. (24)–(25) (unknowns Δx_A, Δα, Δβ; D = [0 0; 0 c]) and that of Eqs. (30) for the contact
+/// time (unknowns Δx, Δα, Δt; D = [0 ḟ; 0 ġ]):
 ///
 /// ```text
-/// [ A   u  w ]   (unknowns: Δx_A, Δα, Δβ)
-/// [ fᵀ  0  0 ]
-/// [ gᵀ  0  c ]
+/// [ A   u  w ]
+/// [ fᵀ   D   ]
+/// [ gᵀ       ]
 /// ```
 pub(crate) struct Bordered {
     pub a: M3,
@@ -106,7 +108,7 @@ pub(crate) struct Bordered {
     pub w: V3,
     pub f: V3,
     pub g: V3,
-    pub c: f64,
+    pub d: [[f64; 2]; 2],
 }
 
 impl Bordered {
@@ -121,9 +123,10 @@ impl Bordered {
             && let Some(inv) = self.a.try_inverse()
         {
             let (y0, yu, yw) = (inv * r, inv * self.u, inv * self.w);
+            let d = &self.d;
             let m = [
-                [self.f.dot(&yu), self.f.dot(&yw)],
-                [self.g.dot(&yu), self.g.dot(&yw) - self.c],
+                [self.f.dot(&yu) - d[0][0], self.f.dot(&yw) - d[0][1]],
+                [self.g.dot(&yu) - d[1][0], self.g.dot(&yw) - d[1][1]],
             ];
             let rhs = [self.f.dot(&y0) - r_f, self.g.dot(&y0) - r_g];
             let det2 = m[0][0] * m[1][1] - m[0][1] * m[1][0];
@@ -147,7 +150,11 @@ impl Bordered {
             .copy_from(&self.f.transpose());
         j.fixed_view_mut::<1, 3>(4, 0)
             .copy_from(&self.g.transpose());
-        j[(4, 4)] = self.c;
+        for (r, row) in self.d.iter().enumerate() {
+            for (c, &x) in row.iter().enumerate() {
+                j[(3 + r, 3 + c)] = x;
+            }
+        }
         j
     }
 }
@@ -453,7 +460,7 @@ fn newton<S: Surface>(
             w: eb.hess * fx * a2,
             f: fx,
             g: dxb.transpose() * gx,
-            c: gx.dot(&fx),
+            d: [[0.0, 0.0], [0.0, gx.dot(&fx)]],
         };
         let step = jacobian.solve(&(-f1), -ea.f, -eb.f)?;
         let (dalpha, dbeta) = (step[3], step[4]);
@@ -582,11 +589,15 @@ mod tests {
         fn the_bordered_solve_matches_elimination_with_pivoting(
             a in proptest::array::uniform9(-3.0f64..3.0),
             border in proptest::array::uniform12(-3.0f64..3.0),
-            c in -3.0f64..3.0,
+            corner in proptest::array::uniform4(-3.0f64..3.0),
+            zeros in proptest::array::uniform3(proptest::bool::ANY),
             r in proptest::array::uniform5(-3.0f64..3.0),
         ) {
             let v = |k: usize| V3::new(border[k], border[k + 1], border[k + 2]);
-            let j = Bordered { a: M3::from_row_slice(&a), u: v(0), w: v(3), f: v(6), g: v(9), c };
+            // The corners of the distance and of the contact time have zeros: some here too.
+            let at = |k: usize| if k < 3 && zeros[k] { 0.0 } else { corner[k] };
+            let d = [[at(0), at(1)], [at(2), at(3)]];
+            let j = Bordered { a: M3::from_row_slice(&a), u: v(0), w: v(3), f: v(6), g: v(9), d };
             let rhs = V5::from_row_slice(&r);
             let full = j.full();
             match (j.solve(&V3::new(r[0], r[1], r[2]), r[3], r[4]), solve5(&full, &rhs)) {
