@@ -882,15 +882,16 @@ impl<'a, S: Surface> Search<'a, S> {
         if tv <= t0 {
             return Proof::First;
         }
+        // The contact-free interval forwards from t0 may reach tv alone: then no distance at tv.
+        let forward = self.safe_time_towards(t0, d0, Towards::Future);
+        let dt = tv - t0;
+        if d0.d > 0.0 && forward >= dt {
+            return Proof::First;
+        }
         match self.dist(tv, Some(d0)) {
             Some(dv) if dv.d > 0.0 => {
                 // [`Search::covered_backwards`], with the backward interval from tv kept: where
                 // the two do not meet, [tv − backward, contact) is still proved free.
-                let forward = self.safe_time_towards(t0, d0, Towards::Future);
-                let dt = tv - t0;
-                if d0.d > 0.0 && forward >= dt {
-                    return Proof::First;
-                }
                 let backward = self.safe_time_towards(tv, &dv, Towards::Past);
                 if d0.d > 0.0 && forward + backward >= dt {
                     Proof::First
@@ -1138,15 +1139,13 @@ impl<'a, S: Surface> Search<'a, S> {
 
     /// The midpoint of the closest points of time `t`, each carried with its body to time `to`.
     fn carried_midpoint(&self, t: f64, d: &Distance, to: f64) -> V3 {
-        let xa = self
-            .fa
-            .pose_after(to)
-            .to_lab(&self.fa.pose_after(t).to_body(&d.xa));
-        let xb = self
-            .fb
-            .pose_after(to)
-            .to_lab(&self.fb.pose_after(t).to_body(&d.xb));
-        (xa + xb) * 0.5
+        // The poses of `t` first, which a flight has kept (the slope was just taken there), then
+        // those of `to`, which it keeps for Newton–Raphson's first step.
+        let (xa, xb) = (
+            self.fa.pose_after(t).to_body(&d.xa),
+            self.fb.pose_after(t).to_body(&d.xb),
+        );
+        (self.fa.pose_after(to).to_lab(&xa) + self.fb.pose_after(to).to_lab(&xb)) * 0.5
     }
 
     /// Fallback when Newton–Raphson on Eqs. (30) fails: bisection of d(t) to the Brent tolerance.
@@ -1353,11 +1352,44 @@ mod tests {
         assert!((z - 1.0).abs() < 1e-14);
     }
 
-    /// Jumps of random length from flat faces spinning alike (the same orientation at every
-    /// time, where f at the half separation in the body frame is negative exactly where they
-    /// overlap: B = A + r meets A where r ∈ 2A): a contact proved the first has no overlap
-    /// before it, and one kept as a [`Candidate`] none in the interval before it that
-    /// [`Search::first_contact_after`] proves free.
+    /// Two copies of superquadric `q` turned alike (`rot`) and spinning alike (`w`): A at rest at
+    /// the origin, B along the unit `dir` at `beyond` past where they touch, moving at `v`; and
+    /// the exact overlap test of such a pair at time t, negative exactly where they overlap: they
+    /// keep one orientation at every time, and B = A + r meets A where r ∈ 2A, so the test is f
+    /// at half the separation in the common body frame.
+    fn spinning_alike(
+        q: &crate::superquadric::Superquadric,
+        rot: M3,
+        w: V3,
+        dir: V3,
+        beyond: f64,
+        v: V3,
+    ) -> (Body, Body, impl Fn(f64) -> f64) {
+        let (mut lo, mut hi) = (0.0, 4.0 * q.bounding_radius());
+        for _ in 0..60 {
+            let m = 0.5 * (lo + hi);
+            if q.f(&(rot * dir * (0.5 * m))) < 0.0 {
+                lo = m
+            } else {
+                hi = m
+            }
+        }
+        let r = dir * (hi + beyond);
+        let body = |r: V3, v: V3| Body {
+            r,
+            v,
+            rot,
+            w,
+            t: 0.0,
+        };
+        let q = *q;
+        let overlap = move |t: f64| q.f(&(rotate(&rot, &w, t) * (r + v * t) * 0.5));
+        (body(V3::zeros(), V3::zeros()), body(r, v), overlap)
+    }
+
+    /// Jumps of random length from flat faces spinning alike ([`spinning_alike`]): a contact
+    /// proved the first has no overlap before it, and one kept as a [`Candidate`] none in the
+    /// interval before it that [`Search::first_contact_after`] proves free.
     #[test]
     fn a_jumps_contact_has_no_overlap_where_it_is_proved_free() {
         let mut rng = crate::rng::Rng::new(29);
@@ -1376,25 +1408,8 @@ mod tests {
             let mut normal = || V3::new(rng.normal(), rng.normal(), rng.normal());
             let rot = rotate(&M3::identity(), &normal(), 1.0);
             let (dir, w, v) = (normal().normalize(), normal() * 3.0, normal() * 0.2);
-            let (mut lo, mut hi) = (0.0, 4.0 * q.bounding_radius());
-            for _ in 0..60 {
-                let m = 0.5 * (lo + hi);
-                if q.f(&(rot * dir * (0.5 * m))) < 0.0 {
-                    lo = m
-                } else {
-                    hi = m
-                }
-            }
-            let r = dir * (hi + rng.range(1e-5, 1e-2));
-            let overlap = |t: f64| q.f(&(rotate(&rot, &w, t) * (r + v * t) * 0.5));
-            let body = |r: V3, v: V3| Body {
-                r,
-                v,
-                rot,
-                w,
-                t: 0.0,
-            };
-            let (a, b) = (body(V3::zeros(), V3::zeros()), body(r, v));
+            let beyond = rng.range(1e-5, 1e-2);
+            let (a, b, overlap) = spinning_alike(&q, rot, w, dir, beyond, v);
             let mut stats = SolverStats::default();
             let mut search = Search::new(&q, &a, &q, &b, &params, &mut stats);
             let Some(d0) = search.dist(0.0, None) else {
@@ -1429,10 +1444,10 @@ mod tests {
         );
     }
 
-    /// Newton–Raphson straight from d/|ḋ| ([`Search::direct`]) on bodies spinning alike (the
-    /// exact overlap test of the test above), curved and flat, from up to half a body length
-    /// apart, where the gap may close, open and close again before the estimate: what it returns
-    /// is a contact, approached, with no overlap anywhere before it.
+    /// Newton–Raphson straight from d/|ḋ| ([`Search::direct`]) on bodies spinning alike
+    /// ([`spinning_alike`]), curved and flat, from up to half a body length apart, where the gap
+    /// may close, open and close again before the estimate: what it returns is a contact,
+    /// approached, with no overlap anywhere before it.
     #[test]
     fn a_direct_contact_has_no_overlap_before_it() {
         let mut rng = crate::rng::Rng::new(37);
@@ -1452,26 +1467,9 @@ mod tests {
                 |rng: &mut crate::rng::Rng| V3::new(rng.normal(), rng.normal(), rng.normal());
             let rot = rotate(&M3::identity(), &normal(&mut rng), 1.0);
             let (dir, w) = (normal(&mut rng).normalize(), normal(&mut rng) * 6.0);
-            let (mut lo, mut hi) = (0.0, 4.0 * q.bounding_radius());
-            for _ in 0..60 {
-                let m = 0.5 * (lo + hi);
-                if q.f(&(rot * dir * (0.5 * m))) < 0.0 {
-                    lo = m
-                } else {
-                    hi = m
-                }
-            }
-            let r = dir * (hi + rng.range(1e-4, 0.5 * q.bounding_radius()));
+            let beyond = rng.range(1e-4, 0.5 * q.bounding_radius());
             let v = -dir * rng.range(0.05, 2.0) + normal(&mut rng) * 0.5;
-            let overlap = |t: f64| q.f(&(rotate(&rot, &w, t) * (r + v * t) * 0.5));
-            let body = |r: V3, v: V3| Body {
-                r,
-                v,
-                rot,
-                w,
-                t: 0.0,
-            };
-            let (a, b) = (body(V3::zeros(), V3::zeros()), body(r, v));
+            let (a, b, overlap) = spinning_alike(&q, rot, w, dir, beyond, v);
             let mut stats = SolverStats::default();
             let mut search = Search::new(&q, &a, &q, &b, &params, &mut stats);
             let Some(d0) = search.dist(0.0, None) else {
