@@ -285,32 +285,22 @@ impl<R: Region> Lists<R> {
         let reach2 = self.reach * self.reach;
         let Some(grid) = &mut self.grid else {
             // Without cells, every body, at the image nearest to i and, when the box is small,
-            // the images around that one.
-            if self.single_image {
-                // The loop of every rebuild of a small system (N 256: a quarter of its instructions
-                // were this loop's): no division, and the image only where it is in reach.
-                let inv_l = 1.0 / self.l;
-                for (j, b) in self.regions.iter().enumerate() {
-                    let nearest = ((a.centre() - b.centre()) * inv_l).map(round_nearest);
-                    let shift = nearest * self.l;
+            // the images around that one. No division, and the image's integers only where in
+            // reach: at N 256 this loop was a quarter of every rebuild's instructions.
+            let offsets: &[[i32; 3]] = if self.single_image {
+                &[[0; 3]]
+            } else {
+                &ALL_27
+            };
+            let inv_l = 1.0 / self.l;
+            for (j, b) in self.regions.iter().enumerate() {
+                let nearest = ((a.centre() - b.centre()) * inv_l).map(round_nearest);
+                for off in offsets {
+                    let near = nearest + V3::new(off[0] as f64, off[1] as f64, off[2] as f64);
+                    let shift = near * self.l;
                     let d = b.centre() + shift - a.centre();
                     if d.norm_squared() <= reach2 && take(j) && a.overlaps(b, &shift, self.reach) {
-                        found.push((j as u32, [0, 1, 2].map(|k| nearest[k] as i32)));
-                    }
-                }
-                return;
-            }
-            for (j, b) in self.regions.iter().enumerate() {
-                if !take(j) {
-                    continue;
-                }
-                let nearest = ((a.centre() - b.centre()) / self.l).map(round_nearest);
-                for off in &ALL_27 {
-                    let s = [0, 1, 2].map(|k| nearest[k] as i32 + off[k]);
-                    let shift = image_offset(s, self.l);
-                    let d = b.centre() + shift - a.centre();
-                    if d.norm_squared() <= reach2 && a.overlaps(b, &shift, self.reach) {
-                        found.push((j as u32, s));
+                        found.push((j as u32, [0, 1, 2].map(|k| near[k] as i32)));
                     }
                 }
             }
