@@ -42,9 +42,8 @@ fn turn_axes(rot: &M3, w: &V3) -> [(V3, V3); 3] {
     })
 }
 
-/// [`rotate`] of `rot` by t, given |w| (not 0) and [`turn_axes`].
-fn turn(rot: &M3, w_norm: f64, axes: &[(V3, V3); 3], t: f64) -> M3 {
-    let wn = w_norm;
+/// [`rotate`] of `rot` by t, given |w| = `wn` (not 0) and [`turn_axes`].
+fn turn(rot: &M3, wn: f64, axes: &[(V3, V3); 3], t: f64) -> M3 {
     let (s, c) = libm::sincos(wn * t);
     let (first, second) = (s / wn, (1.0 - c) / (wn * wn));
     let turned = |k: usize| {
