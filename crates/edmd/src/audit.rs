@@ -6,7 +6,7 @@ use crate::body::Moving;
 use crate::cells::Near;
 use crate::distance::{SolverStats, Tolerances, distance};
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
-use crate::init::{Geom, min_image};
+use crate::init::Geom;
 use crate::support_distance::{Certified, certify, support_point_lab};
 
 /// Overlap audit of every pair with the independent test of [`pair_overlaps`], at the
@@ -46,9 +46,9 @@ fn count_pairs<B: Moving>(
         .collect();
     let near = Near::new(&pos, l, reach);
     let mut count = 0;
-    for i in 0..bodies.len() {
-        near.all_around(&pos[i], |j| {
-            if j > i && overlaps(i, j, &min_image(pos[j] - pos[i], l)) {
+    for (i, p) in pos.iter().enumerate() {
+        near.around(p, |j, r| {
+            if j > i && overlaps(i, j, &r) {
                 count += 1;
             }
             true
@@ -125,6 +125,7 @@ fn separated_along_newton_normal<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pos
 mod tests {
     use super::*;
     use crate::ellipsoid::Ellipsoid;
+    use crate::geometry::min_image;
     use crate::rigid::{Body, rotate};
     use crate::rng::Rng;
     use crate::superquadric::Superquadric;

@@ -1,7 +1,7 @@
 //! Linked cells in a periodic cubic box (Sec. 2.6). With at least 3 cells per side the 27 cells
 //! around a particle are distinct, so each neighbouring cell fixes one periodic image.
 
-use crate::geometry::{V3, floor_i32};
+use crate::geometry::{V3, floor_i32, min_image};
 
 /// What a cell holds: a particle index, possibly with data kept beside it for the loops over
 /// neighbouring cells.
@@ -79,6 +79,10 @@ impl<T: Member> Cells<T> {
         &self.members[cell]
     }
 
+    pub fn members_mut(&mut self, cell: usize) -> &mut [T] {
+        &mut self.members[cell]
+    }
+
     /// The cell at offset `d` (each component in −1..=1) from `c`, with the image shift.
     pub fn neighbour(&self, c: [usize; 3], d: [i32; 3]) -> Neighbour {
         let m = self.m as i32;
@@ -149,110 +153,118 @@ impl<T: Member> Cells<T> {
     }
 }
 
+/// A point of [`Near`], kept in its cell with its position, so that a query reads a candidate's
+/// position where it reads its index.
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    r: V3,
+    id: u32,
+}
+
+impl Member for Point {
+    fn particle(&self) -> u32 {
+        self.id
+    }
+}
+
 /// Points binned for proximity queries: every point within `reach` (nearest image) of a position
 /// is among the members of the 27 cells around it, so a query costs O(1) instead of O(N). A box
 /// with fewer than 3 cells of side `reach` a side is not binned: every point is a candidate.
 /// Used where the set of points changes slowly (Monte Carlo, audits), not in the event loop.
 ///
-/// The cells are intrusive doubly linked lists over the points: a query reads the heads of nine
-/// runs of three adjacent cells and then only the points themselves, and a move is O(1).
+/// A cell keeps its points' positions, each within the cell's span (a point at the box's far face
+/// that rounding bins into the first cell is kept one box side back), so a neighbouring cell's
+/// image shift makes a candidate's separation one addition: the nearest image for every point
+/// within `reach`, an image at least as far for the others. The Monte Carlo's queries look at
+/// about a hundred candidates each, of which a sixth are within reach: a nearest image rounded
+/// per candidate, the index looked up in another array, cost three times the scan.
 pub struct Near {
-    /// Cells per side; 0 when the box is not binned.
-    m: usize,
-    side: f64,
-    head: Vec<u32>,
-    next: Vec<u32>,
-    prev: Vec<u32>,
+    l: f64,
+    /// `None` where the box is not binned.
+    cells: Option<Cells<Point>>,
+    /// Per point, its cell (binned) or its position (not binned).
     cell_of: Vec<u32>,
-    n: usize,
+    unbinned: Vec<V3>,
 }
-
-const NONE: u32 = u32::MAX;
 
 impl Near {
     /// `points` (any image) in a periodic box of side `l`.
     pub fn new(points: &[V3], l: f64, reach: f64) -> Self {
-        let n = points.len();
-        let m = (l / reach).floor();
-        // Also rejects NaN.
-        let m = if m >= 3.0 { m as usize } else { 0 };
         let mut near = Near {
-            m,
-            side: if m > 0 { l / m as f64 } else { l },
-            head: vec![NONE; m * m * m],
-            next: vec![NONE; if m > 0 { n } else { 0 }],
-            prev: vec![NONE; if m > 0 { n } else { 0 }],
-            cell_of: vec![0; if m > 0 { n } else { 0 }],
-            n,
+            l,
+            cells: Cells::new(l, reach),
+            cell_of: Vec::new(),
+            unbinned: Vec::new(),
         };
-        if m > 0 {
-            for (i, p) in points.iter().enumerate() {
-                let c = near.cell(p);
-                near.link(i, c);
-            }
+        if near.cells.is_none() {
+            near.unbinned = points.to_vec();
+            return near;
+        }
+        near.cell_of = vec![0; points.len()];
+        for (i, p) in points.iter().enumerate() {
+            near.place(i, p);
         }
         near
     }
 
-    fn coords(&self, p: &V3) -> [usize; 3] {
-        let c = |x: f64| (floor_i32(x / self.side) as isize).rem_euclid(self.m as isize) as usize;
-        [c(p.x), c(p.y), c(p.z)]
+    /// The cell of `p`, and `p` at the image within that cell's span.
+    #[inline(always)]
+    fn bin(cells: &Cells<Point>, l: f64, p: &V3) -> (usize, V3) {
+        let m = cells.m as i32;
+        let mut c = [0usize; 3];
+        let mut at = *p;
+        for k in 0..3 {
+            let unwrapped = floor_i32(p[k] / cells.side);
+            let wraps = unwrapped.div_euclid(m);
+            c[k] = (unwrapped - wraps * m) as usize;
+            if wraps != 0 {
+                at[k] -= f64::from(wraps) * l;
+            }
+        }
+        (cells.index(c), at)
     }
 
-    fn cell(&self, p: &V3) -> u32 {
-        let [x, y, z] = self.coords(p);
-        (x + self.m * (y + self.m * z)) as u32
-    }
-
-    fn link(&mut self, i: usize, c: u32) {
-        let h = self.head[c as usize];
-        self.next[i] = h;
-        self.prev[i] = NONE;
-        if h != NONE {
-            self.prev[h as usize] = i as u32;
-        }
-        self.head[c as usize] = i as u32;
-        self.cell_of[i] = c;
-    }
-
-    fn unlink(&mut self, i: usize) {
-        let (p, q) = (self.prev[i], self.next[i]);
-        if p == NONE {
-            self.head[self.cell_of[i] as usize] = q;
-        } else {
-            self.next[p as usize] = q;
-        }
-        if q != NONE {
-            self.prev[q as usize] = p;
-        }
-    }
-
-    /// Whether `f` holds for every candidate near `p` (itself included, if a point is there);
-    /// stops at the first that fails.
-    pub fn all_around(&self, p: &V3, mut f: impl FnMut(usize) -> bool) -> bool {
-        if self.m == 0 {
-            return (0..self.n).all(f);
-        }
-        let m = self.m;
-        let [cx, cy, cz] = self.coords(p);
-        let wrap = |c: usize| {
-            [
-                if c == 0 { m - 1 } else { c - 1 },
-                c,
-                if c + 1 == m { 0 } else { c + 1 },
-            ]
+    fn place(&mut self, i: usize, p: &V3) {
+        let Some(cells) = &mut self.cells else {
+            return;
         };
-        let xs = wrap(cx);
-        for z in wrap(cz) {
-            for y in wrap(cy) {
+        let (cell, r) = Near::bin(cells, self.l, p);
+        cells.insert(cell, Point { r, id: i as u32 });
+        self.cell_of[i] = cell as u32;
+    }
+
+    /// Whether `f(j, r)` holds for every candidate `j` near `p` (itself included, if a point is
+    /// there), `r` the separation of `j` from `p` (the nearest image where `j` is within reach);
+    /// stops at the first that fails. Inlined, so that `f` is inlined into the scan.
+    #[inline(always)]
+    pub fn around(&self, p: &V3, mut f: impl FnMut(usize, V3) -> bool) -> bool {
+        let Some(cells) = &self.cells else {
+            return self
+                .unbinned
+                .iter()
+                .enumerate()
+                .all(|(j, q)| f(j, min_image(q - p, self.l)));
+        };
+        let (cell, at) = Near::bin(cells, self.l, p);
+        let (m, l) = (cells.m, self.l);
+        // Per axis, the three cells (below, at, above) with what turns a member's position there
+        // into its separation from `p`: the image shift less `p`.
+        let axis = |k: usize| {
+            let c = cells.coords(cell)[k];
+            let below = if c == 0 { (m - 1, -l) } else { (c - 1, 0.0) };
+            let above = if c + 1 == m { (0, l) } else { (c + 1, 0.0) };
+            [below, (c, 0.0), above].map(|(c, shift)| (c, shift - at[k]))
+        };
+        let xs = axis(0);
+        for (z, dz) in axis(2) {
+            for (y, dy) in axis(1) {
                 let row = m * (y + m * z);
-                for x in xs {
-                    let mut j = self.head[row + x];
-                    while j != NONE {
-                        if !f(j as usize) {
+                for (x, dx) in xs {
+                    let base = V3::new(dx, dy, dz);
+                    for q in cells.members(row + x) {
+                        if !f(q.id as usize, q.r + base) {
                             return false;
                         }
-                        j = self.next[j as usize];
                     }
                 }
             }
@@ -262,12 +274,24 @@ impl Near {
 
     /// Point `i` is now at `p`.
     pub fn moved(&mut self, i: usize, p: &V3) {
-        if self.m > 0 {
-            let c = self.cell(p);
-            if c != self.cell_of[i] {
-                self.unlink(i);
-                self.link(i, c);
+        let Some(cells) = &mut self.cells else {
+            self.unbinned[i] = *p;
+            return;
+        };
+        let (cell, r) = Near::bin(cells, self.l, p);
+        let was = self.cell_of[i] as usize;
+        if cell == was {
+            if let Some(q) = cells
+                .members_mut(cell)
+                .iter_mut()
+                .find(|q| q.id == i as u32)
+            {
+                q.r = r;
             }
+        } else {
+            cells.remove(was, i as u32);
+            cells.insert(cell, Point { r, id: i as u32 });
+            self.cell_of[i] = cell as u32;
         }
     }
 }
@@ -315,8 +339,9 @@ mod tests {
         }
     }
 
-    /// Every pair closer than `reach` (nearest image) is found by a query, before and after moves,
-    /// in boxes with and without cells; points on cell and box faces included.
+    /// Every pair closer than `reach` is found by a query at its nearest image, before and after
+    /// moves, in boxes with and without cells; points on cell and box faces included (one on
+    /// the box's far faces, binned into the first cells).
     #[test]
     fn near_finds_every_close_pair() {
         let mut rng = crate::rng::Rng::new(5);
@@ -327,21 +352,26 @@ mod tests {
                 .collect();
             pts[0] = V3::new(0.0, l / 3.0, 1.0);
             pts[1] = V3::new(l.next_down(), l / 3.0, 1.0);
+            pts[2] = V3::new(l, l / 3.0 + 0.5, l);
             let mut near = Near::new(&pts, l, reach);
             for round in 0..3 {
                 for i in 0..n {
-                    let mut seen = vec![0; n];
-                    near.all_around(&pts[i], |j| {
-                        seen[j] += 1;
+                    let mut seen = vec![None; n];
+                    near.around(&pts[i], |j, r| {
+                        assert!(seen[j].replace(r).is_none(), "{j} listed twice");
                         true
                     });
                     for j in 0..n {
-                        let d = crate::init::min_image(pts[j] - pts[i], l).norm();
-                        assert!(seen[j] <= 1, "{j} listed twice");
-                        assert!(
-                            d >= reach || seen[j] == 1,
-                            "round {round}: {i}-{j} at {d} missed"
-                        );
+                        let nearest = min_image(pts[j] - pts[i], l);
+                        let d = nearest.norm();
+                        match seen[j] {
+                            Some(r) if d < reach => assert!(
+                                (r - nearest).norm() < 1e-12 * l,
+                                "round {round}: {i}-{j} at {r}, nearest {nearest}"
+                            ),
+                            Some(r) => assert!(r.norm() >= d - 1e-12 * l, "{r} {nearest}"),
+                            None => assert!(d >= reach, "round {round}: {i}-{j} at {d} missed"),
+                        }
                     }
                 }
                 for i in (round..n).step_by(3) {
@@ -350,7 +380,7 @@ mod tests {
                     near.moved(i, &pts[i]);
                 }
             }
-            assert_eq!(near.m > 0, l == 10.0);
+            assert_eq!(near.cells.is_some(), l == 10.0);
         }
     }
 }

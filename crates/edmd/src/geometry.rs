@@ -13,6 +13,12 @@ pub fn round_nearest(x: f64) -> f64 {
     (x + MAGIC) - MAGIC
 }
 
+/// Minimum-image vector in a cubic box of side `l`.
+pub fn min_image(d: V3, l: f64) -> V3 {
+    let inv = 1.0 / l;
+    d.map(|x| x - l * round_nearest(x * inv))
+}
+
 /// ⌊x⌋ for |x| < 2³¹, inline: without SSE4.1 in the target, `f64::floor` is a call into libm,
 /// and every list rebuild and Monte Carlo move bins a point in a cell.
 #[inline]

@@ -17,7 +17,7 @@ use crate::EdmdError;
 use crate::bracket::outer_factor_squared;
 use crate::cells::Near;
 use crate::ellipsoid::{Ellipsoid, lab_matrix};
-use crate::geometry::{M3, Surface, V3, round_nearest};
+use crate::geometry::{M3, Surface, V3, min_image};
 use crate::nnl::{Obp, overlap};
 use crate::pw::{self, contact_scale};
 use crate::rigid::{Body, Inertia, orthonormalize, rotate};
@@ -173,12 +173,6 @@ impl Geom {
             Geom::Superquadric(q) => q.s.y == q.s.z && q.e.y == 2.0 && q.e.z == 2.0,
         }
     }
-}
-
-/// Minimum-image vector in a cubic box of side `l`.
-pub fn min_image(d: V3, l: f64) -> V3 {
-    let inv = 1.0 / l;
-    d.map(|x| x - l * round_nearest(x * inv))
 }
 
 /// A uniformly random rotation matrix (from a random unit quaternion).
@@ -803,6 +797,32 @@ fn fcc_sites(n: usize) -> Vec<V3> {
     sites
 }
 
+/// A body in contact with the one a query is about, as the query found it.
+#[derive(Clone, Copy, Debug)]
+struct Partner {
+    j: usize,
+    /// The pair's contact scale, and the separation of `j` from the body it was found at.
+    mu: f64,
+    r: V3,
+    /// Ellipsoids: the maximiser λ* of the Perram–Wertheim function, where their contact normal
+    /// is ([`pw::normal_at_lab`]).
+    lambda: Option<f64>,
+}
+
+/// The reach of a packing's cells: the largest at which two bodies of the shape (the largest of
+/// a mixture) may touch, with the margin of [`Packing::spheres_apart`].
+fn reach_of(geom: &Geom) -> f64 {
+    2.0 * geom.bounding_radius() * (1.0 + GAP)
+}
+
+/// Where the bounding spheres of two bodies, scaled by 1 + GAP, meet ([`Packing::spheres_apart`]).
+enum Reach {
+    /// Bodies of one shape: the square of [`reach_of`] the shape.
+    One { squared: f64 },
+    /// A mixture: each body's bounding radius, scaled.
+    Each(Vec<f64>),
+}
+
 /// Bodies in a periodic box for the Monte Carlo, with what each overlaps. Positions stay wrapped
 /// into the box.
 struct Packing {
@@ -814,10 +834,10 @@ struct Packing {
     /// How many bodies each body overlaps (or touches), and the pairs in all.
     touching: Vec<u32>,
     overlaps: usize,
-    /// Scratch: the bodies one body touches, with their contact scales, at two places.
-    partners: [Vec<(usize, f64)>; 2],
-    /// The bounding radius of every body of a mixture, or of `geom` alone.
-    radii: Vec<f64>,
+    /// Scratch: the bodies one body touches, at two places.
+    partners: [Vec<Partner>; 2],
+    /// Where two bodies' bounding spheres meet.
+    reach: Reach,
     /// Per-body shapes of a mixture ([`initial_mixture`]), whose `geom` is then the one of the
     /// largest bounding sphere; `None`: every body is `geom`.
     shapes: Option<Vec<Geom>>,
@@ -840,7 +860,7 @@ impl Packing {
     fn new(pos: Vec<V3>, rot: Vec<M3>, l: f64, geom: Geom) -> Self {
         let n = pos.len();
         let mut p = Packing {
-            near: Near::new(&pos, l, 2.0 * geom.bounding_radius()),
+            near: Near::new(&pos, l, reach_of(&geom)),
             pos,
             rot,
             l,
@@ -849,7 +869,9 @@ impl Packing {
             overlaps: 0,
             partners: [Vec::new(), Vec::new()],
             shapes: None,
-            radii: vec![geom.bounding_radius()],
+            reach: Reach::One {
+                squared: reach_of(&geom).powi(2),
+            },
             one_sphere: match geom {
                 Geom::Sphere { sigma } => Some(sigma),
                 _ => None,
@@ -875,7 +897,12 @@ impl Packing {
             .unwrap_or(Geom::Sphere { sigma: 1.0 });
         let mut p = Packing::new(pos, rot, l, largest);
         p.shapes = Some(shapes.to_vec());
-        p.radii = shapes.iter().map(Geom::bounding_radius).collect();
+        p.reach = Reach::Each(
+            shapes
+                .iter()
+                .map(|g| g.bounding_radius() * (1.0 + GAP))
+                .collect(),
+        );
         p.one_sphere = None;
         p.ellipsoids = shapes.iter().all(|g| matches!(g, Geom::Ellipsoid(_)));
         p.kappa2 = kappa2_of_each(shapes);
@@ -932,15 +959,15 @@ impl Packing {
         self.kappa2[if self.kappa2.len() == 1 { 0 } else { i }]
     }
 
-    /// Whether the bounding spheres of `i` and `j` at separation `r`, scaled by `k`, are apart:
+    /// Whether the bounding spheres of `i` and `j` at separation `r`, scaled by 1 + GAP, are apart:
     /// the test that rules out most candidates of a query, inlined in its loop.
     #[inline(always)]
-    fn spheres_apart(&self, i: usize, j: usize, r: &V3, k: f64) -> bool {
-        let reach = match &self.shapes {
-            Some(_) => (self.radii[i] + self.radii[j]) * k,
-            None => self.radii[0] * 2.0 * k,
+    fn spheres_apart(&self, i: usize, j: usize, r: &V3) -> bool {
+        let squared = match &self.reach {
+            Reach::One { squared } => *squared,
+            Reach::Each(radii) => (radii[i] + radii[j]).powi(2),
         };
-        r.norm_squared() >= reach * reach
+        r.norm_squared() >= squared
     }
 
     /// The contact scale of bodies `i` and `j` at separation `r` (both where they are).
@@ -967,15 +994,17 @@ impl Packing {
         ai: &M3,
         r: &V3,
         k: f64,
-    ) -> Option<f64> {
+    ) -> Option<(f64, Option<f64>)> {
         if self.ellipsoids {
-            return pw::contact_scale_unless_above_lab(ai, &self.lab[j], r, k);
+            return pw::contact_scale_unless_above_lab(ai, &self.lab[j], r, k)
+                .map(|(mu, lambda)| (mu, Some(lambda)));
         }
         if self.surely_apart(i, j, q, r) || self.outer_ellipsoids_apart(i, j, ai, r, k) {
             return None;
         }
         self.geom_of(i)
             .contact_scale_unless_above(self.geom_of(j), q, &self.rot[j], r, k)
+            .map(|mu| (mu, None))
     }
 
     /// Whether superquadrics `i` (lab matrix `ai`) and `j` at separation `r` are proved more
@@ -989,7 +1018,7 @@ impl Packing {
                 r,
                 k,
             )
-            .is_none_or(|mu| mu > k)
+            .is_none_or(|(mu, _)| mu > k)
     }
 
     /// Whether bodies `i` (orientation `q`, lab matrix `ai`) and `j` at separation `r` touch or
@@ -998,7 +1027,7 @@ impl Packing {
     /// touch do (μ_SQ ≤ μ_inner) without their distance.
     #[inline(always)]
     fn touch(&self, i: usize, j: usize, q: &M3, ai: &M3, r: &V3) -> bool {
-        !self.spheres_apart(i, j, r, 1.0 + GAP) && self.near_touch(i, j, q, ai, r)
+        !self.spheres_apart(i, j, r) && self.near_touch(i, j, q, ai, r)
     }
 
     /// [`Packing::touch`] of bodies whose bounding spheres meet, out of line.
@@ -1040,8 +1069,8 @@ impl Packing {
             for i in 0..self.pos.len() {
                 let (p, q, ai) = (self.pos[i], self.rot[i], self.kept_lab(i));
                 let mut count = 0;
-                self.near.all_around(&p, |j| {
-                    if j != i && self.touch(i, j, &q, &ai, &min_image(self.pos[j] - p, self.l)) {
+                self.near.around(&p, |j, r| {
+                    if j != i && self.touch(i, j, &q, &ai, &r) {
                         count += 1;
                     }
                     true
@@ -1058,34 +1087,38 @@ impl Packing {
         for p in self.pos.iter_mut() {
             *p = (*p * s).map(|x| x.rem_euclid(self.l));
         }
-        self.near = Near::new(&self.pos, self.l, 2.0 * self.geom.bounding_radius());
+        self.near = Near::new(&self.pos, self.l, reach_of(&self.geom));
         self.count_overlaps();
     }
 
     /// The bodies that body `i`, placed at `p` with orientation `q` (lab matrix `ai`), touches
     /// or overlaps, with their contact scales.
-    fn partners_of(&self, i: usize, p: &V3, q: &M3, ai: &M3, out: &mut Vec<(usize, f64)>) {
+    fn partners_of(&self, i: usize, p: &V3, q: &M3, ai: &M3, out: &mut Vec<Partner>) {
         out.clear();
         if let Some(sigma) = self.one_sphere {
             // `Geom::surely_apart`'s bound is the contact itself: spheres touch where r < σ.
             let reach2 = sigma * sigma;
-            self.near.all_around(p, |j| {
-                let d2 = min_image(self.pos[j] - p, self.l).norm_squared();
+            self.near.around(p, |j, r| {
+                let d2 = r.norm_squared();
                 if d2 < reach2 && j != i {
-                    out.push((j, d2.sqrt() / sigma));
+                    out.push(Partner {
+                        j,
+                        mu: d2.sqrt() / sigma,
+                        r,
+                        lambda: None,
+                    });
                 }
                 true
             });
             return;
         }
-        self.near.all_around(p, |j| {
-            let r = min_image(self.pos[j] - p, self.l);
+        self.near.around(p, |j, r| {
             if j != i
-                && !self.spheres_apart(i, j, &r, 1.0 + GAP)
-                && let Some(mu) = self.pair_scale_unless_above(i, j, q, ai, &r, 1.0 + GAP)
+                && !self.spheres_apart(i, j, &r)
+                && let Some((mu, lambda)) = self.pair_scale_unless_above(i, j, q, ai, &r, 1.0 + GAP)
                 && mu <= 1.0 + GAP
             {
-                out.push((j, mu));
+                out.push(Partner { j, mu, r, lambda });
             }
             true
         });
@@ -1096,13 +1129,13 @@ impl Packing {
     fn touches_any(&self, i: usize, p: &V3, q: &M3, ai: &M3) -> bool {
         if let Some(sigma) = self.one_sphere {
             let reach2 = sigma * sigma;
-            return !self.near.all_around(p, |j| {
-                j == i || min_image(self.pos[j] - p, self.l).norm_squared() >= reach2
-            });
+            return !self
+                .near
+                .around(p, |j, r| j == i || r.norm_squared() >= reach2);
         }
-        !self.near.all_around(p, |j| {
-            j == i || !self.touch(i, j, q, ai, &min_image(self.pos[j] - p, self.l))
-        })
+        !self
+            .near
+            .around(p, |j, r| j == i || !self.touch(i, j, q, ai, &r))
     }
 
     /// One Monte Carlo sweep of random displacements (and rotations) of every body in turn; a
@@ -1134,9 +1167,13 @@ impl Packing {
                 self.partners_of(i, &self.pos[i], &self.rot[i], &was_lab, &mut was);
                 let ok = now
                     .iter()
-                    .all(|&(j, mu)| was.iter().any(|&(k, old)| k == j && mu >= old));
+                    .all(|n| was.iter().any(|w| w.j == n.j && n.mu >= w.mu));
                 if ok {
-                    for &(j, _) in was.iter().filter(|(j, _)| !now.iter().any(|(k, _)| k == j)) {
+                    for j in was
+                        .iter()
+                        .map(|w| w.j)
+                        .filter(|&j| !now.iter().any(|n| n.j == j))
+                    {
                         self.touching[j] -= 1;
                     }
                     self.overlaps -= was.len() - now.len();
@@ -1184,21 +1221,24 @@ impl Packing {
             for &i in &looked_at {
                 let ai = self.kept_lab(i);
                 self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
-                for (nth, &(j, found)) in partners.iter().enumerate() {
-                    let r = min_image(self.pos[j] - self.pos[i], self.l);
-                    // Ellipsoids are pushed along a normal the search does not keep. Otherwise
-                    // the search's scale holds until the first push moves i; after it, the pair
-                    // is looked at anew.
+                for (nth, found) in partners.iter().enumerate() {
+                    let j = found.j;
+                    // What the search found holds until the first push moves i; after it, the
+                    // pair is looked at anew.
+                    let (mu, r, lambda) = if nth == 0 {
+                        (Some(found.mu), found.r, found.lambda)
+                    } else {
+                        (None, min_image(self.pos[j] - self.pos[i], self.l), None)
+                    };
                     let (mu, half) = if self.ellipsoids {
-                        let (mu, n) =
-                            pw::contact_scale_and_normal_lab(&self.lab[i], &self.lab[j], &r);
+                        let (a, b) = (&self.lab[i], &self.lab[j]);
+                        let (mu, n) = match (mu, lambda) {
+                            (Some(mu), Some(lambda)) => (mu, pw::normal_at_lab(a, b, &r, lambda)),
+                            _ => pw::contact_scale_and_normal_lab(a, b, &r),
+                        };
                         (mu, n * (0.5 * r.dot(&n) * (target / mu - 1.0)))
                     } else {
-                        let mu = if nth == 0 {
-                            found
-                        } else {
-                            self.pair_scale(i, j, &r)
-                        };
+                        let mu = mu.unwrap_or_else(|| self.pair_scale(i, j, &r));
                         (mu, r * (0.5 * (target / mu - 1.0)))
                     };
                     if mu > 1.0 + GAP {

@@ -2,7 +2,7 @@
 //! (Kolafa), X0 = 1 ellipsoids = spheres, and linked cells vs neighbour lists.
 
 use edmd::ellipsoid::Ellipsoid;
-use edmd::init::min_image;
+use edmd::geometry::min_image;
 use edmd::pw::contact_scale;
 use edmd::{FrameEvery, Hooks, Neighbours, RunReport, Scene, ShapeKind, run, run_with_hooks};
 
