@@ -47,7 +47,7 @@ fn count_pairs<B: Moving>(
     let near = Near::new(&pos, l, reach);
     let mut count = 0;
     for (i, p) in pos.iter().enumerate() {
-        near.around(p, |j, r| {
+        near.around(&pos, p, |j, r| {
             if j > i && overlaps(i, j, &r) {
                 count += 1;
             }

@@ -79,10 +79,6 @@ impl<T: Member> Cells<T> {
         &self.members[cell]
     }
 
-    pub fn members_mut(&mut self, cell: usize) -> &mut [T] {
-        &mut self.members[cell]
-    }
-
     /// The cell at offset `d` (each component in −1..=1) from `c`, with the image shift.
     pub fn neighbour(&self, c: [usize; 3], d: [i32; 3]) -> Neighbour {
         let m = self.m as i32;
@@ -153,107 +149,125 @@ impl<T: Member> Cells<T> {
     }
 }
 
-/// A point of [`Near`], kept in its cell with its position, so that a query reads a candidate's
-/// position where it reads its index.
-#[derive(Clone, Copy, Debug)]
-pub struct Point {
-    r: V3,
-    id: u32,
-}
-
-impl Member for Point {
-    fn particle(&self) -> u32 {
-        self.id
-    }
-}
-
 /// Points binned for proximity queries: every point within `reach` (nearest image) of a position
 /// is among the members of the 27 cells around it, so a query costs O(1) instead of O(N). A box
 /// with fewer than 3 cells of side `reach` a side is not binned: every point is a candidate.
 /// Used where the set of points changes slowly (Monte Carlo, audits), not in the event loop.
 ///
-/// A cell keeps its points' positions, each within the cell's span (a point at the box's far face
-/// that rounding bins into the first cell is kept one box side back), so a neighbouring cell's
-/// image shift makes a candidate's separation one addition: the nearest image for every point
-/// within `reach`, an image at least as far for the others. The Monte Carlo's queries look at
-/// about a hundred candidates each, of which a sixth are within reach: a nearest image rounded
-/// per candidate, the index looked up in another array, cost three times the scan.
+/// The cells are intrusive doubly linked lists over the points: a query reads the heads of 27
+/// cells and then only the points themselves, and a move is O(1). Points lie in the box,
+/// [0, `l`] a side, and each is binned into the cell whose span holds it (the box's far face in
+/// the last cell), so a neighbouring cell's image shift makes a candidate's separation one
+/// addition: the nearest image for every point within `reach`, an image at least as far for the
+/// others. The Monte Carlo's queries look at about a hundred candidates each, of which a sixth
+/// are within reach: a nearest image rounded per candidate cost more than the rest of the scan.
 pub struct Near {
+    /// Cells per side; 0 when the box is not binned.
+    m: usize,
+    side: f64,
     l: f64,
-    /// `None` where the box is not binned.
-    cells: Option<Cells<Point>>,
-    /// Per point, its cell (binned) or its position (not binned).
+    head: Vec<u32>,
+    next: Vec<u32>,
+    prev: Vec<u32>,
     cell_of: Vec<u32>,
-    unbinned: Vec<V3>,
 }
 
+const NONE: u32 = u32::MAX;
+
 impl Near {
-    /// `points` (any image) in a periodic box of side `l`.
+    /// `points` (each in [0, `l`] a side) in a periodic box of side `l`.
     pub fn new(points: &[V3], l: f64, reach: f64) -> Self {
+        let n = points.len();
+        let m = (l / reach).floor();
+        // Also rejects NaN.
+        let m = if m >= 3.0 { m as usize } else { 0 };
         let mut near = Near {
+            m,
+            side: if m > 0 { l / m as f64 } else { l },
             l,
-            cells: Cells::new(l, reach),
-            cell_of: Vec::new(),
-            unbinned: Vec::new(),
+            head: vec![NONE; m * m * m],
+            next: vec![NONE; if m > 0 { n } else { 0 }],
+            prev: vec![NONE; if m > 0 { n } else { 0 }],
+            cell_of: vec![0; if m > 0 { n } else { 0 }],
         };
-        if near.cells.is_none() {
-            near.unbinned = points.to_vec();
-            return near;
-        }
-        near.cell_of = vec![0; points.len()];
-        for (i, p) in points.iter().enumerate() {
-            near.place(i, p);
+        if m > 0 {
+            for (i, p) in points.iter().enumerate() {
+                let c = near.cell(p);
+                near.link(i, c);
+            }
         }
         near
     }
 
-    /// The cell of `p`, and `p` at the image within that cell's span.
+    /// The cell coordinates of `p`, which must lie in the box: a point outside it would be binned
+    /// where its neighbours' separations are not its own.
     #[inline(always)]
-    fn bin(cells: &Cells<Point>, l: f64, p: &V3) -> (usize, V3) {
-        let m = cells.m as i32;
-        let mut c = [0usize; 3];
-        let mut at = *p;
-        for k in 0..3 {
-            let unwrapped = floor_i32(p[k] / cells.side);
-            let wraps = unwrapped.div_euclid(m);
-            c[k] = (unwrapped - wraps * m) as usize;
-            if wraps != 0 {
-                at[k] -= f64::from(wraps) * l;
-            }
-        }
-        (cells.index(c), at)
+    fn coords(&self, p: &V3) -> [usize; 3] {
+        assert!(
+            p.iter().all(|&x| (0.0..=self.l).contains(&x)),
+            "a point outside the box [0, {}]: {p:?}",
+            self.l
+        );
+        p.map(|x| (floor_i32(x / self.side) as usize).min(self.m - 1))
+            .into()
     }
 
-    fn place(&mut self, i: usize, p: &V3) {
-        let Some(cells) = &mut self.cells else {
-            return;
-        };
-        let (cell, r) = Near::bin(cells, self.l, p);
-        cells.insert(cell, Point { r, id: i as u32 });
-        self.cell_of[i] = cell as u32;
+    fn cell(&self, p: &V3) -> u32 {
+        let [x, y, z] = self.coords(p);
+        (x + self.m * (y + self.m * z)) as u32
+    }
+
+    fn link(&mut self, i: usize, c: u32) {
+        let h = self.head[c as usize];
+        self.next[i] = h;
+        self.prev[i] = NONE;
+        if h != NONE {
+            self.prev[h as usize] = i as u32;
+        }
+        self.head[c as usize] = i as u32;
+        self.cell_of[i] = c;
+    }
+
+    fn unlink(&mut self, i: usize) {
+        let (p, q) = (self.prev[i], self.next[i]);
+        if p == NONE {
+            self.head[self.cell_of[i] as usize] = q;
+        } else {
+            self.next[p as usize] = q;
+        }
+        if q != NONE {
+            self.prev[q as usize] = p;
+        }
     }
 
     /// Whether `f(j, r)` holds for every candidate `j` near `p` (itself included, if a point is
     /// there), `r` the separation of `j` from `p` (the nearest image where `j` is within reach);
-    /// stops at the first that fails. Inlined, so that `f` is inlined into the scan.
+    /// stops at the first that fails. `points` are the points as last given to [`Near::new`] and
+    /// [`Near::moved`]. Inlined, so that `f` is inlined into the scan.
     #[inline(always)]
-    pub fn around(&self, p: &V3, mut f: impl FnMut(usize, V3) -> bool) -> bool {
-        let Some(cells) = &self.cells else {
-            return self
-                .unbinned
+    pub fn around(&self, points: &[V3], p: &V3, mut f: impl FnMut(usize, V3) -> bool) -> bool {
+        if self.m == 0 {
+            return points
                 .iter()
                 .enumerate()
                 .all(|(j, q)| f(j, min_image(q - p, self.l)));
-        };
-        let (cell, at) = Near::bin(cells, self.l, p);
-        let (m, l) = (cells.m, self.l);
+        }
+        let (m, l) = (self.m, self.l);
+        let c = self.coords(p);
         // Per axis, the three cells (below, at, above) with what turns a member's position there
         // into its separation from `p`: the image shift less `p`.
         let axis = |k: usize| {
-            let c = cells.coords(cell)[k];
-            let below = if c == 0 { (m - 1, -l) } else { (c - 1, 0.0) };
-            let above = if c + 1 == m { (0, l) } else { (c + 1, 0.0) };
-            [below, (c, 0.0), above].map(|(c, shift)| (c, shift - at[k]))
+            let below = if c[k] == 0 {
+                (m - 1, -l)
+            } else {
+                (c[k] - 1, 0.0)
+            };
+            let above = if c[k] + 1 == m {
+                (0, l)
+            } else {
+                (c[k] + 1, 0.0)
+            };
+            [below, (c[k], 0.0), above].map(|(c, shift)| (c, shift - p[k]))
         };
         let xs = axis(0);
         for (z, dz) in axis(2) {
@@ -261,10 +275,12 @@ impl Near {
                 let row = m * (y + m * z);
                 for (x, dx) in xs {
                     let base = V3::new(dx, dy, dz);
-                    for q in cells.members(row + x) {
-                        if !f(q.id as usize, q.r + base) {
+                    let mut j = self.head[row + x];
+                    while j != NONE {
+                        if !f(j as usize, points[j as usize] + base) {
                             return false;
                         }
+                        j = self.next[j as usize];
                     }
                 }
             }
@@ -272,26 +288,14 @@ impl Near {
         true
     }
 
-    /// Point `i` is now at `p`.
+    /// Point `i` is now at `p` (in the box).
     pub fn moved(&mut self, i: usize, p: &V3) {
-        let Some(cells) = &mut self.cells else {
-            self.unbinned[i] = *p;
-            return;
-        };
-        let (cell, r) = Near::bin(cells, self.l, p);
-        let was = self.cell_of[i] as usize;
-        if cell == was {
-            if let Some(q) = cells
-                .members_mut(cell)
-                .iter_mut()
-                .find(|q| q.id == i as u32)
-            {
-                q.r = r;
+        if self.m > 0 {
+            let c = self.cell(p);
+            if c != self.cell_of[i] {
+                self.unlink(i);
+                self.link(i, c);
             }
-        } else {
-            cells.remove(was, i as u32);
-            cells.insert(cell, Point { r, id: i as u32 });
-            self.cell_of[i] = cell as u32;
         }
     }
 }
@@ -357,7 +361,7 @@ mod tests {
             for round in 0..3 {
                 for i in 0..n {
                     let mut seen = vec![None; n];
-                    near.around(&pts[i], |j, r| {
+                    near.around(&pts, &pts[i], |j, r| {
                         assert!(seen[j].replace(r).is_none(), "{j} listed twice");
                         true
                     });
@@ -380,7 +384,7 @@ mod tests {
                     near.moved(i, &pts[i]);
                 }
             }
-            assert_eq!(near.cells.is_some(), l == 10.0);
+            assert_eq!(near.m > 0, l == 10.0);
         }
     }
 }

@@ -1069,7 +1069,7 @@ impl Packing {
             for i in 0..self.pos.len() {
                 let (p, q, ai) = (self.pos[i], self.rot[i], self.kept_lab(i));
                 let mut count = 0;
-                self.near.around(&p, |j, r| {
+                self.near.around(&self.pos, &p, |j, r| {
                     if j != i && self.touch(i, j, &q, &ai, &r) {
                         count += 1;
                     }
@@ -1098,7 +1098,7 @@ impl Packing {
         if let Some(sigma) = self.one_sphere {
             // `Geom::surely_apart`'s bound is the contact itself: spheres touch where r < σ.
             let reach2 = sigma * sigma;
-            self.near.around(p, |j, r| {
+            self.near.around(&self.pos, p, |j, r| {
                 let d2 = r.norm_squared();
                 if d2 < reach2 && j != i {
                     out.push(Partner {
@@ -1112,7 +1112,7 @@ impl Packing {
             });
             return;
         }
-        self.near.around(p, |j, r| {
+        self.near.around(&self.pos, p, |j, r| {
             if j != i
                 && !self.spheres_apart(i, j, &r)
                 && let Some((mu, lambda)) = self.pair_scale_unless_above(i, j, q, ai, &r, 1.0 + GAP)
@@ -1131,11 +1131,11 @@ impl Packing {
             let reach2 = sigma * sigma;
             return !self
                 .near
-                .around(p, |j, r| j == i || r.norm_squared() >= reach2);
+                .around(&self.pos, p, |j, r| j == i || r.norm_squared() >= reach2);
         }
         !self
             .near
-            .around(p, |j, r| j == i || !self.touch(i, j, q, ai, &r))
+            .around(&self.pos, p, |j, r| j == i || !self.touch(i, j, q, ai, &r))
     }
 
     /// One Monte Carlo sweep of random displacements (and rotations) of every body in turn; a
