@@ -430,7 +430,7 @@ pub struct AxisGap {
 /// gradient ascent on the unit sphere from the line of centres come close: ∇g = x_B − x_A, the
 /// vector between the support points, and the step is damped by the largest radii of curvature,
 /// which bound how fast the support points move with n. No Newton–Raphson, no failure.
-/// Bodies of aspect ratio above 5 take [`gilbert_axis`] instead.
+/// Bodies of aspect ratio above 5 take [`elongated_axis`] instead.
 pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     separating_axis_from(sa, pa, sb, pb, None)
 }
@@ -446,7 +446,7 @@ pub fn separating_axis_from<S: Surface>(
     from: Option<&V3>,
 ) -> AxisGap {
     if elongated(sa) || elongated(sb) {
-        return gilbert_axis(sa, pa, sb, pb);
+        return elongated_axis(sa, pa, sb, pb);
     }
     let mut ascent = AxisAscent::start(sa, pa, sb, pb, from);
     ascent.finish(sa, sb);
@@ -574,7 +574,7 @@ pub fn quick_bound<S: Surface>(
 ) -> QuickBound {
     if elongated(sa) || elongated(sb) {
         // Needles and plates: the ascent stalls near the line of centres, Gilbert's axis does not.
-        let gap = gilbert_axis(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
+        let gap = elongated_axis(sa, &a.pose_after(0.0), sb, &b.pose_after(0.0));
         let lower = gap.safe_time(sa, a, sb, b);
         return QuickBound {
             lower,
@@ -618,13 +618,13 @@ pub fn quick_bound<S: Surface>(
 ///
 /// Ellipsoids take the normal along which they touch once scaled by their Perram–Wertheim
 /// contact scale μ ([`pw::contact_normal_lab`]): there r·n = μ(h_A + h_B), so the gap
-/// (μ − 1)(h_A + h_B) is the distance to first order in μ − 1, for a maximisation of F(λ) over one
-/// variable (X0 = 10: 2.3 times fewer instructions than the iterations below, and half the
-/// distances per collision; MEASUREMENTS.md, "Needles and plates"). Other shapes take the best axis of a few
-/// iterations of Gilbert's algorithm ([`certify`]), and bodies it proves overlapping the line of
-/// centres. Every gap is measured on the bodies' own support points, so any axis gives as
-/// rigorous a lower bound of the distance.
-fn gilbert_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
+/// (μ − 1)(h_A + h_B) is the distance to first order in μ − 1, for a maximisation of F(λ) over
+/// one variable (X0 = 10: 2.3 times fewer instructions than the iterations below, and half the
+/// distances per collision; MEASUREMENTS.md, "Needles and plates"). Other shapes take the best
+/// axis of a few iterations of Gilbert's algorithm ([`certify`]), and bodies it proves
+/// overlapping the line of centres. Every gap is measured on the bodies' own support points, so
+/// any axis gives as rigorous a lower bound of the distance.
+fn elongated_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     let r = pb.r - pa.r;
     let normal = match (sa.ellipsoid_semi_axes(), sb.ellipsoid_semi_axes()) {
         (Some(ea), Some(eb)) => {
@@ -666,7 +666,7 @@ fn gilbert_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     }
 }
 
-/// How close [`gilbert_axis`] brings its gap to the distance (in units of the smallest
+/// How close Gilbert's iterations in [`elongated_axis`] bring its gap to the distance (in units of the smallest
 /// semi-axis), and the iterations it may take for it.
 const GILBERT_AXIS_TOL: f64 = 0.05;
 const GILBERT_AXIS_ITER: u32 = 16;
@@ -1314,52 +1314,73 @@ mod tests {
     use crate::rigid::rotate;
 
     /// Needles and plates (X0 = 10 and 0.1, volume π/6) apart by up to 30 % more than where
-    /// they touch, in random orientations: the separating-axis gap never exceeds the distance
-    /// Gilbert's algorithm certifies to 1e-10, and comes within a tenth of the smallest
-    /// semi-axis of it on average (the damped ascent, which stayed near the line of centres,
-    /// fell 3.6 semi-axes short at X0 = 10).
+    /// they touch, in random orientations: the separating-axis gap ([`elongated_axis`]) never
+    /// exceeds the distance Gilbert's algorithm certifies to 1e-10, and comes within a tenth of
+    /// the smallest semi-axis of it on average (the damped ascent, which stayed near the line of
+    /// centres, fell 3.6 semi-axes short at X0 = 10). Ellipsoids take the Perram–Wertheim
+    /// normal, superquadrics (exponents [2, 2, 4]) Gilbert's iterations.
     #[test]
     fn the_separating_axis_of_needles_and_plates_bounds_the_distance_closely() {
         let mut rng = crate::rng::Rng::new(31);
         for x0 in [10.0f64, 0.1] {
             let b = 0.5 / x0.cbrt();
             let e = Ellipsoid::new(x0 * b, b, b);
-            let l = e.semi_axes().min();
-            let mut shortfall = 0.0;
-            for _ in 0..300 {
-                let mut rot = || {
-                    let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
-                    rotate(&M3::identity(), &axis, 1.0)
-                };
-                let (ra, rb) = (rot(), rot());
-                let dir = V3::new(rng.normal(), rng.normal(), rng.normal());
-                let touching = dir / crate::pw::contact_scale(&e, &ra, &e, &rb, &dir);
-                let pa = Pose {
-                    r: V3::zeros(),
-                    rot: ra,
-                };
-                let pb = Pose {
-                    r: touching * (1.001 + 0.3 * rng.uniform()),
-                    rot: rb,
-                };
-                let gap = separating_axis(&e, &pa, &e, &pb).gap;
-                let Certified::Apart { lower, upper, .. } =
-                    certify(&e, &pa, &e, &pb, 1e-10 * l, 1_000_000)
-                else {
-                    panic!("X0 {x0}: apart bodies not certified")
-                };
-                assert!(
-                    gap <= upper + 1e-12,
-                    "X0 {x0}: gap {gap} above the distance {upper}"
-                );
-                shortfall += (lower - gap) / l;
-            }
+            let shortfall = mean_shortfall(&e, 300, &mut rng, &|ra, rb, r| {
+                crate::pw::contact_scale(&e, ra, &e, rb, r)
+            });
+            assert!(shortfall <= 0.1, "X0 {x0}: mean shortfall {shortfall}");
+            let q = crate::superquadric::Superquadric::with_unit_volume(
+                [x0, 1.0, 1.0],
+                [2.0, 2.0, 4.0],
+            )
+            .expect("a valid superquadric");
+            let shortfall = mean_shortfall(&q, 60, &mut rng, &|ra, rb, r| {
+                crate::scale::contact_scale(&q, ra, &q, rb, r)
+            });
             assert!(
-                shortfall / 300.0 <= 0.1,
-                "X0 {x0}: mean shortfall {}",
-                shortfall / 300.0
+                shortfall <= 0.1,
+                "superquadric X0 {x0}: mean shortfall {shortfall}"
             );
         }
+    }
+
+    /// Over `pairs` pairs of `s` placed 0.1–30 % beyond contact (`scale` gives their contact
+    /// scale), the mean of how far the separating-axis gap falls short of the certified distance,
+    /// in smallest semi-axes; asserts that it never exceeds the distance.
+    fn mean_shortfall<S: Surface>(
+        s: &S,
+        pairs: usize,
+        rng: &mut crate::rng::Rng,
+        scale: &dyn Fn(&M3, &M3, &V3) -> f64,
+    ) -> f64 {
+        let l = s.semi_axes().min();
+        let mut shortfall = 0.0;
+        for _ in 0..pairs {
+            let mut rot = || {
+                let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
+                rotate(&M3::identity(), &axis, 1.0)
+            };
+            let (ra, rb) = (rot(), rot());
+            let dir = V3::new(rng.normal(), rng.normal(), rng.normal());
+            let touching = dir / scale(&ra, &rb, &dir);
+            let pa = Pose {
+                r: V3::zeros(),
+                rot: ra,
+            };
+            let pb = Pose {
+                r: touching * (1.001 + 0.3 * rng.uniform()),
+                rot: rb,
+            };
+            let gap = separating_axis(s, &pa, s, &pb).gap;
+            let Certified::Apart { lower, upper, .. } =
+                certify(s, &pa, s, &pb, 1e-10 * l, 1_000_000)
+            else {
+                panic!("apart bodies not certified")
+            };
+            assert!(gap <= upper + 1e-12, "gap {gap} above the distance {upper}");
+            shortfall += (lower - gap) / l;
+        }
+        shortfall / pairs as f64
     }
 
     #[test]

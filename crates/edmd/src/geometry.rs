@@ -7,7 +7,7 @@ pub type M3 = Matrix3<f64>;
 
 /// `x` rounded to the nearest integer, ties to even, for |x| < 2⁵¹: adding and subtracting
 /// 1.5·2⁵² leaves no fraction bits. `f64::round` is a libm call on baseline x86-64 (no SSE4.1),
-/// and nearest images are taken for every pair the Monte Carlo compression looks at.
+/// and nearest images are taken for every pair a push moves.
 pub fn round_nearest(x: f64) -> f64 {
     const MAGIC: f64 = 6_755_399_441_055_744.0;
     (x + MAGIC) - MAGIC

@@ -92,8 +92,9 @@ pub fn within_lab(a: &M3, b: &M3, r: &V3, k: f64) -> bool {
 
 /// Whether F(½) > `k2`, which proves μ² > `k2` (F(λ) ≤ μ² everywhere) and decides most pairs
 /// of a dense packing whose bounding spheres meet. F(½) = ½ rᵀ(A + B)⁻¹r, compared without a
-/// division through the adjugate of the symmetric S = A + B (det S > 0): a sixth of the
-/// instructions of [`Pw::f`]'s general solve, and the Monte Carlo asks it of every such pair.
+/// division through the adjugate of the symmetric S = A + B (det S > 0), before any `Pw` is
+/// built: the Monte Carlo asks it of every pair whose bounding spheres meet (its pair tests at
+/// X0 = 2, N 4096: 3.46 → 2.82 G instructions a start, against `Pw::f(0.5)`).
 #[inline]
 fn above_at_half(a: &M3, b: &M3, r: &V3, k2: f64) -> bool {
     let s = a + b;
