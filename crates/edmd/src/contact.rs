@@ -633,29 +633,21 @@ fn elongated_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
         }
         _ => None,
     };
-    let (n, xa, xb) = match normal.filter(|n| n.iter().all(|x| x.is_finite())) {
-        Some(n) => (
-            n,
-            support_point_lab(sa, pa, &n),
-            support_point_lab(sb, pb, &-n),
-        ),
+    let n = match normal.filter(|n| n.iter().all(|x| x.is_finite())) {
+        Some(n) => n,
         None => {
             let l = sa.semi_axes().min().min(sb.semi_axes().min());
             match certify(sa, pa, sb, pb, GILBERT_AXIS_TOL * l, GILBERT_AXIS_ITER) {
-                Certified::Apart { n, xa, xb, .. } | Certified::Undecided { n, xa, xb, .. } => {
-                    (n, xa, xb)
-                }
-                Certified::Overlapping { .. } => {
-                    let n = r.normalize();
-                    (
-                        n,
-                        support_point_lab(sa, pa, &n),
-                        support_point_lab(sb, pb, &-n),
-                    )
-                }
+                Certified::Apart { n, .. } | Certified::Undecided { n, .. } => n,
+                Certified::Overlapping { .. } => r.normalize(),
             }
         }
     };
+    // Gilbert's support points along its axis are these very ones.
+    let (xa, xb) = (
+        support_point_lab(sa, pa, &n),
+        support_point_lab(sb, pb, &-n),
+    );
     AxisGap {
         gap: n.dot(&(xb - xa)),
         n,
@@ -666,8 +658,8 @@ fn elongated_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     }
 }
 
-/// How close Gilbert's iterations in [`elongated_axis`] bring its gap to the distance (in units of the smallest
-/// semi-axis), and the iterations it may take for it.
+/// How close Gilbert's iterations in [`elongated_axis`] bring its gap to the distance (in units
+/// of the smallest semi-axis), and the iterations they may take for it.
 const GILBERT_AXIS_TOL: f64 = 0.05;
 const GILBERT_AXIS_ITER: u32 = 16;
 

@@ -386,18 +386,17 @@ mod tests {
             let (a, b) = (ea.a_lab(&ra), eb.a_lab(&rb));
             let (mu, n) = contact_scale_and_normal_lab(&a, &b, &r);
             proptest::prop_assert!((mu / contact_scale_lab(&a, &b, &r) - 1.0).abs() < 1e-12);
-            let gap = |m: &V3| {
+            // The support gap along m of the bodies scaled by `scale`.
+            let support_gap = |m: &V3, scale: f64| {
                 let m = m.normalize();
-                r.dot(&m) - mu * ((m.dot(&(a * m))).sqrt() + (m.dot(&(b * m))).sqrt())
+                r.dot(&m) - scale * ((m.dot(&(a * m))).sqrt() + (m.dot(&(b * m))).sqrt())
             };
+            let gap = |m: &V3| support_gap(m, mu);
             let size = ea.s.max() + eb.s.max();
             proptest::prop_assert!(gap(&n).abs() < 1e-7 * size, "gap along n {}", gap(&n));
             // The axis of `contact_normal_lab`: the unscaled bodies' gap along it is as large as
             // along n, to a thousandth of it (4.7·10⁻⁴ at worst over 2·10⁵ random pairs).
-            let unscaled = |m: &V3| {
-                let m = m.normalize();
-                r.dot(&m) - (m.dot(&(a * m))).sqrt() - (m.dot(&(b * m))).sqrt()
-            };
+            let unscaled = |m: &V3| support_gap(m, 1.0);
             let loose = contact_normal_lab(&a, &b, &r);
             proptest::prop_assert!(
                 unscaled(&loose) >= unscaled(&n) - 1e-3 * unscaled(&n).abs() - 1e-9 * size,
