@@ -66,9 +66,12 @@ impl Placed for PlacedEllipsoid {
 impl Surface for Ellipsoid {
     type Placed = PlacedEllipsoid;
     fn place(&self, p: &Pose) -> PlacedEllipsoid {
+        // Rᵀ diag(2 s⁻²) R, without the diagonal matrix's products by zero (a distance search
+        // places both bodies at every iterate).
+        let scaled_t = M3::from_fn(|i, k| p.rot[(k, i)] * (2.0 * self.inv2[k]));
         PlacedEllipsoid {
             r: p.r,
-            h: p.rot.transpose() * M3::from_diagonal(&(2.0 * self.inv2)) * p.rot,
+            h: scaled_t * p.rot,
         }
     }
     fn f(&self, x: &V3) -> f64 {

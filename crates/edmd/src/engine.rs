@@ -701,10 +701,11 @@ impl<M: Rigid> Engine<M> {
         let mut close = std::mem::take(&mut self.close);
         close.clear();
         let lanes = self.m.lanes();
+        let prefetching = self.bodies.len() >= PREFETCH_FROM;
         for (k, &(j, shift)) in cand.iter().enumerate() {
             // The bodies, events and kept axes of candidates a few ahead are seldom in cache at
             // large N.
-            if let Some(&(ahead, _)) = cand.get(k + PREFETCH_AHEAD) {
+            if prefetching && let Some(&(ahead, _)) = cand.get(k + PREFETCH_AHEAD) {
                 self.bodies[ahead as usize].prefetch();
                 self.cal.prefetch(ahead as usize);
                 self.axes.prefetch(i, ahead as usize);
@@ -886,6 +887,11 @@ impl<M: Rigid> Engine<M> {
 
 /// How many candidates ahead of the one looked at [`Engine::first_rigid_collision`] asks for.
 const PREFETCH_AHEAD: usize = 4;
+
+/// Bodies from which [`Engine::first_rigid_collision`] asks for candidates ahead. Below, a body,
+/// its event and its row of axes (about 500 B) all stay in a core's L2 cache (0.5 MB), and the
+/// requests were 40 of the 175 instructions spent on each candidate (X0 = 2, N = 256).
+const PREFETCH_FROM: usize = 1024;
 
 /// A candidate of a rigid prediction in the order of its search: (estimate, lower bound, time it
 /// must meet before, index, image shift, index in `near` or [`FAR`]).
