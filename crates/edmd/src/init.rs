@@ -1,8 +1,9 @@
-//! Initial configurations at a target φ: a dilute FCC lattice with random orientations, melted
-//! and compressed by hard-body Monte Carlo, then Maxwell–Boltzmann velocities (Sec. 4.1 melts a
-//! dilute crystal similarly). Spheres of one size start instead from random sequential addition
-//! at the melting density ([`random_sequential`]), which has no lattice to melt, and are
-//! compressed without sweeps (`SPHERES`).
+//! Initial configurations at a target φ: bodies of one shape placed by random sequential
+//! addition in random orientations at a dilute density ([`random_sequential`] for spheres,
+//! [`random_sequential_bodies`] for the others), compressed by hard-body Monte Carlo, then
+//! Maxwell–Boltzmann velocities. Where the addition jams, and for mixtures, a dilute FCC lattice
+//! melted by Monte Carlo sweeps takes its place (Sec. 4.1 melts a dilute crystal similarly).
+//! Spheres of one size are compressed without sweeps (`SPHERES`).
 //!
 //! The compression follows the "quick compress" of hard-particle Monte Carlo codes: the box
 //! shrinks by a small step, which leaves some pairs overlapping; two sweeps in which no move may
@@ -39,6 +40,16 @@ impl Geom {
             Geom::Sphere { sigma } => 0.5 * sigma,
             Geom::Ellipsoid(e) => e.s.max(),
             Geom::Superquadric(q) => q.bounding_radius(),
+        }
+    }
+
+    /// The bounding radius over the radius of the largest sphere inside (1 for a sphere).
+    fn aspect(&self) -> f64 {
+        match self {
+            Geom::Sphere { .. } => 1.0,
+            Geom::Ellipsoid(e) => e.s.max() / e.s.min(),
+            // Exponents of 2 or more hold the ellipsoid of the semi-axes.
+            Geom::Superquadric(q) => q.bounding_radius() / q.s.min(),
         }
     }
 
@@ -231,6 +242,16 @@ const LATTICE: Schedule = Schedule {
     push_ahead: 2.0,
 };
 
+/// Bodies of one shape other than spheres, from random sequential addition
+/// ([`random_sequential_bodies`]): the lattice's compression without its melting. Ellipsoids
+/// X0 = 2, φ = 0.5, N 4096: the sixty sweeps that melt the lattice were a tenth of a start's
+/// instructions, the addition a few hundredths of that (MEASUREMENTS.md, "Rigid bodies from
+/// random sequential addition").
+const ADDED: Schedule = Schedule {
+    melt_sweeps: 0,
+    ..LATTICE
+};
+
 /// Spheres of one size, from random sequential addition ([`random_sequential`]): no Monte Carlo
 /// sweeps at all, the compression is the box's steps of 10 % and Jodrey–Tory pushes alone. The
 /// dynamics that ends every initial state relaxes what the sweeps did, and more: Z over the first
@@ -377,15 +398,15 @@ pub fn initial_configuration(
     };
     let at_temperature =
         |pos: &[V3], rot: &[M3], l: f64, rng: &mut Rng| thermal(pos, rot, l, &|_| inertial, rng);
+    let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
     let added = match *geom {
-        Geom::Sphere { sigma } => {
-            let l_melt = (volume / phi.min(PHI_MELT)).cbrt();
-            random_sequential(n, l_melt, sigma, rng).map(|pos| {
-                let start = Packing::new(pos, vec![M3::identity(); n], l_melt, *geom);
-                (start, &SPHERES)
-            })
-        }
-        _ => None,
+        Geom::Sphere { sigma } => random_sequential(n, l_melt, sigma, rng).map(|pos| {
+            let start = Packing::new(pos, vec![M3::identity(); n], l_melt, *geom);
+            (start, &SPHERES)
+        }),
+        _ => addition_densities(geom, phi)
+            .find_map(|phi_add| random_sequential_bodies(n, (volume / phi_add).cbrt(), geom, rng))
+            .map(|start| (start, &ADDED)),
     };
     let (start, schedule) = match added {
         Some(start) => start,
@@ -539,6 +560,46 @@ fn random_sequential(n: usize, l: f64, sigma: f64, rng: &mut Rng) -> Option<Vec<
     (pos.len() == n).then_some(pos)
 }
 
+/// Bodies of shape `geom` (any but a sphere) placed one after another at uniformly random
+/// points and orientations of a periodic box of side `l`, each where it touches none placed
+/// before (random sequential addition, [`Packing::add_at_random`]), then numbered along a Z-order
+/// curve, so that neighbours sit near in memory for the sweeps and pushes that follow, as the
+/// lattice's did. `None` where a body finds no place in [`ADD_TRIES`] tries: long or flat
+/// bodies jam at lower densities than spheres.
+fn random_sequential_bodies(n: usize, l: f64, geom: &Geom, rng: &mut Rng) -> Option<Packing> {
+    // Places to start from, each replaced in its turn; the bodies not yet added are not looked at.
+    let pos = (0..n).map(|_| random_point(l, rng)).collect();
+    let mut packing = Packing::new(pos, vec![M3::identity(); n], l, *geom);
+    for i in 0..n {
+        (0..ADD_TRIES).find(|_| packing.add_at_random(i, rng))?;
+    }
+    let order = z_order(n, |i| packing.pos[i], l);
+    Some(Packing::new(
+        order.iter().map(|&i| packing.pos[i]).collect(),
+        order.iter().map(|&i| packing.rot[i]).collect(),
+        l,
+        *geom,
+    ))
+}
+
+/// Tries of [`random_sequential_bodies`] to place one body.
+const ADD_TRIES: usize = 1000;
+
+/// Packing fractions at which [`random_sequential_bodies`] is tried in turn, before the lattice:
+/// the melting density, or 0.8 / aspect where lower, then lower again. Long and flat bodies
+/// jam early: with [`ADD_TRIES`] tries a body (N 512, seed 0) the addition placed X0 = 5 up to
+/// φ 0.2, X0 = 0.2 up to 0.15, X0 = 10 and 0.1 only at 0.1. A failed addition fails at its
+/// last bodies, so it costs about as much as one that succeeds.
+fn addition_densities(geom: &Geom, phi: f64) -> impl Iterator<Item = f64> {
+    let first = phi.min(PHI_MELT).min(0.8 / geom.aspect());
+    [1.0, 0.6, 0.36].into_iter().map(move |f| first * f)
+}
+
+/// A uniformly random point of the box of side `l`.
+fn random_point(l: f64, rng: &mut Rng) -> V3 {
+    V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * l
+}
+
 /// The compression of every initial state: `packing` melted at its density by `schedule`'s
 /// sweeps, then compressed to packing fraction `phi` (bodies' total volume `volume`) by Monte
 /// Carlo steps with Jodrey–Tory pushes, and the dynamics (`thermal` bodies relaxed) where they
@@ -673,12 +734,17 @@ fn kappa2_of_each(shapes: &[Geom]) -> Vec<f64> {
 /// The order [`sort_along_z_curve`] puts the bodies in: the index of the body that goes first,
 /// second, … (for a mixture, whose sizes must follow their bodies).
 pub fn z_curve_order(bodies: &[Body], l: f64) -> Vec<usize> {
+    z_order(bodies.len(), |i| bodies[i].r, l)
+}
+
+/// The order of `n` points (point `i` at `at(i)`) along a Z-order curve through the box.
+fn z_order(n: usize, at: impl Fn(usize) -> V3, l: f64) -> Vec<usize> {
     // 21 bits per axis: cells of side σ up to a box of 2·10⁶ σ.
     let per_side = l.floor().clamp(1.0, f64::from((1u32 << 21) - 1));
     let cell = |x: f64| ((x.rem_euclid(l) / l * per_side) as u32).min(per_side as u32 - 1);
-    let mut order: Vec<usize> = (0..bodies.len()).collect();
+    let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_cached_key(|&i| {
-        let r = bodies[i].r;
+        let r = at(i);
         spread(cell(r.x)) | spread(cell(r.y)) << 1 | spread(cell(r.z)) << 2
     });
     order
@@ -1124,6 +1190,26 @@ impl Packing {
         });
     }
 
+    /// Body `i` moved to a random point and orientation if it touches none of the bodies before
+    /// it there ([`random_sequential_bodies`]); whether it was.
+    fn add_at_random(&mut self, i: usize, rng: &mut Rng) -> bool {
+        let p = random_point(self.l, rng);
+        let q = random_rotation(rng);
+        let ai = self.lab_or_zero(i, &q);
+        let free = self.near.around(&self.pos, &p, |j, r| {
+            j >= i || !self.touch(i, j, &q, &ai, &r)
+        });
+        if free {
+            self.near.moved(i, &p);
+            self.pos[i] = p;
+            self.rot[i] = q;
+            if !self.lab.is_empty() {
+                self.lab[i] = ai;
+            }
+        }
+        free
+    }
+
     /// Whether body `i` at `p` with orientation `q` (lab matrix `ai`) touches or overlaps
     /// another body.
     fn touches_any(&self, i: usize, p: &V3, q: &M3, ai: &M3) -> bool {
@@ -1412,6 +1498,48 @@ mod tests {
         // 0.5 is past the addition's jamming (0.38).
         let l = (2000.0 * std::f64::consts::PI / 6.0 / 0.5_f64).cbrt();
         assert!(random_sequential(2000, l, 1.0, &mut rng).is_none());
+    }
+
+    /// The addition of rigid bodies leaves every pair (nearest images) farther than 1 + GAP
+    /// from contact, as the Monte Carlo needs, with isotropic orientations (nematic order S of
+    /// random axes), numbered along the Z-order curve; past its jamming it is refused, not
+    /// returned short, and the densities tried go below that of the needles' jamming.
+    #[test]
+    fn random_sequential_addition_places_rigid_bodies_apart_in_random_orientations() {
+        let mut rng = Rng::new(5);
+        let ellipsoid = Geom::Ellipsoid(Ellipsoid::new(0.7937, 0.3969, 0.3969));
+        let cube = Geom::Superquadric(
+            Superquadric::with_unit_volume([1.0, 1.0, 1.0], [2.0, 2.0, 6.0]).unwrap(),
+        );
+        for (geom, n, phi) in [(ellipsoid, 600, 0.25), (cube, 150, 0.25)] {
+            let l = (n as f64 * geom.volume() / phi).cbrt();
+            let p = random_sequential_bodies(n, l, &geom, &mut rng).expect("below jamming");
+            assert_eq!((p.pos.len(), p.overlaps), (n, 0));
+            for i in 0..n {
+                assert!(p.pos[i].iter().all(|&x| (0.0..l).contains(&x)));
+                for j in 0..i {
+                    let r = min_image(p.pos[j] - p.pos[i], l);
+                    let mu = geom.contact_scale(&geom, &p.rot[i], &p.rot[j], &r);
+                    assert!(mu > 1.0 + GAP, "{geom:?}: pair {i} {j} at {mu}");
+                }
+            }
+            let q = p.rot.iter().fold(M3::zeros(), |q, rot| {
+                let u = rot.row(0).transpose();
+                q + (u * u.transpose() * 1.5 - M3::identity() * 0.5) / n as f64
+            });
+            let s = q.symmetric_eigenvalues().max();
+            assert!(s < 4.0 / (n as f64).sqrt(), "{geom:?}: S = {s}");
+            let order = z_order(n, |i| p.pos[i], l);
+            assert!(
+                order.iter().enumerate().all(|(k, &i)| k == i),
+                "not in Z order"
+            );
+        }
+        let needle = Geom::Ellipsoid(Ellipsoid::new(1.0772, 0.1077, 0.1077));
+        let l = |phi: f64| (500.0 * needle.volume() / phi).cbrt();
+        assert!(random_sequential_bodies(500, l(0.3), &needle, &mut rng).is_none());
+        let first = addition_densities(&needle, 0.3).next().expect("a density");
+        assert!(random_sequential_bodies(500, l(first), &needle, &mut rng).is_some());
     }
 
     /// Pushes that end clear leave no contact anywhere (the counts they skip, recounted, are 0),

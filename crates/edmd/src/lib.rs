@@ -26,8 +26,9 @@
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
 //!   superquadrics are compressed with the contact scale of [`scale`].
-//! - [`init`]: dilute lattice → Monte Carlo compression → Maxwell–Boltzmann velocities (for a
-//!   sphere mixture [`init::initial_mixture`], each pair in contact at (σ_i + σ_j)/2);
+//! - [`init`]: random sequential addition (or a dilute lattice) → Monte Carlo compression →
+//!   Maxwell–Boltzmann velocities (for a sphere mixture [`init::initial_mixture`], each pair in
+//!   contact at (σ_i + σ_j)/2);
 //!   [`rng`]: the seeded generator it draws from.
 //! - [`sequence`]: a fingerprint of the collision sequence, to find where two runs part.
 //! - [`model`]: the body models, what one particle kind costs to simulate: the analytic sphere,
@@ -71,9 +72,11 @@
 //! - The escape time from a bounding parallelepiped uses the ellipsoid's support function, exact
 //!   and closed-form, instead of Newton–Raphson on the planes (Eqs. 56–58); the stepping of Eq. (61)
 //!   with ε_d^nnl is kept for rotating bodies.
-//! - Initial configurations come from a dilute FCC lattice melted and compressed by hard-body Monte
-//!   Carlo with the Perram–Wertheim overlap test and Jodrey–Tory pushes, in O(N) per pass through
-//!   cells, then relaxed by 10 collisions per particle; not from a Lubachevsky–Stillinger growth.
+//! - Initial configurations come from random sequential addition at a dilute density (a dilute
+//!   FCC lattice melted by Monte Carlo, where the addition jams and for mixtures), compressed by
+//!   hard-body Monte Carlo with the Perram–Wertheim overlap test and Jodrey–Tory pushes, in O(N)
+//!   per pass through cells, then relaxed by 10 collisions per particle; not from a
+//!   Lubachevsky–Stillinger growth.
 //!
 //! Units: the diameter σ of the sphere of equal volume (every body has volume π/6), the mass m,
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
