@@ -1200,14 +1200,19 @@ impl Packing {
             j >= i || !self.touch(i, j, &q, &ai, &r)
         });
         if free {
-            self.near.moved(i, &p);
-            self.pos[i] = p;
-            self.rot[i] = q;
-            if !self.lab.is_empty() {
-                self.lab[i] = ai;
-            }
+            self.put(i, p, q, ai);
         }
         free
+    }
+
+    /// Body `i` moved to `p` and turned to `q`, of lab matrix `ai`.
+    fn put(&mut self, i: usize, p: V3, q: M3, ai: M3) {
+        self.near.moved(i, &p);
+        self.pos[i] = p;
+        self.rot[i] = q;
+        if !self.lab.is_empty() {
+            self.lab[i] = ai;
+        }
     }
 
     /// Whether body `i` at `p` with orientation `q` (lab matrix `ai`) touches or overlaps
@@ -1268,12 +1273,7 @@ impl Packing {
                 ok
             };
             if ok {
-                self.near.moved(i, &p);
-                self.pos[i] = p;
-                self.rot[i] = q;
-                if !self.lab.is_empty() {
-                    self.lab[i] = ai;
-                }
+                self.put(i, p, q, ai);
                 accepted += 1;
             }
         }
