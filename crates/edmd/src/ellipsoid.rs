@@ -7,6 +7,8 @@ pub struct Ellipsoid {
     /// Semi-axes (a, b, c) along body axes 0, 1, 2.
     pub s: V3,
     inv2: V3,
+    /// The largest semi-axis, asked of every candidate of a prediction.
+    radius: f64,
     /// The largest radius of curvature, asked of every bound the contact search makes.
     rho_max: f64,
 }
@@ -17,6 +19,7 @@ impl Ellipsoid {
         Ellipsoid {
             s,
             inv2: V3::new(1.0 / (a * a), 1.0 / (b * b), 1.0 / (c * c)),
+            radius: s.max(),
             rho_max: s.max().powi(2) / s.min(),
         }
     }
@@ -84,7 +87,7 @@ impl Surface for Ellipsoid {
         M3::from_diagonal(&(2.0 * self.inv2))
     }
     fn bounding_radius(&self) -> f64 {
-        self.s.max()
+        self.radius
     }
     fn ray_point(&self, dir: &V3) -> V3 {
         dir / dir.component_mul(dir).dot(&self.inv2).sqrt()

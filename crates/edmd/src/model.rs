@@ -398,9 +398,6 @@ fn predict_pair<S: Surface>(
 /// X0, including 1) and superquadrics, each monomorphised on its own shape.
 pub(crate) struct RigidModel<S> {
     e: S,
-    /// `e`'s bounding radius, read for every candidate of a prediction (an ellipsoid's is the
-    /// largest of its semi-axes, found anew at each call).
-    radius: f64,
     lanes: Option<EllipsoidLanes>,
     params: ContactParams,
     inertia: Inertia,
@@ -447,7 +444,6 @@ impl<S: Surface + Copy> RigidModel<S> {
             .filter(|_| !elongated(&e))
             .and_then(EllipsoidLanes::of);
         RigidModel {
-            radius: e.bounding_radius(),
             e,
             lanes,
             params,
@@ -460,7 +456,7 @@ impl<S: Surface + Copy> RigidModel<S> {
 impl<S: Surface + Copy> Rigid for RigidModel<S> {
     #[inline(always)]
     fn bounding_radius_of(&self, _: usize) -> f64 {
-        self.radius
+        self.e.bounding_radius()
     }
     fn predict(
         &mut self,
