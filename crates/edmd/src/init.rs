@@ -752,7 +752,8 @@ fn z_order(n: usize, at: impl Fn(usize) -> V3, l: f64) -> Vec<usize> {
 
 /// Bodies at the given places with Maxwell–Boltzmann velocities at k_B T = 1 (body `i`'s
 /// inertia `of(i)`: each velocity component of variance 1/m_i, each spin component 1/I_i), no
-/// net momentum Σ m_i v_i.
+/// net momentum Σ m_i v_i. The translational kinetic energy is then set to the 3(N − 1)/2 of
+/// the 3N − 3 degrees of freedom the zero momentum leaves, the temperature a run measures.
 fn thermal(
     pos: &[V3],
     rot: &[M3],
@@ -803,7 +804,7 @@ fn thermal(
         .zip(&mass)
         .map(|(b, m)| 0.5 * m * (b.v - mean).norm_squared())
         .sum();
-    let scale = (1.5 * pos.len() as f64 / ke).sqrt();
+    let scale = (1.5 * (pos.len() as f64 - 1.0) / ke).sqrt();
     for b in bodies.iter_mut() {
         b.v = (b.v - mean) * scale;
     }

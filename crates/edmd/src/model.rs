@@ -188,8 +188,9 @@ impl SpeciesSums {
     }
 
     /// Bodies and mean diameter per species, and per pair of species its collisions and its
-    /// part of Z (`ke_int`: ∫ KE dt of the measured run).
-    pub(crate) fn report(&self, ke_int: f64) -> SpeciesReport {
+    /// part of Z (`three_nkt`: ∫ 3 N k_B T dt of the measured run, [`crate::run`]'s
+    /// `three_nkt_integral`).
+    pub(crate) fn report(&self, three_nkt: f64) -> SpeciesReport {
         let mut count = vec![0usize; self.kinds];
         let mut sum = vec![0.0; self.kinds];
         for (&k, d) in self.species.iter().zip(&self.diameter) {
@@ -205,7 +206,7 @@ impl SpeciesSums {
                     species: [a as usize + 1, b as usize + 1],
                     collisions: self.collisions[k],
                     collision_fraction: self.collisions[k] as f64 / total.max(1) as f64,
-                    pressure_z_part: self.virial[k] / (2.0 * ke_int),
+                    pressure_z_part: self.virial[k] / three_nkt,
                     distance_calls: self.distance_calls.as_ref().map(|c| c[k]),
                 });
             }

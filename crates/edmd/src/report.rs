@@ -29,7 +29,8 @@ pub struct RunReport {
     pub pressure_z: f64,
     /// Standard error of Z from 10 block averages.
     pub pressure_z_err: f64,
-    /// Measured kT = (2/3)⟨translational kinetic energy⟩/N, time-averaged.
+    /// Measured kT = (2/3)⟨translational kinetic energy⟩/(N − 1), time-averaged: the net momentum
+    /// is zero, which leaves 3N − 3 translational degrees of freedom.
     pub temperature: f64,
     /// |E_end − E_start| / E_start over the measured run (translational + rotational).
     pub energy_drift_rel: f64,

@@ -331,25 +331,79 @@ fn same_seed_same_trajectory() {
     assert_eq!((a.pressure_z, a.sim_time), (b.pressure_z, b.sim_time));
 }
 
-/// The validation figures (N = 500, 10^6 collisions): run with
+/// The validation figures (N = 500, 10^6 collisions, seeds 0–3): run with
 /// `cargo test --release -p edmd --test physics -- --ignored --nocapture`.
+///
+/// One run scatters by about 0.15 % (the standard deviation of eight seeds at φ 0.45), so the
+/// mean of four is held to 0.15 %. With Z's temperature over 3N degrees of freedom, not the
+/// 3N − 3 that the zero net momentum leaves, the means of eight seeds sat 0.08–0.20 % above
+/// Kolafa's, 0.18–0.20 % in two of the six cases (MEASUREMENTS.md, "Z with the measured
+/// temperature of 3N − 3 degrees of freedom").
 #[test]
 #[ignore]
 fn validation_kolafa_large() {
     for nb in [Neighbours::Ll, Neighbours::Nnl] {
         for (phi, z) in [(0.30, 3.9843), (0.40, 6.9457), (0.45, 9.4029)] {
-            // Lists with the spheres' default Δ_NNL (0.25), the one users get.
-            let s = scene(ShapeKind::Sphere, 500, phi, 1.0, nb, 1_000_000, 100_000);
-            let r = go(&s);
-            let dev = r.pressure_z / z - 1.0;
-            println!(
-                "{nb:?} phi {phi}: Z = {:.4} ± {:.4} (Kolafa {z}), deviation {:+.3} %, tau_c = {:.3} us",
-                r.pressure_z,
-                r.pressure_z_err,
-                dev * 100.0,
-                r.tau_c_us
+            let mut devs = Vec::new();
+            for seed in 0..4 {
+                // Lists with the spheres' default Δ_NNL (0.25), the one users get.
+                let mut s = scene(ShapeKind::Sphere, 500, phi, 1.0, nb, 1_000_000, 100_000);
+                s.seed = seed;
+                let r = go(&s);
+                let dev = r.pressure_z / z - 1.0;
+                println!(
+                    "{nb:?} phi {phi} seed {seed}: Z = {:.4} ± {:.4} (Kolafa {z}), deviation {:+.3} %, tau_c = {:.3} us",
+                    r.pressure_z,
+                    r.pressure_z_err,
+                    dev * 100.0,
+                    r.tau_c_us
+                );
+                assert!(dev.abs() < 0.005);
+                devs.push(dev);
+            }
+            let mean = devs.iter().sum::<f64>() / devs.len() as f64;
+            println!("{nb:?} phi {phi}: mean deviation {:+.3} %", mean * 100.0);
+            assert!(
+                mean.abs() < 0.0015,
+                "{nb:?} phi {phi}: mean deviation {mean:e}"
             );
-            assert!(dev.abs() < 0.005);
         }
+    }
+}
+
+/// Few spheres read the temperature they start at, k_B T = 1, over the 3N − 3 degrees of freedom
+/// their zero net momentum leaves, and their Z sits a little below the equation of state of the
+/// infinite system (seeds 0–7, 10⁵ collisions: N 16 −0.2 to −0.9 %, N 64 −0.2 to −0.8 %). Over 3N
+/// degrees of freedom the temperature read 1 − 1/N and Z − 1 was a factor N/(N − 1) high: Z was
+/// 4.14–4.16 at N 16 and 4.00–4.03 at N 64 (0.3–4.4 % above Kolafa’s 3.984).
+#[test]
+fn few_spheres_keep_their_temperature_and_sit_just_below_the_equation_of_state() {
+    let fluid = kolafa(0.3);
+    for n in [16, 64] {
+        let mut zs = Vec::new();
+        for seed in 0..3 {
+            let mut s = scene(
+                ShapeKind::Sphere,
+                n,
+                0.3,
+                1.0,
+                Neighbours::Ll,
+                100_000,
+                10_000,
+            );
+            s.seed = seed;
+            let r = go(&s);
+            assert!(
+                (r.temperature - 1.0).abs() < 1e-9,
+                "N {n}: kT {} over 3N − 3 degrees of freedom",
+                r.temperature
+            );
+            zs.push(r.pressure_z);
+        }
+        let mean = zs.iter().sum::<f64>() / zs.len() as f64;
+        assert!(
+            mean < fluid && mean > 0.985 * fluid,
+            "N {n}: Z {mean} ({zs:?}) against Kolafa's {fluid}"
+        );
     }
 }
