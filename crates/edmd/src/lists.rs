@@ -76,6 +76,12 @@ pub trait Region: Copy {
     /// Whether `other`, with `shift` added to its centre, overlaps this region; only asked of
     /// regions whose centres are at most `reach` apart.
     fn overlaps(&self, other: &Self, shift: &V3, reach: f64) -> bool;
+    /// Whether [`Lists`] should gather candidates four at a time for [`Region::overlaps4`].
+    const IN_FOURS: bool = false;
+    /// [`Region::overlaps`] of four regions at once, each with its shift.
+    fn overlaps4(&self, others: [&Self; 4], shifts: &[V3; 4], reach: f64) -> [bool; 4] {
+        [0, 1, 2, 3].map(|k| self.overlaps(others[k], &shifts[k], reach))
+    }
     /// Time after `body.t` when the body may first touch the boundary of its region: exact or
     /// early, never late (ε_d^nnl of Eq. 61 where it has to be stepped to).
     fn escape_time<S: Surface>(&self, s: &S, body: &Self::Body, eps_nnl: f64) -> f64;
@@ -292,18 +298,17 @@ impl<R: Region> Lists<R> {
             } else {
                 &ALL_27
             };
-            let inv_l = 1.0 / self.l;
-            for (j, b) in self.regions.iter().enumerate() {
+            let (l, inv_l, take) = (self.l, 1.0 / self.l, &take);
+            let candidates = self.regions.iter().enumerate().flat_map(|(j, b)| {
                 let nearest = ((a.centre() - b.centre()) * inv_l).map(round_nearest);
-                for off in offsets {
+                offsets.iter().filter_map(move |off| {
                     let near = nearest + V3::new(off[0] as f64, off[1] as f64, off[2] as f64);
-                    let shift = near * self.l;
-                    let d = b.centre() + shift - a.centre();
-                    if d.norm_squared() <= reach2 && take(j) && a.overlaps(b, &shift, self.reach) {
-                        found.push((j as u32, [0, 1, 2].map(|k| near[k] as i32)));
-                    }
-                }
-            }
+                    let d = b.centre() + near * l - a.centre();
+                    (d.norm_squared() <= reach2 && take(j))
+                        .then(|| (j as u32, [0, 1, 2].map(|k| near[k] as i32)))
+                })
+            });
+            overlapping(a, &self.regions, candidates, l, self.reach, found);
             return;
         };
         // With cells, each of the 27 around i fixes the image of its members: no rounding. The
@@ -339,18 +344,73 @@ impl<R: Region> Lists<R> {
         for &(j, _) in &hits[..n] {
             crate::prefetch(&self.regions[j as usize]);
         }
-        for &(j, k) in &hits[..n] {
-            let j = j as usize;
-            if !take(j) {
-                continue;
-            }
+        let shift_of = |j: usize, k: u8| {
             let cell_shift = around[usize::from(k)].shift;
-            let s = [0, 1, 2].map(|c| i32::from(cell_shift[c]) + img_i[c] - grid.img[j][c]);
-            if a.overlaps(&self.regions[j], &image_offset(s, self.l), self.reach) {
-                found.push((j as u32, s));
+            [0, 1, 2].map(|c| i32::from(cell_shift[c]) + img_i[c] - grid.img[j][c])
+        };
+        if R::IN_FOURS {
+            let candidates = hits[..n]
+                .iter()
+                .filter(|&&(j, _)| take(j as usize))
+                .map(|&(j, k)| (j, shift_of(j as usize, k)));
+            overlapping(a, &self.regions, candidates, self.l, self.reach, found);
+        } else {
+            // One at a time, as `overlapping` would, in the loop the spheres' rebuilds were
+            // tuned in (its iterator cost them 7 instructions a collision).
+            for &(j, k) in &hits[..n] {
+                let j = j as usize;
+                if !take(j) {
+                    continue;
+                }
+                let s = shift_of(j, k);
+                if a.overlaps(&self.regions[j], &image_offset(s, self.l), self.reach) {
+                    found.push((j as u32, s));
+                }
             }
         }
         grid.hits = hits;
+    }
+}
+
+/// Appends to `found` the `candidates` (index, image shift) whose regions overlap `a`: four at
+/// a time where the region tests them so ([`Region::IN_FOURS`]; a last group of fewer padded
+/// with its first), else one at a time.
+fn overlapping<R: Region>(
+    a: &R,
+    regions: &[R],
+    candidates: impl Iterator<Item = Neighbour>,
+    l: f64,
+    reach: f64,
+    found: &mut Vec<Neighbour>,
+) {
+    if !R::IN_FOURS {
+        for (j, s) in candidates {
+            if a.overlaps(&regions[j as usize], &image_offset(s, l), reach) {
+                found.push((j, s));
+            }
+        }
+        return;
+    }
+    let mut group = [(0u32, [0i32; 3]); 4];
+    let mut len = 0;
+    let test = |group: &[Neighbour; 4], len: usize, found: &mut Vec<Neighbour>| {
+        let shifts = group.map(|(_, s)| image_offset(s, l));
+        let hit = a.overlaps4(group.map(|(j, _)| &regions[j as usize]), &shifts, reach);
+        found.extend((0..len).filter(|&k| hit[k]).map(|k| group[k]));
+    };
+    for c in candidates {
+        group[len] = c;
+        len += 1;
+        if len == 4 {
+            test(&group, 4, found);
+            len = 0;
+        }
+    }
+    if len > 0 {
+        for k in len..4 {
+            group[k] = group[0];
+        }
+        test(&group, len, found);
     }
 }
 

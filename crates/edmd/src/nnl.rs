@@ -52,6 +52,17 @@ impl Region for Obp {
         (0..3).all(|k| local[k].abs() <= self.half[k] + radius) && overlap(self, other, shift)
     }
 
+    const IN_FOURS: bool = true;
+
+    fn overlaps4(&self, others: [&Self; 4], shifts: &[V3; 4], reach: f64) -> [bool; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { avx2::overlaps4(self, others, shifts, 0.5 * reach) };
+        }
+        [0, 1, 2, 3].map(|k| self.overlaps(others[k], &shifts[k], reach))
+    }
+
     fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64 {
         escape_time(s, body, self, eps_nnl)
     }
@@ -94,6 +105,103 @@ pub fn overlap(a: &Obp, b: &Obp, shift: &V3) -> bool {
         }
     }
     true
+}
+
+/// [`Region::overlaps`] of four boxes against one, on AVX2: the slabs and the 15 axes of
+/// [`overlap`] in four lanes, every lane through every axis, each value computed as the scalar
+/// test computes it (the same products and sums in the same order, nalgebra's products of a
+/// matrix included), so that the lanes decide as it does to the bit.
+///
+/// A rebuild tests its box against every box whose circumsphere meets its own (37 at X0 = 2,
+/// φ = 0.5, Δ_NNL 0.05, of which 14 overlap and take all 15 axes): one at a time, each test
+/// built its rotation and ran its branches alone (MEASUREMENTS.md, "Boxes tested four at a
+/// time").
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::Obp;
+    use crate::geometry::V3;
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_add_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn mul(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_mul_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn abs(a: __m256d) -> __m256d {
+        _mm256_andnot_pd(_mm256_set1_pd(-0.0), a)
+    }
+
+    /// (x₀ y₀ + x₁ y₁) + x₂ y₂, nalgebra's order for a row of a product.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn dot3(x: [__m256d; 3], y: [__m256d; 3]) -> __m256d {
+        add(add(mul(x[0], y[0]), mul(x[1], y[1])), mul(x[2], y[2]))
+    }
+
+    /// Lanes where `a > b` (false with a NaN, as the scalar comparison).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn above(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_cmp_pd::<_CMP_GT_OQ>(a, b)
+    }
+
+    /// [`super::Obp::overlaps`] of `b[k]` (centre shifted by `shift[k]`) against `a`, with
+    /// `radius` the half reach.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn overlaps4(a: &Obp, b: [&Obp; 4], shift: &[V3; 4], radius: f64) -> [bool; 4] {
+        const EPS: f64 = 1e-12;
+        let splat = _mm256_set1_pd;
+        let lanes = |f: &dyn Fn(usize) -> f64| _mm256_set_pd(f(3), f(2), f(1), f(0));
+        let d =
+            [0, 1, 2].map(|k| _mm256_sub_pd(lanes(&|l| b[l].c[k] + shift[l][k]), splat(a.c[k])));
+        // Rows of A (broadcast) and of each B (one lane each).
+        let ra = [0, 1, 2].map(|i| [0, 1, 2].map(|k| splat(a.rot[(i, k)])));
+        let rb = [0, 1, 2].map(|j| [0, 1, 2].map(|k| lanes(&|l| b[l].rot[(j, k)])));
+        let t = [0, 1, 2].map(|i| dot3(ra[i], d));
+        // r[i][j] = u_i^A · u_j^B, as `a.rot * b.rot.transpose()`.
+        let r = [0, 1, 2].map(|i| [0, 1, 2].map(|j| dot3(ra[i], rb[j])));
+        let ar = r.map(|row| row.map(|x| add(abs(x), splat(EPS))));
+        let ea = [0, 1, 2].map(|k| splat(a.half[k]));
+        let eb = [0, 1, 2].map(|k| lanes(&|l| b[l].half[k]));
+        // Outside a slab of A widened by the other's circumsphere, or separated by an axis.
+        let mut apart = _mm256_setzero_pd();
+        let mut out = |mask: __m256d| apart = _mm256_or_pd(apart, mask);
+        for i in 0..3 {
+            // Not within the slab, NaN included, as the scalar `<=` decides.
+            let within = add(ea[i], splat(radius));
+            out(_mm256_cmp_pd::<_CMP_NLE_UQ>(abs(t[i]), within));
+        }
+        for i in 0..3 {
+            out(above(abs(t[i]), add(ea[i], dot3(eb, ar[i]))));
+        }
+        for j in 0..3 {
+            let ra_j = dot3(ea, [ar[0][j], ar[1][j], ar[2][j]]);
+            let tj = dot3(t, [r[0][j], r[1][j], r[2][j]]);
+            out(above(abs(tj), add(ra_j, eb[j])));
+        }
+        for i in 0..3 {
+            let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+            for j in 0..3 {
+                let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+                let ra_ij = add(mul(ea[i1], ar[i2][j]), mul(ea[i2], ar[i1][j]));
+                let rb_ij = add(mul(eb[j1], ar[i][j2]), mul(eb[j2], ar[i][j1]));
+                let tt = abs(_mm256_sub_pd(mul(t[i2], r[i1][j]), mul(t[i1], r[i2][j])));
+                out(above(tt, add(ra_ij, rb_ij)));
+            }
+        }
+        let bits = _mm256_movemask_pd(apart);
+        [0, 1, 2, 3].map(|k| bits & (1 << k) == 0)
+    }
 }
 
 /// Time after `body.t` when the body may first touch its box.
@@ -171,6 +279,7 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
 mod tests {
     use super::*;
     use crate::ellipsoid::Ellipsoid;
+    use crate::lists::Region;
     use crate::rigid::rotate;
 
     fn obp(c: V3, rot: M3, half: V3) -> Obp {
@@ -206,6 +315,68 @@ mod tests {
         assert!(!overlap(&a, &b, &V3::zeros()));
         let b = obp(V3::new(0.0, 0.0, 0.19), rb, half);
         assert!(overlap(&a, &b, &V3::zeros()));
+    }
+
+    proptest::proptest! {
+        /// Four boxes at once decide as one at a time, to the bit: boxes of any proportions and
+        /// orientations (parallel edges included, where a cross axis vanishes), at distances
+        /// from deep overlap to beyond the slabs, and on either side of the last point, along a
+        /// line from A's centre, where one at a time finds them overlapping (found by bisection
+        /// to adjacent floats: a sum taken in another order moves it).
+        #[test]
+        fn four_boxes_at_once_decide_as_one_at_a_time(
+            boxes in proptest::collection::vec(
+                (
+                    proptest::array::uniform3(0.01f64..3.0),
+                    proptest::array::uniform3(-3.0f64..3.0),
+                    proptest::array::uniform3(-4.0f64..4.0),
+                    0..3usize,
+                ),
+                5,
+            ),
+            shift in proptest::array::uniform3(-1i32..=1),
+        ) {
+            let make = |(half, turn, c, kind): &([f64; 3], [f64; 3], [f64; 3], usize)| Obp {
+                c: V3::from(*c),
+                // Turned anyhow, not at all (edges parallel to the first box's), or about z.
+                rot: match kind {
+                    0 => *nalgebra::Rotation3::new(V3::from(*turn)).matrix(),
+                    1 => M3::identity(),
+                    _ => rotate(&M3::identity(), &V3::z(), turn[0]),
+                },
+                half: V3::from(*half),
+            };
+            let a = make(&boxes[0]);
+            let mut others: Vec<Obp> = boxes[1..].iter().map(make).collect();
+            let l = 5.0;
+            let shifts = [0, 1, 2, 3].map(|k| {
+                V3::new(shift[0] as f64, shift[1] as f64, shift[2] as f64) * (l * (k % 2) as f64)
+            });
+            let reach = 2.0 * boxes.iter().map(|b| V3::from(b.0).norm()).fold(0.0, f64::max);
+            let same = |others: &[Obp]| {
+                let one = [0, 1, 2, 3].map(|k| a.overlaps(&others[k], &shifts[k], reach));
+                let four = a.overlaps4([0, 1, 2, 3].map(|k| &others[k]), &shifts, reach);
+                (one, four)
+            };
+            let (one, four) = same(&others);
+            proptest::prop_assert_eq!(one, four);
+            // Box 2 (no shift) along the line from A's centre through its own: overlapping at
+            // 0, apart at 2 reach.
+            let dir = (others[2].c - a.c + V3::new(1e-3, 0.0, 0.0)).normalize();
+            let at = |x: f64| a.c + dir * x;
+            let (mut lo, mut hi) = (0.0f64, 2.0 * reach);
+            let mut probe = others[2];
+            while hi > lo && f64::from_bits(lo.to_bits() + 1) < hi {
+                let mid = 0.5 * (lo + hi);
+                probe.c = at(mid);
+                if a.overlaps(&probe, &shifts[2], reach) { lo = mid } else { hi = mid }
+            }
+            for x in [lo, hi] {
+                others[2].c = at(x);
+                let (one, four) = same(&others);
+                proptest::prop_assert_eq!(one, four, "at {:e} along the line", x);
+            }
+        }
     }
 
     #[test]
