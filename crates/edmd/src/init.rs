@@ -12,7 +12,7 @@
 //! through cells ([`Near`]), and the number of steps does not grow with N, unlike a compression
 //! limited by the closest pair (some pair is always nearly in contact, so its steps shrink as N
 //! grows: O(N²) in all). The pushes leave pairs near contact, which the engine relaxes with a few
-//! collisions per particle before anything is measured (`run::RELAX_COLLISIONS_PER_PARTICLE`).
+//! collisions per particle before anything is measured ([`Config::relax`]).
 
 use crate::EdmdError;
 use crate::bracket::outer_factor_squared;
@@ -50,6 +50,16 @@ impl Geom {
             Geom::Ellipsoid(e) => e.s.max() / e.s.min(),
             // Exponents of 2 or more hold the ellipsoid of the semi-axes.
             Geom::Superquadric(q) => q.bounding_radius() / q.s.min(),
+        }
+    }
+
+    /// The largest semi-axis over the smallest (1 for a sphere): how elongated or flat the body
+    /// is, whatever its corners.
+    fn axis_ratio(&self) -> f64 {
+        match self {
+            Geom::Sphere { .. } => 1.0,
+            Geom::Ellipsoid(e) => e.s.max() / e.s.min(),
+            Geom::Superquadric(q) => q.s.max() / q.s.min(),
         }
     }
 
@@ -373,7 +383,33 @@ impl Steps {
 pub struct Config {
     pub l: f64,
     pub bodies: Vec<Body>,
+    /// Collisions per particle of the dynamics that ends the start: its pushes leave pairs near
+    /// contact ([`RELAX_COLLISIONS_PER_PARTICLE`] or [`SHORT_RELAX_COLLISIONS_PER_PARTICLE`]).
+    pub relax: u64,
 }
+
+/// Collisions per particle that end a start ([`Config::relax`]): from the lattice, from the
+/// addition of bodies more elongated or flatter than [`SHORT_RELAX_AXIS_RATIO`], and for
+/// mixtures.
+pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
+
+/// Collisions per particle that end a start from random sequential addition, of spheres of one
+/// size or of bodies of axis ratio up to [`SHORT_RELAX_AXIS_RATIO`]: their starts are as relaxed after
+/// 5 as after 10. Z over the next 2 collisions per particle after k (MEASUREMENTS.md, "Five
+/// relaxing collisions for rigid bodies of axis ratio up to 2"):
+/// - spheres, N = 10⁵, φ = 0.45, seed 0 (Kolafa 9.403): 10.33 after 2, 9.70 after 5, 9.45 after
+///   10 (ten took 35 of the 75 s at N = 10⁶);
+/// - ellipsoids X0 = 2 and 0.5, φ 0.5, N 2048, seeds 0–3, after 5 / 10 / 20 / 100: 15.17 / 15.05 / 15.15 /
+///   15.21 and 15.40 / 15.16 / 15.45 / 15.58, the seeds scattering by ±0.3;
+/// - superquadrics [2, 2, 4] (φ 0.4) and [2, 2, 10] (φ 0.256), X0 = 2, N 512, seeds 0–3, after 5 / 10 / 20
+///   / 40: 7.98 / 8.01 / 8.00 / 8.12 and 3.77 / 3.87 / 3.77 / 3.74;
+/// - but plates of aspect 3 (X0 = 1/3, φ 0.45) 14.34 after 5 against 13.26 / 13.17 / 13.53, and
+///   needles and plates of aspect 10 are far from their equation of state after 5 or 10.
+pub const SHORT_RELAX_COLLISIONS_PER_PARTICLE: u64 = 5;
+
+/// The largest ratio of the largest to the smallest semi-axis whose starts from the addition end
+/// with [`SHORT_RELAX_COLLISIONS_PER_PARTICLE`].
+pub const SHORT_RELAX_AXIS_RATIO: f64 = 2.0;
 
 /// The dynamics that relaxes a packing where Monte Carlo jams: bodies (at temperature 1) in a box
 /// of the given side, moved through the given number of collisions per particle.
@@ -402,13 +438,20 @@ pub fn initial_configuration(
     let added = match *geom {
         Geom::Sphere { sigma } => random_sequential(n, l_melt, sigma, rng).map(|pos| {
             let start = Packing::new(pos, vec![M3::identity(); n], l_melt, *geom);
-            (start, &SPHERES)
+            (start, &SPHERES, SHORT_RELAX_COLLISIONS_PER_PARTICLE)
         }),
         _ => addition_densities(geom, phi)
             .find_map(|phi_add| random_sequential_bodies(n, (volume / phi_add).cbrt(), geom, rng))
-            .map(|start| (start, &ADDED)),
+            .map(|start| {
+                let relax = if geom.axis_ratio() <= SHORT_RELAX_AXIS_RATIO {
+                    SHORT_RELAX_COLLISIONS_PER_PARTICLE
+                } else {
+                    RELAX_COLLISIONS_PER_PARTICLE
+                };
+                (start, &ADDED, relax)
+            }),
     };
-    let (start, schedule) = match added {
+    let (start, schedule, relax_per_particle) = match added {
         Some(start) => start,
         None => {
             let rot: Vec<M3> = (0..n)
@@ -420,7 +463,8 @@ pub fn initial_configuration(
                     }
                 })
                 .collect();
-            (lattice(&fcc_sites(n), rot, volume, phi, &melted), &LATTICE)
+            let start = lattice(&fcc_sites(n), rot, volume, phi, &melted);
+            (start, &LATTICE, RELAX_COLLISIONS_PER_PARTICLE)
         }
     };
     let packing = compress(
@@ -437,6 +481,7 @@ pub fn initial_configuration(
     Ok(Config {
         l,
         bodies: at_temperature(&pos, &rot, l, rng),
+        relax: relax_per_particle,
     })
 }
 
@@ -709,6 +754,7 @@ pub fn initial_mixture(
     Ok(Config {
         l: packing.l,
         bodies: thermal(&packing.pos, &packing.rot, packing.l, &|i| inertial[i], rng),
+        relax: RELAX_COLLISIONS_PER_PARTICLE,
     })
 }
 

@@ -72,8 +72,8 @@ pub struct RunReport {
     pub n: usize,
     pub phi: f64,
     /// Wall time of the initial state (s): addition (or lattice and melting), compression, first
-    /// lists and events, and the [`RELAX_COLLISIONS_PER_PARTICLE`](crate::run::RELAX_COLLISIONS_PER_PARTICLE) collisions per particle that relax it
-    /// ([`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`](crate::run::SPHERE_RELAX_COLLISIONS_PER_PARTICLE) for spheres of one size).
+    /// lists and events, and the collisions per particle that relax it
+    /// ([`Config::relax`](crate::init::Config::relax)).
     pub init_s: f64,
     /// A mixture's figures per species and pair of species; absent (and not serialised) for one
     /// species.

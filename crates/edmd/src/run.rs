@@ -202,7 +202,15 @@ fn simulate<M: Saves>(
     drop(cfg.bodies);
     let mut eng = Engine::new(m, cfg.l, bodies, scene, 0.0)?;
     eng.sequence = sequence;
-    measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+    measure(
+        eng,
+        scene,
+        geom,
+        init,
+        progress,
+        Origin::Fresh(cfg.relax),
+        hooks,
+    )
 }
 
 /// The dynamics of an initial state (see [`crate::init::Relax`]): `per_particle` collisions per
@@ -486,7 +494,15 @@ impl MixtureBodies {
             .copied()
             .max_by(|a, b| a.bounding_radius().total_cmp(&b.bounding_radius()))
             .unwrap_or(Geom::Sphere { sigma: 1.0 });
-        measure(eng, scene, geom, init, progress, Origin::Fresh, hooks)
+        measure(
+            eng,
+            scene,
+            geom,
+            init,
+            progress,
+            Origin::Fresh(cfg.relax),
+            hooks,
+        )
     }
 }
 
@@ -525,8 +541,9 @@ pub fn mixture_sizes(scene: &Scene, rng: &mut Rng) -> (Vec<f64>, Vec<u16>) {
 /// Where the engine of a run came from.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Origin {
-    /// An initial configuration, to be relaxed.
-    Fresh,
+    /// An initial configuration, to be relaxed by this many collisions per particle
+    /// ([`crate::init::Config::relax`]).
+    Fresh(u64),
     /// A saved configuration, with lists and calendar built afresh.
     Rebuilt,
     /// A saved engine, going on exactly as it was.
@@ -567,8 +584,6 @@ fn restored<M: Saves>(
 /// The models a run measures: whose engine a state file holds (`wrap` gives `None` for a model
 /// that is not saved yet), and how its final state is audited, dumped and broken down.
 pub(crate) trait Saves: FirstCollision + Sized {
-    /// Collisions per particle that end the initial state ([`relax`]).
-    const RELAX_PER_PARTICLE: u64 = RELAX_COLLISIONS_PER_PARTICLE;
     fn wrap(s: EngineState<Self::Extra, Self::Region>) -> Option<SavedEngine>;
     fn unwrap(s: SavedEngine) -> Option<EngineState<Self::Extra, Self::Region>>;
     /// Overlapping pairs of the final state ([`audit`]). The audit and the final configuration
@@ -631,7 +646,6 @@ impl<S: MixtureShape> Saves for MixedRigidModel<S> {
 }
 
 impl Saves for SphereModel {
-    const RELAX_PER_PARTICLE: u64 = SPHERE_RELAX_COLLISIONS_PER_PARTICLE;
     fn wrap(s: EngineState<(), Ball>) -> Option<SavedEngine> {
         Some(SavedEngine::Sphere(s))
     }
@@ -667,17 +681,6 @@ impl Saves for RigidModel<Superquadric> {
     }
 }
 
-/// Collisions per particle run at the end of the initial state (see [`relax`]), but for spheres
-/// of one size ([`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]).
-pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
-
-/// The relaxation of spheres of one size, whose compression starts from random sequential
-/// addition (`init::SPHERES`). Z over the first 2 collisions per particle after the initial
-/// state (N = 10⁵, φ = 0.45; Kolafa 9.403) measures how relaxed it is: 9.79 from the melted
-/// lattice and 10 collisions per particle before; from the addition 10.33 after 2, 9.70 after
-/// 5, 9.45 after 10. Five keep the start as relaxed as it was; ten took 35 of the 75 s at N = 10⁶.
-pub const SPHERE_RELAX_COLLISIONS_PER_PARTICLE: u64 = 5;
-
 /// The relaxation that ends the initial state, then `equilibrate` collisions, then the measured
 /// ones; the figures of those, and the final configuration.
 #[allow(clippy::too_many_arguments)]
@@ -690,8 +693,8 @@ fn measure<M: Saves>(
     origin: Origin,
     hooks: Hooks<'_>,
 ) -> Result<(RunReport, FinalState), EdmdError> {
-    if origin == Origin::Fresh {
-        relax(&mut eng)?;
+    if let Origin::Fresh(per_particle) = origin {
+        relax(&mut eng, per_particle)?;
     }
     let init_s = init.elapsed().as_secs_f64();
     let total = scene.equilibrate + scene.collisions;
@@ -776,14 +779,14 @@ fn measure<M: Saves>(
     Ok((report, state))
 }
 
-/// Runs [`Saves::RELAX_PER_PARTICLE`] collisions per particle, then starts the sums of the
+/// Runs `per_particle` collisions per particle ([`crate::init::Config::relax`]), then starts the sums of the
 /// measurements and the collision count afresh; the counters of crossings, rebuilds and
 /// separating contacts run on.
-fn relax<M: Saves>(eng: &mut Engine<M>) -> Result<(), EdmdError> {
+fn relax<M: Saves>(eng: &mut Engine<M>, per_particle: u64) -> Result<(), EdmdError> {
     // The compression leaves pairs pushed to near contact; a few collisions per particle relax
     // them (Z of hard spheres at φ = 0.45 is Kolafa's, within its error, after 5 per particle),
     // far faster than Monte Carlo would. They belong to the initial state, not to `equilibrate`.
-    eng.advance(M::RELAX_PER_PARTICLE * eng.bodies.len() as u64, |_| {})?;
+    eng.advance(per_particle * eng.bodies.len() as u64, |_| {})?;
     eng.acc = Accounting {
         ke_trans: eng.acc.ke_trans,
         t_last: eng.t,
