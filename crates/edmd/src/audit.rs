@@ -5,7 +5,7 @@
 use crate::body::Moving;
 use crate::cells::Near;
 use crate::distance::{SolverStats, Tolerances, distance};
-use crate::geometry::{M3, Placed, Pose, Surface, V3};
+use crate::geometry::{M3, Placed, Pose, Surface, V3, wrap};
 use crate::init::Geom;
 use crate::support_distance::{Certified, certify, support_point_lab};
 
@@ -40,10 +40,7 @@ fn count_pairs<B: Moving>(
     reach: f64,
     overlaps: impl Fn(usize, usize, &V3) -> bool,
 ) -> u64 {
-    let pos: Vec<V3> = bodies
-        .iter()
-        .map(|b| b.r().map(|x| x.rem_euclid(l)))
-        .collect();
+    let pos: Vec<V3> = bodies.iter().map(|b| b.r().map(|x| wrap(x, l))).collect();
     let near = Near::new(&pos, l, reach);
     let mut count = 0;
     for (i, p) in pos.iter().enumerate() {

@@ -303,6 +303,7 @@ impl Near {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::wrap;
 
     #[test]
     fn neighbours_wrap_with_shift() {
@@ -380,7 +381,7 @@ mod tests {
                 }
                 for i in (round..n).step_by(3) {
                     pts[i] = (pts[i] + V3::new(rng.uniform(), rng.uniform(), -rng.uniform()))
-                        .map(|x| x.rem_euclid(l));
+                        .map(|x| wrap(x, l));
                     near.moved(i, &pts[i]);
                 }
             }

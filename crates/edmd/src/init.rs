@@ -18,7 +18,7 @@ use crate::EdmdError;
 use crate::bracket::outer_factor_squared;
 use crate::cells::Near;
 use crate::ellipsoid::{Ellipsoid, lab_matrix};
-use crate::geometry::{M3, Surface, V3, min_image};
+use crate::geometry::{M3, Surface, V3, min_image, wrap};
 use crate::nnl::{Obp, overlap};
 use crate::pw::{self, contact_scale};
 use crate::rigid::{Body, Inertia, orthonormalize, rotate};
@@ -708,10 +708,7 @@ fn compress(
             let (pos, rot, l) = before;
             let bodies = relax(thermal(&pos, &rot, l, rng), l, UNJAM_COLLISIONS)?;
             packing = packing_of(
-                bodies
-                    .iter()
-                    .map(|b| b.r.map(|x| x.rem_euclid(l)))
-                    .collect(),
+                bodies.iter().map(|b| b.r.map(|x| wrap(x, l))).collect(),
                 bodies.iter().map(|b| b.rot).collect(),
                 l,
             );
@@ -800,7 +797,7 @@ pub fn z_curve_order(bodies: &[Body], l: f64) -> Vec<usize> {
 fn z_order(n: usize, at: impl Fn(usize) -> V3, l: f64) -> Vec<usize> {
     // 21 bits per axis: cells of side σ up to a box of 2·10⁶ σ.
     let per_side = l.floor().clamp(1.0, f64::from((1u32 << 21) - 1));
-    let cell = |x: f64| ((x.rem_euclid(l) / l * per_side) as u32).min(per_side as u32 - 1);
+    let cell = |x: f64| ((wrap(x, l) / l * per_side) as u32).min(per_side as u32 - 1);
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_cached_key(|&i| {
         let r = at(i);
@@ -844,7 +841,7 @@ fn thermal(
                 V3::zeros()
             };
             Body {
-                r: r.map(|x| x.rem_euclid(l)),
+                r: r.map(|x| wrap(x, l)),
                 v,
                 rot: *rot,
                 w,
@@ -1211,7 +1208,7 @@ impl Packing {
     fn scale(&mut self, s: f64) {
         self.l *= s;
         for p in self.pos.iter_mut() {
-            *p = (*p * s).map(|x| x.rem_euclid(self.l));
+            *p = (*p * s).map(|x| wrap(x, self.l));
         }
         self.near = Near::new(&self.pos, self.l, reach_of(&self.geom));
         self.count_overlaps();
@@ -1362,6 +1359,9 @@ impl Packing {
         let [mut partners, other] = std::mem::take(&mut self.partners);
         let mut clear = false;
         let mut progress = PushProgress::new(pushed.len(), self.pos.len());
+        // The bodies a pass pushes, one bit each: read out in increasing order, they are the
+        // next pass's list without a sort (which was 3 % of a start of 10⁵ spheres).
+        let mut moved = vec![0u64; self.pos.len().div_ceil(64)];
         while !progress.stalls(pushed.len()) {
             let looked_at = std::mem::take(&mut pushed);
             for &i in &looked_at {
@@ -1391,18 +1391,22 @@ impl Packing {
                         continue;
                     }
                     for (k, d) in [(i, -half), (j, half)] {
-                        self.pos[k] = (self.pos[k] + d).map(|x| x.rem_euclid(self.l));
+                        self.pos[k] = (self.pos[k] + d).map(|x| wrap(x, self.l));
                         self.near.moved(k, &self.pos[k]);
+                        moved[k / 64] |= 1 << (k % 64);
                     }
-                    pushed.extend([i, j]);
+                }
+            }
+            for (w, word) in moved.iter_mut().enumerate() {
+                while *word != 0 {
+                    pushed.push(64 * w + word.trailing_zeros() as usize);
+                    *word &= *word - 1;
                 }
             }
             if pushed.is_empty() {
                 clear = true;
                 break;
             }
-            pushed.sort_unstable();
-            pushed.dedup();
         }
         self.partners = [partners, other];
         if clear {
@@ -1455,7 +1459,7 @@ impl Packing {
     fn trial_move(&self, i: usize, steps: &Steps, rng: &mut Rng) -> (V3, M3) {
         let dr = steps.dr;
         let p = (self.pos[i] + V3::new(rng.range(-dr, dr), rng.range(-dr, dr), rng.range(-dr, dr)))
-            .map(|x| x.rem_euclid(self.l));
+            .map(|x| wrap(x, self.l));
         let q = if self.geom.rotates() {
             let axis = V3::new(rng.normal(), rng.normal(), rng.normal());
             orthonormalize(&rotate(
@@ -1695,7 +1699,7 @@ mod tests {
                 })
                 .expect("neighbours");
             let to = packing.pos[i] + min_image(packing.pos[j] - packing.pos[i], packing.l) * 0.5;
-            packing.pos[i] = to.map(|x| x.rem_euclid(packing.l));
+            packing.pos[i] = to.map(|x| wrap(x, packing.l));
             packing.near.moved(i, &packing.pos[i]);
         }
         packing.count_overlaps();

@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 use crate::body::Moving;
-use crate::geometry::V3;
+use crate::geometry::{V3, wrap};
 use crate::init::Geom;
 use crate::sequence::Fingerprint;
 
@@ -159,7 +159,7 @@ pub(crate) fn final_state_each<B: Moving>(
                     shape,
                     semi_axes,
                     exponents,
-                    position: arr(b.r().map(|x| x.rem_euclid(l))),
+                    position: arr(b.r().map(|x| wrap(x, l))),
                     orientation: [0, 1, 2].map(|k| arr(b.rot().row(k).transpose())),
                     velocity: arr(b.v()),
                     angular_velocity: arr(b.w()),
