@@ -89,40 +89,11 @@ mod avx2 {
 
     use super::{EllipsoidLanes, FirstStep, Lane};
     use crate::geometry::V3;
+    use crate::lanes::{add, lanes, mul, splat, sub};
     use crate::rigid::Body;
 
     /// A vector of three components, four lanes each.
     type V4 = [__m256d; 3];
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn splat(x: f64) -> __m256d {
-        _mm256_set1_pd(x)
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn lanes(f: impl Fn(usize) -> f64) -> __m256d {
-        _mm256_set_pd(f(3), f(2), f(1), f(0))
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn add(a: __m256d, b: __m256d) -> __m256d {
-        _mm256_add_pd(a, b)
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn sub(a: __m256d, b: __m256d) -> __m256d {
-        _mm256_sub_pd(a, b)
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn mul(a: __m256d, b: __m256d) -> __m256d {
-        _mm256_mul_pd(a, b)
-    }
 
     #[inline]
     #[target_feature(enable = "avx2")]

@@ -19,9 +19,11 @@
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
 //!   [`first_step`]: the first step of its quick bound for one ellipsoid shape, four candidates
-//!   at a time on AVX2, which rules out most candidates of a prediction.
+//!   at a time on AVX2, which rules out most candidates of a prediction. `lanes`: the AVX2
+//!   arithmetic it shares with [`nnl`]'s box tests, four at a time.
 //! - [`calendar`]: one event per particle in a 4-ary heap that knows where each particle's is.
-//! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test, escape times;
+//! - [`cells`]: periodic linked cells; [`nnl`]: bounding parallelepipeds, 15-axis test (four boxes
+//!   at a time on AVX2), escape times;
 //!   [`ball`]: bounding balls, the spheres' regions; [`lists`]: the neighbour lists built from
 //!   either, kept per particle.
 //! - [`pw`]: Perram–Wertheim contact function, the independent overlap oracle for ellipsoids;
@@ -97,6 +99,8 @@ pub mod engine;
 pub mod first_step;
 pub mod geometry;
 pub mod init;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 pub mod lists;
 pub mod model;
 pub mod nnl;

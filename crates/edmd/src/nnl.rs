@@ -122,18 +122,7 @@ mod avx2 {
 
     use super::Obp;
     use crate::geometry::V3;
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn add(a: __m256d, b: __m256d) -> __m256d {
-        _mm256_add_pd(a, b)
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn mul(a: __m256d, b: __m256d) -> __m256d {
-        _mm256_mul_pd(a, b)
-    }
+    use crate::lanes::{add, lanes, mul, splat, sub};
 
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -160,19 +149,16 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     pub(super) fn overlaps4(a: &Obp, b: [&Obp; 4], shift: &[V3; 4], radius: f64) -> [bool; 4] {
         const EPS: f64 = 1e-12;
-        let splat = _mm256_set1_pd;
-        let lanes = |f: &dyn Fn(usize) -> f64| _mm256_set_pd(f(3), f(2), f(1), f(0));
-        let d =
-            [0, 1, 2].map(|k| _mm256_sub_pd(lanes(&|l| b[l].c[k] + shift[l][k]), splat(a.c[k])));
+        let d = [0, 1, 2].map(|k| sub(lanes(|l| b[l].c[k] + shift[l][k]), splat(a.c[k])));
         // Rows of A (broadcast) and of each B (one lane each).
         let ra = [0, 1, 2].map(|i| [0, 1, 2].map(|k| splat(a.rot[(i, k)])));
-        let rb = [0, 1, 2].map(|j| [0, 1, 2].map(|k| lanes(&|l| b[l].rot[(j, k)])));
+        let rb = [0, 1, 2].map(|j| [0, 1, 2].map(|k| lanes(|l| b[l].rot[(j, k)])));
         let t = [0, 1, 2].map(|i| dot3(ra[i], d));
         // r[i][j] = u_i^A · u_j^B, as `a.rot * b.rot.transpose()`.
         let r = [0, 1, 2].map(|i| [0, 1, 2].map(|j| dot3(ra[i], rb[j])));
         let ar = r.map(|row| row.map(|x| add(abs(x), splat(EPS))));
         let ea = [0, 1, 2].map(|k| splat(a.half[k]));
-        let eb = [0, 1, 2].map(|k| lanes(&|l| b[l].half[k]));
+        let eb = [0, 1, 2].map(|k| lanes(|l| b[l].half[k]));
         // Outside a slab of A widened by the other's circumsphere, or separated by an axis.
         let mut apart = _mm256_setzero_pd();
         let mut out = |mask: __m256d| apart = _mm256_or_pd(apart, mask);
@@ -195,7 +181,7 @@ mod avx2 {
                 let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
                 let ra_ij = add(mul(ea[i1], ar[i2][j]), mul(ea[i2], ar[i1][j]));
                 let rb_ij = add(mul(eb[j1], ar[i][j2]), mul(eb[j2], ar[i][j1]));
-                let tt = abs(_mm256_sub_pd(mul(t[i2], r[i1][j]), mul(t[i1], r[i2][j])));
+                let tt = abs(sub(mul(t[i2], r[i1][j]), mul(t[i1], r[i2][j])));
                 out(above(tt, add(ra_ij, rb_ij)));
             }
         }

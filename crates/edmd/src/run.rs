@@ -202,15 +202,8 @@ fn simulate<M: Saves>(
     drop(cfg.bodies);
     let mut eng = Engine::new(m, cfg.l, bodies, scene, 0.0)?;
     eng.sequence = sequence;
-    measure(
-        eng,
-        scene,
-        geom,
-        init,
-        progress,
-        Origin::Fresh(cfg.relax),
-        hooks,
-    )
+    let origin = Origin::Fresh(cfg.relax);
+    measure(eng, scene, geom, init, progress, origin, hooks)
 }
 
 /// The dynamics of an initial state (see [`crate::init::Relax`]): `per_particle` collisions per
@@ -494,15 +487,8 @@ impl MixtureBodies {
             .copied()
             .max_by(|a, b| a.bounding_radius().total_cmp(&b.bounding_radius()))
             .unwrap_or(Geom::Sphere { sigma: 1.0 });
-        measure(
-            eng,
-            scene,
-            geom,
-            init,
-            progress,
-            Origin::Fresh(cfg.relax),
-            hooks,
-        )
+        let origin = Origin::Fresh(cfg.relax);
+        measure(eng, scene, geom, init, progress, origin, hooks)
     }
 }
 
