@@ -84,14 +84,19 @@ impl<T: Member> Cells<T> {
         let m = self.m as i32;
         let mut out = [0usize; 3];
         let mut shift = [0i8; 3];
+        // Without a division: x is one cell at most outside 0..m.
         for k in 0..3 {
             let x = c[k] as i32 + d[k];
-            if x < 0 {
+            let wrapped = if x < 0 {
                 shift[k] = -1;
+                x + m
             } else if x >= m {
                 shift[k] = 1;
-            }
-            out[k] = x.rem_euclid(m) as usize;
+                x - m
+            } else {
+                x
+            };
+            out[k] = wrapped as usize;
         }
         Neighbour {
             cell: self.index(out),
