@@ -407,15 +407,15 @@ pub struct Config {
 pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 
 /// Collisions per particle that end a start from random sequential addition, of spheres of one
-/// size or of bodies of axis ratio up to [`SHORT_RELAX_AXIS_RATIO`]: their starts are as relaxed after
-/// 5 as after 10. Z over the next 2 collisions per particle after k (MEASUREMENTS.md, "Five
-/// relaxing collisions for rigid bodies of axis ratio up to 2"):
+/// size or of bodies of axis ratio up to [`SHORT_RELAX_AXIS_RATIO`]: their starts are as
+/// relaxed after 5 as after 10. Z over the next 2 collisions per particle after k
+/// (MEASUREMENTS.md, "Five relaxing collisions for rigid bodies of axis ratio up to 2"):
 /// - spheres, N = 10⁵, φ = 0.45, seed 0 (Kolafa 9.403): 10.33 after 2, 9.70 after 5, 9.45 after
 ///   10 (ten took 35 of the 75 s at N = 10⁶);
-/// - ellipsoids X0 = 2 and 0.5, φ 0.5, N 2048, seeds 0–3, after 5 / 10 / 20 / 100: 15.17 / 15.05 / 15.15 /
-///   15.21 and 15.40 / 15.16 / 15.45 / 15.58, the seeds scattering by ±0.3;
-/// - superquadrics [2, 2, 4] (φ 0.4) and [2, 2, 10] (φ 0.256), X0 = 2, N 512, seeds 0–3, after 5 / 10 / 20
-///   / 40: 7.98 / 8.01 / 8.00 / 8.12 and 3.77 / 3.87 / 3.77 / 3.74;
+/// - ellipsoids X0 = 2 and 0.5, φ 0.5, N 2048, seeds 0–3, after 5 / 10 / 20 / 100: 15.17 /
+///   15.05 / 15.15 / 15.21 and 15.40 / 15.16 / 15.45 / 15.58, the seeds scattering by ±0.3;
+/// - superquadrics [2, 2, 4] (φ 0.4) and [2, 2, 10] (φ 0.256), X0 = 2, N 512, seeds 0–3, after
+///   5 / 10 / 20 / 40: 7.98 / 8.01 / 8.00 / 8.12 and 3.77 / 3.87 / 3.77 / 3.74;
 /// - but plates of aspect 3 (X0 = 1/3, φ 0.45) 14.34 after 5 against 13.26 / 13.17 / 13.53, and
 ///   needles and plates of aspect 10 are far from their equation of state after 5 or 10.
 pub const SHORT_RELAX_COLLISIONS_PER_PARTICLE: u64 = 5;

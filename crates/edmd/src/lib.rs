@@ -77,8 +77,8 @@
 //! - Initial configurations come from random sequential addition at a dilute density (a dilute
 //!   FCC lattice melted by Monte Carlo, where the addition jams and for mixtures), compressed by
 //!   hard-body Monte Carlo with the Perram–Wertheim overlap test and Jodrey–Tory pushes, in O(N)
-//!   per pass through cells, then relaxed by 5 or 10 collisions per particle (`init::Config::relax`); not from a
-//!   Lubachevsky–Stillinger growth.
+//!   per pass through cells, then relaxed by 5 or 10 collisions per particle
+//!   (`init::Config::relax`); not from a Lubachevsky–Stillinger growth.
 //!
 //! Units: the diameter σ of the sphere of equal volume (every body has volume π/6), the mass m,
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8

@@ -765,9 +765,9 @@ fn measure<M: Saves>(
     Ok((report, state))
 }
 
-/// Runs `per_particle` collisions per particle ([`crate::init::Config::relax`]), then starts the sums of the
-/// measurements and the collision count afresh; the counters of crossings, rebuilds and
-/// separating contacts run on.
+/// Runs `per_particle` collisions per particle ([`crate::init::Config::relax`]), then starts
+/// the sums of the measurements and the collision count afresh; the counters of crossings,
+/// rebuilds and separating contacts run on.
 fn relax<M: Saves>(eng: &mut Engine<M>, per_particle: u64) -> Result<(), EdmdError> {
     // The compression leaves pairs pushed to near contact; a few collisions per particle relax
     // them (Z of hard spheres at φ = 0.45 is Kolafa's, within its error, after 5 per particle),

@@ -373,7 +373,7 @@ fn validation_kolafa_large() {
 
 /// Few spheres read the temperature they start at, k_B T = 1, over the 3N − 3 degrees of freedom
 /// their zero net momentum leaves, and their Z sits a little below the equation of state of the
-/// infinite system (seeds 0–7, 10⁵ collisions: N 16 −0.2 to −0.9 %, N 64 −0.2 to −0.8 %). Over 3N
+/// infinite system (seeds 0–7, 10⁵ collisions: N 16 −0.3 to −0.9 %, N 64 −0.2 to −0.8 %). Over 3N
 /// degrees of freedom the temperature read 1 − 1/N and Z − 1 was a factor N/(N − 1) high: Z was
 /// 4.14–4.16 at N 16 and 4.00–4.03 at N 64 (0.3–4.4 % above Kolafa’s 3.984).
 #[test]
