@@ -131,13 +131,10 @@ impl Geom {
     /// decisions but within the distance solver's tolerance of contact.
     pub fn within(&self, other: &Geom, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
         match (self, other) {
-            (Geom::Sphere { sigma: a }, Geom::Sphere { sigma: b }) => {
-                r.norm() / (0.5 * (a + b)) <= k
+            (Geom::Sphere { .. }, Geom::Sphere { .. }) => {
+                self.contact_scale(other, rot_a, rot_b, r) <= k
             }
             (Geom::Ellipsoid(a), Geom::Ellipsoid(b)) => pw::within(a, rot_a, b, rot_b, r, k),
-            (Geom::Superquadric(a), Geom::Superquadric(b)) => {
-                scale::within(a, rot_a, b, rot_b, r, k)
-            }
             _ => scale::within(
                 &self.as_superquadric(),
                 rot_a,

@@ -344,30 +344,18 @@ impl<R: Region> Lists<R> {
         for &(j, _) in &hits[..n] {
             crate::prefetch(&self.regions[j as usize]);
         }
-        let shift_of = |j: usize, k: u8| {
-            let cell_shift = around[usize::from(k)].shift;
-            [0, 1, 2].map(|c| i32::from(cell_shift[c]) + img_i[c] - grid.img[j][c])
-        };
-        if R::IN_FOURS {
-            let candidates = hits[..n]
-                .iter()
-                .filter(|&&(j, _)| take(j as usize))
-                .map(|&(j, k)| (j, shift_of(j as usize, k)));
-            overlapping(a, &self.regions, candidates, self.l, self.reach, found);
-        } else {
-            // One at a time, as `overlapping` would, in the loop the spheres' rebuilds were
-            // tuned in (its iterator cost them 7 instructions a collision).
-            for &(j, k) in &hits[..n] {
-                let j = j as usize;
-                if !take(j) {
-                    continue;
-                }
-                let s = shift_of(j, k);
-                if a.overlaps(&self.regions[j], &image_offset(s, self.l), self.reach) {
-                    found.push((j as u32, s));
-                }
-            }
-        }
+        let candidates = hits[..n]
+            .iter()
+            .filter(|&&(j, _)| take(j as usize))
+            .map(|&(j, k)| {
+                let cell_shift = around[usize::from(k)].shift;
+                let img_j = grid.img[j as usize];
+                (
+                    j,
+                    [0, 1, 2].map(|c| i32::from(cell_shift[c]) + img_i[c] - img_j[c]),
+                )
+            });
+        overlapping(a, &self.regions, candidates, self.l, self.reach, found);
         grid.hits = hits;
     }
 }
