@@ -80,26 +80,6 @@ pub fn contact_scale<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3)
     lo
 }
 
-/// Whether the bodies scaled by `k` about their centres touch or overlap (μ ≤ k): the sign of
-/// their distance at that scale, g(k) = k·d(r/k) ≤ 0, one solve where [`contact_scale`] takes
-/// several to converge μ (its bracket trusts the same sign at every scale it tries). Where the
-/// solver gives no answer, [`contact_scale`] decides.
-pub fn within<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3, k: f64) -> bool {
-    let pa = Pose {
-        r: V3::zeros(),
-        rot: *rot_a,
-    };
-    let pb = Pose {
-        r: r / k,
-        rot: *rot_b,
-    };
-    let mut stats = SolverStats::default();
-    match distance(sa, &pa, sb, &pb, None, &Tolerances::default(), &mut stats) {
-        Some(d) => d.d <= 0.0,
-        None => contact_scale(sa, rot_a, sb, rot_b, r) <= k,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,46 +121,6 @@ mod tests {
             } else {
                 prop_assert!(mu <= oracle * (1.0 + 1e-9), "{mu} vs {oracle}");
             }
-        }
-
-        /// `within` decides as the contact scale does, against Perram–Wertheim for ellipsoids
-        /// (p = 2, an independent oracle) and against [`contact_scale`] for superquadrics up to
-        /// p = 10 and aspect 3: at scales around contact (0.9–1.1 of it, and within 10⁻⁴ and
-        /// 10⁻⁶), in deep overlaps and apart (0.5 and 2), but not within 10⁻⁸ of the line,
-        /// where the solver's tolerance decides.
-        #[test]
-        fn within_decides_as_the_contact_scale(
-            x0 in 0.33f64..3.0,
-            p in prop_oneof![Just(2.0), 2.0f64..10.0, Just(10.0)],
-            r in prop::array::uniform3(-1.5f64..1.5),
-            wa in prop::array::uniform3(-3.0f64..3.0),
-            wb in prop::array::uniform3(-3.0f64..3.0),
-            at in prop_oneof![
-                0.9f64..1.1,
-                0.9999f64..1.0001,
-                0.999999f64..1.000001,
-                Just(0.5),
-                Just(2.0),
-            ],
-            k in prop_oneof![Just(1.0), Just(1.0 + 1e-3)],
-        ) {
-            let q = Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p]).unwrap();
-            let ra = rotate(&M3::identity(), &V3::from(wa), 1.0);
-            let rb = rotate(&M3::identity(), &V3::from(wb), 1.0);
-            let r = V3::from(r);
-            prop_assume!(r.norm() > 0.1);
-            let oracle = |r: &V3| {
-                if p == 2.0 {
-                    let e = Ellipsoid::new(q.s.x, q.s.y, q.s.z);
-                    pw::contact_scale(&e, &ra, &e, &rb, r)
-                } else {
-                    contact_scale(&q, &ra, &q, &rb, r)
-                }
-            };
-            let r = r * (at / oracle(&r));
-            let mu = oracle(&r);
-            prop_assume!((mu - k).abs() > 1e-8 * k);
-            prop_assert_eq!(within(&q, &ra, &q, &rb, &r, k), mu <= k, "μ {} at k {}", mu, k);
         }
     }
 }
