@@ -126,16 +126,23 @@ impl Geom {
 
     /// Whether this body and `other` touch or overlap once both are scaled by `k` (contact scale
     /// ≤ `k`): for ellipsoids decided without the maximum where the bounds of
-    /// [`crate::pw::within`] suffice, the same decisions as [`Geom::contact_scale`]'s.
-    /// (Superquadrics by the sign of one distance at scale k disagreed with their contact scale
-    /// 2.5·10⁻⁴ from contact in a property test: MEASUREMENTS.md, "Superquadrics' pair tests by
-    /// the sign of one distance".)
+    /// [`crate::pw::within`] suffice, the same decisions as [`Geom::contact_scale`]'s; for
+    /// superquadrics by the sign of their distance at that scale ([`scale::within`]), the same
+    /// decisions but within the distance solver's tolerance of contact.
     pub fn within(&self, other: &Geom, rot_a: &M3, rot_b: &M3, r: &V3, k: f64) -> bool {
         match (self, other) {
+            (Geom::Sphere { .. }, Geom::Sphere { .. }) => {
+                self.contact_scale(other, rot_a, rot_b, r) <= k
+            }
             (Geom::Ellipsoid(a), Geom::Ellipsoid(b)) => pw::within(a, rot_a, b, rot_b, r, k),
-            _ => self
-                .contact_scale_unless_above(other, rot_a, rot_b, r, k)
-                .is_some_and(|mu| mu <= k),
+            _ => scale::within(
+                &self.as_superquadric(),
+                rot_a,
+                &other.as_superquadric(),
+                rot_b,
+                r,
+                k,
+            ),
         }
     }
 

@@ -80,6 +80,26 @@ pub fn contact_scale<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3)
     lo
 }
 
+/// Whether the bodies scaled by `k` about their centres touch or overlap (μ ≤ k): the sign of
+/// their distance at that scale, g(k) = k·d(r/k) ≤ 0, one solve where [`contact_scale`] takes
+/// several to converge μ (its bracket trusts the same sign at every scale it tries). Where the
+/// solver gives no answer, [`contact_scale`] decides.
+pub fn within<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3, k: f64) -> bool {
+    let pa = Pose {
+        r: V3::zeros(),
+        rot: *rot_a,
+    };
+    let pb = Pose {
+        r: r / k,
+        rot: *rot_b,
+    };
+    let mut stats = SolverStats::default();
+    match distance(sa, &pa, sb, &pb, None, &Tolerances::default(), &mut stats) {
+        Some(d) => d.d <= 0.0,
+        None => contact_scale(sa, rot_a, sb, rot_b, r) <= k,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -87,7 +107,45 @@ mod tests {
     use crate::pw;
     use crate::rigid::rotate;
     use crate::superquadric::Superquadric;
+    use crate::support_distance::{Certified, certify};
     use proptest::prelude::*;
+
+    /// The pair the property test once failed on, against an oracle of [`contact_scale`]: two
+    /// superquadrics (p 6.42, aspect 2.86) crossed, apart at k = 1.001 by 8·10⁻⁴ (Gilbert's
+    /// algorithm proves it), where the contact scale, 1 + 7.5·10⁻⁴ from its first step, is only
+    /// the lower bound it promises above 1 + [`EXACT_BELOW`]. `within` answers apart; and at
+    /// 1.005, past the true contact near 1.0021, within.
+    #[test]
+    fn within_where_the_contact_scale_is_only_a_bound() {
+        let q = Superquadric::with_unit_volume(
+            [2.8643868629527223, 1.0, 1.0],
+            [2.0, 2.0, 6.4169849635777325],
+        )
+        .unwrap();
+        let ra = rotate(&M3::identity(), &V3::new(0.0, 0.0, 1.3825520224181833), 1.0);
+        let rb = rotate(
+            &M3::identity(),
+            &V3::new(-2.751463800306812, 0.0, 2.7031657516853853),
+            1.0,
+        );
+        let r = V3::new(-0.7420528624543256, 0.0, 0.0);
+        let bound = contact_scale(&q, &ra, &q, &rb, &r);
+        assert!(bound > 1.0 + EXACT_BELOW && bound < 1.001, "{bound}");
+        let pa = Pose {
+            r: V3::zeros(),
+            rot: ra,
+        };
+        for (k, touch) in [(1.001, false), (1.005, true)] {
+            let pb = Pose { r: r / k, rot: rb };
+            let proved = match certify(&q, &pa, &q, &pb, 1e-13, 100_000) {
+                Certified::Overlapping { .. } => Some(true),
+                Certified::Apart { .. } => Some(false),
+                Certified::Undecided { .. } => None,
+            };
+            assert_eq!(proved, Some(touch), "k {k}");
+            assert_eq!(within(&q, &ra, &q, &rb, &r, k), touch, "k {k}");
+        }
+    }
 
     proptest! {
         /// For p = 2 the superquadric is an ellipsoid: μ matches Perram–Wertheim near contact
@@ -121,6 +179,54 @@ mod tests {
             } else {
                 prop_assert!(mu <= oracle * (1.0 + 1e-9), "{mu} vs {oracle}");
             }
+        }
+
+        /// `within` decides as an independent oracle does: Perram–Wertheim for ellipsoids
+        /// (p = 2), and for superquadrics up to p = 10 and aspect 3 Gilbert's algorithm on their
+        /// support functions ([`certify`]), which proves overlap by a point inside both and
+        /// separation by an axis. Pairs are placed around contact (0.9–1.1 of it, within 10⁻⁴ and
+        /// 10⁻⁶, deep overlaps and separations at 0.5 and 2) and asked at k = 1, 1 + 10⁻⁹ (the
+        /// Monte Carlo's) and 1 + 10⁻³, but for pairs within 10⁻⁷ of contact at k, where the
+        /// solver's tolerance decides. (An oracle of [`contact_scale`] is wrong at 1 + 10⁻³: above
+        /// 1 + [`EXACT_BELOW`] it is a lower bound.)
+        #[test]
+        fn within_decides_as_an_independent_oracle(
+            x0 in 0.33f64..3.0,
+            p in prop_oneof![Just(2.0), 2.0f64..10.0, Just(10.0)],
+            r in prop::array::uniform3(-1.5f64..1.5),
+            wa in prop::array::uniform3(-3.0f64..3.0),
+            wb in prop::array::uniform3(-3.0f64..3.0),
+            at in prop_oneof![0.9f64..1.1, 0.9999f64..1.0001, 0.999999f64..1.000001, Just(0.5), Just(2.0)],
+            k in prop_oneof![Just(1.0), Just(1.0 + 1e-9), Just(1.0 + 1e-3)],
+        ) {
+            let q = Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p]).unwrap();
+            let (ra, rb) = (rotate(&M3::identity(), &V3::from(wa), 1.0), rotate(&M3::identity(), &V3::from(wb), 1.0));
+            let r = V3::from(r);
+            prop_assume!(r.norm() > 0.1);
+            let e = Ellipsoid::new(q.s.x, q.s.y, q.s.z);
+            let place = |r: &V3| if p == 2.0 { pw::contact_scale(&e, &ra, &e, &rb, r) } else { contact_scale(&q, &ra, &q, &rb, r) };
+            let r = r * (at / place(&r));
+            let pa = Pose { r: V3::zeros(), rot: ra };
+            // Whether the pair touches at scale s, where the oracle proves it.
+            let touches_at = |s: f64| -> Option<bool> {
+                if p == 2.0 {
+                    return Some(pw::contact_scale(&e, &ra, &e, &rb, &r) <= s);
+                }
+                let pb = Pose { r: r / s, rot: rb };
+                match certify(&q, &pa, &q, &pb, 1e-13, 100_000) {
+                    Certified::Overlapping { .. } => Some(true),
+                    Certified::Apart { .. } => Some(false),
+                    Certified::Undecided { .. } => None,
+                }
+            };
+            let (below, above) = (touches_at(k * (1.0 - 1e-7)), touches_at(k * (1.0 + 1e-7)));
+            // Touching a little below k, or apart a little above it: decided with a margin.
+            let expected = match (below, above) {
+                (Some(true), _) => true,
+                (_, Some(false)) => false,
+                _ => return Err(TestCaseError::reject("within 1e-7 of contact")),
+            };
+            prop_assert_eq!(within(&q, &ra, &q, &rb, &r, k), expected, "k {}", k);
         }
     }
 }
