@@ -1,6 +1,6 @@
 //! Free motion of a rigid body with an isotropic inertia tensor (Eqs. 3–6) and the collision rule (Eqs. 40–41).
 
-use crate::geometry::{M3, Pose, SupportModulus, Surface, V3};
+use crate::geometry::{M3, Pose, SupportModulus, Surface, V3, pow};
 
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -220,7 +220,7 @@ fn push_powers(m: &SupportModulus, turn: f64, w: f64, l: f64, out: &mut Powers) 
     out.push(0.5 * l * w * turn, 2.0);
     for &(c, q) in &m.terms {
         if c > 0.0 {
-            out.push(c * turn.powf(q), q);
+            out.push(c * pow(turn, q), q);
         }
     }
 }
@@ -263,13 +263,13 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
         };
     }
     let phi =
-        |tau: f64| gap + rate * tau - terms.iter().map(|&(a, q)| a * tau.powf(q)).sum::<f64>();
+        |tau: f64| gap + rate * tau - terms.iter().map(|&(a, q)| a * pow(tau, q)).sum::<f64>();
     // A point where φ ≤ 0: each term alone overtakes g + ġτ there (a_j τ^q_j ≥ 2g and ≥ 2ġτ).
     let mut hi = terms
         .iter()
         .map(|&(a, q)| {
-            let by_gap = (2.0 * gap / a).powf(1.0 / q);
-            let by_rate = (2.0 * rate.max(0.0) / a).powf(1.0 / (q - 1.0));
+            let by_gap = pow(2.0 * gap / a, 1.0 / q);
+            let by_rate = pow(2.0 * rate.max(0.0) / a, 1.0 / (q - 1.0));
             by_gap.max(by_rate)
         })
         .fold(f64::INFINITY, f64::min);
@@ -282,7 +282,7 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
     for _ in 0..50 {
         let (mut value, mut slope) = (gap + rate * hi, rate);
         for &(a, q) in terms {
-            let term = a * hi.powf(q);
+            let term = a * pow(hi, q);
             value -= term;
             slope -= q * term / hi;
         }

@@ -14,7 +14,7 @@
 //! Scenes ask for it with `shape = "superquadric"` and `exponents`; the engine runs it through the
 //! same rigid-body model as the ellipsoid, and the overlap audit tests it with Gilbert's algorithm.
 
-use crate::geometry::{LabEval, M3, Placed, Pose, SupportModulus, Surface, V3};
+use crate::geometry::{LabEval, M3, Placed, Pose, SupportModulus, Surface, V3, pow};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Superquadric {
@@ -184,22 +184,6 @@ fn gamma(x: f64) -> f64 {
     (2.0 * std::f64::consts::PI).sqrt() * t.powf(x + 0.5) * (-t).exp() * acc
 }
 
-/// x^e, the ellipsoid's exponents (2, 1 = 1/(e − 1) and 0 = e − 2) without `powf`: the Hölder
-/// powers are where a superquadric's time goes, and p = 2 is the case that must cost what an
-/// ellipsoid does. (powf(0, 0) is 1 too.)
-#[inline]
-fn pow(x: f64, e: f64) -> f64 {
-    if e == 0.0 {
-        1.0
-    } else if e == 2.0 {
-        x * x
-    } else if e == 1.0 {
-        x
-    } else {
-        x.powf(e)
-    }
-}
-
 /// The t > 0 with Σ c_k t^(q_k) = 1 (c_k ≥ 0, not all 0, q_k > 0): Newton's method on the convex,
 /// increasing φ(σ) = ln Σ c_k e^(q_k σ), σ = ln t, started where φ ≥ 0 (the first term to reach
 /// 1 there, the others ≥ 0), so it descends monotonically and never undershoots: the result errs
@@ -266,7 +250,8 @@ impl Superquadric {
         (scale_root(&c, &q) * (1.0 + 1e-12)).min(global)
     }
 
-    /// |x_k/s_k| and its powers e−2, e−1, e per axis.
+    /// |x_k/s_k| and its powers e−2, e−1, e per axis: the distance's Newton steps evaluate these
+    /// more than anything else.
     fn terms(&self, x: &V3) -> [(f64, f64, f64); 3] {
         std::array::from_fn(|k| {
             let u = (x[k] / self.s[k]).abs();
