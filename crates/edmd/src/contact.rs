@@ -423,6 +423,9 @@ pub struct AxisGap {
     /// The orientations the gap was found at.
     pub rot_a: M3,
     pub rot_b: M3,
+    /// What the support points' solves left for the moduli there
+    /// ([`Surface::support_point_kept`]; NaN for nothing).
+    pub kept: [f64; 2],
 }
 
 /// The support gap g(n) = n·(r_B − r_A) − h_A(n) − h_B(−n) along any direction n bounds the
@@ -470,6 +473,8 @@ struct AxisAscent {
     n: V3,
     /// The largest gap so far, its direction and support offsets (A's frame).
     best: (f64, V3, V3, V3),
+    /// What the best step's support points left for their moduli.
+    kept: [f64; 2],
     rot_a: M3,
     rot_b: M3,
     steps: usize,
@@ -494,6 +499,7 @@ impl AxisAscent {
             damping: 1.0 / (search_radius(sa) + search_radius(sb)),
             n,
             best: (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros()),
+            kept: [f64::NAN; 2],
             rot_a: pa.rot,
             rot_b: pb.rot,
             steps: 0,
@@ -510,12 +516,14 @@ impl AxisAscent {
     fn step_to<S: Surface>(&mut self, sa: &S, sb: &S, steps: usize) {
         while self.steps < steps {
             let n = self.n;
-            let offset_a = sa.support_point(&n);
-            let offset_b = self.b_to_a * sb.support_point(&-(self.b_to_a.tr_mul(&n)));
+            let (offset_a, kept_a) = sa.support_point_kept(&n);
+            let (offset_b, kept_b) = sb.support_point_kept(&-(self.b_to_a.tr_mul(&n)));
+            let offset_b = self.b_to_a * offset_b;
             let between = self.r + offset_b - offset_a;
             let gap = n.dot(&between);
             if gap > self.best.0 {
                 self.best = (gap, n, offset_a, offset_b);
+                self.kept = [kept_a, kept_b];
             }
             self.n = (n + (between - n * gap) * self.damping).normalize();
             self.steps += 1;
@@ -537,6 +545,7 @@ impl AxisAscent {
             offset_b: to_lab * self.best.3,
             rot_a: self.rot_a,
             rot_b: self.rot_b,
+            kept: self.kept,
         }
     }
 }
@@ -655,6 +664,7 @@ fn elongated_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
         offset_b: xb - pb.r,
         rot_a: pa.rot,
         rot_b: pb.rot,
+        kept: [f64::NAN; 2],
     }
 }
 
@@ -680,8 +690,8 @@ impl AxisGap {
             return 0.0;
         }
         gap_safe_time(
-            &GapSide::new(sa, a, &self.rot_a, self.offset_a, &self.n),
-            &GapSide::new(sb, b, &self.rot_b, self.offset_b, &-self.n),
+            &GapSide::kept(sa, a, &self.rot_a, self.offset_a, &self.n, self.kept[0]),
+            &GapSide::kept(sb, b, &self.rot_b, self.offset_b, &-self.n, self.kept[1]),
             &self.n,
             self.gap,
         )

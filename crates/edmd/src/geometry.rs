@@ -95,6 +95,13 @@ pub trait Surface {
     fn support(&self, n: &V3) -> f64;
     /// The point of the surface farthest along the unit body-frame direction `n` (body frame).
     fn support_point(&self, n: &V3) -> V3;
+    /// [`Surface::support_point`], and what its solve leaves for
+    /// [`Surface::support_modulus_kept`] at the same direction (NaN where the shape keeps
+    /// nothing): a separating axis's ascent tries several directions and needs the modulus of its
+    /// best only, without a second solve there.
+    fn support_point_kept(&self, n: &V3) -> (V3, f64) {
+        (self.support_point(n), f64::NAN)
+    }
     /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
     /// support function: for an ellipsoid s_max²/s_min.
     fn max_curvature_radius(&self) -> f64;
@@ -104,6 +111,11 @@ pub trait Surface {
     /// The bound on how far the support function rises above its tangent plane at the unit
     /// body-frame direction `v`.
     fn support_modulus(&self, v: &V3) -> SupportModulus;
+    /// [`Surface::support_modulus`] at `v` from what [`Surface::support_point_kept`] left at the
+    /// same direction (or NaN).
+    fn support_modulus_kept(&self, v: &V3, _kept: f64) -> SupportModulus {
+        self.support_modulus(v)
+    }
     /// Semi-axes, for the guess of Sec. 3.2 (Eq. 51) and the bounding parallelepiped (Eq. 52).
     fn semi_axes(&self) -> V3;
     /// The semi-axes where the body is an ellipsoid (a superquadric of exponents 2 included),

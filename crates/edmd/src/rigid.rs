@@ -321,12 +321,25 @@ impl<'a> GapSide<'a> {
     /// Body `body` of shape `s`, turned by `rot` now (rows = body axes), with its support point
     /// `offset` from its centre along the outward unit lab direction `out` (n for A, −n for B).
     pub fn new<S: Surface>(s: &S, body: &'a Body, rot: &M3, offset: V3, out: &V3) -> Self {
+        Self::kept(s, body, rot, offset, out, f64::NAN)
+    }
+
+    /// [`GapSide::new`] where `offset` is the support point along `out` that
+    /// [`Surface::support_point_kept`] found, and `kept` what it left for the modulus.
+    pub fn kept<S: Surface>(
+        s: &S,
+        body: &'a Body,
+        rot: &M3,
+        offset: V3,
+        out: &V3,
+        kept: f64,
+    ) -> Self {
         GapSide {
             body,
             offset,
             l: s.bounding_radius(),
             h_min: s.min_support(),
-            modulus: s.support_modulus(&(rot * out)),
+            modulus: s.support_modulus_kept(&(rot * out), kept),
         }
     }
 }

@@ -246,8 +246,14 @@ impl Superquadric {
     fn multiplier_inverse(&self, v: &V3) -> f64 {
         let q = self.e.map(|e| e / (e - 1.0));
         let c = V3::from_fn(|k, _| pow((v[k] * self.s[k]).abs() / self.e[k], q[k]));
+        self.multiplier_inverse_from(scale_root(&c, &q))
+    }
+
+    /// [`Superquadric::multiplier_inverse`] from the root μ of its equation, which
+    /// [`Surface::support_point`] solves too.
+    fn multiplier_inverse_from(&self, mu: f64) -> f64 {
         let global = self.e.max() / self.s.min();
-        (scale_root(&c, &q) * (1.0 + 1e-12)).min(global)
+        (mu * (1.0 + 1e-12)).min(global)
     }
 
     /// |x_k/s_k| and its powers e−2, e−1, e per axis: the distance's Newton steps evaluate these
@@ -332,16 +338,30 @@ impl Surface for Superquadric {
     /// The maximiser of n·x: y_k = |x_k|/s_k = (a_k μ)^(1/(e_k−1)) with a_k = |n_k| s_k / e_k and
     /// μ from Σ (a_k μ)^(e_k/(e_k−1)) = 1 ([`scale_root`], which errs outwards).
     fn support_point(&self, n: &V3) -> V3 {
+        self.support_point_kept(n).0
+    }
+    /// Keeps μ, which is the root [`Superquadric::multiplier_inverse`] solves for at the same
+    /// direction (the same terms c, to the bit): the modulus there costs no second root (the
+    /// roots were a third of the instructions of a p = 10 collision, the moduli's 40 % of them).
+    fn support_point_kept(&self, n: &V3) -> (V3, f64) {
         let a = V3::from_fn(|k, _| (n[k] * self.s[k]).abs() / self.e[k]);
         let q = self.e.map(|e| e / (e - 1.0));
         let c = V3::from_fn(|k, _| pow(a[k], q[k]));
         let mu = scale_root(&c, &q);
-        V3::from_fn(|k, _| n[k].signum() * self.s[k] * pow(a[k] * mu, 1.0 / (self.e[k] - 1.0)))
+        let x =
+            V3::from_fn(|k, _| n[k].signum() * self.s[k] * pow(a[k] * mu, 1.0 / (self.e[k] - 1.0)));
+        (x, mu)
     }
     fn support_modulus(&self, v: &V3) -> SupportModulus {
         match &self.modulus {
             Some(parts) => parts.at(self.multiplier_inverse(v)),
             None => SupportModulus::quadratic(self.max_curvature_radius()),
+        }
+    }
+    fn support_modulus_kept(&self, v: &V3, mu: f64) -> SupportModulus {
+        match &self.modulus {
+            Some(parts) if !mu.is_nan() => parts.at(self.multiplier_inverse_from(mu)),
+            _ => self.support_modulus(v),
         }
     }
     fn max_curvature_radius(&self) -> f64 {
@@ -399,15 +419,31 @@ mod tests {
         assert!((unit.volume() - std::f64::consts::PI / 6.0).abs() < 1e-13);
     }
 
+    /// Exponents anywhere in 2–12, and whole ones (the figures' p, whose powers
+    /// [`crate::geometry::pow`] takes by multiplication).
     fn sq() -> impl Strategy<Value = Superquadric> {
+        let exponent = prop_oneof![2.0f64..12.0, (2u32..=12).prop_map(f64::from)];
         (
             prop::array::uniform3(0.2f64..2.0),
-            prop::array::uniform3(2.0f64..12.0),
+            [exponent.clone(), exponent.clone(), exponent],
         )
             .prop_map(|(s, e)| Superquadric::new(s, e).unwrap())
     }
 
     proptest! {
+        /// What the support point's solve keeps gives the modulus of its direction, to the bit:
+        /// the separating axis's safe time takes it instead of solving again.
+        #[test]
+        fn the_kept_root_gives_the_modulus_of_its_direction(q in sq(), d in prop::array::uniform3(-1.0f64..1.0)) {
+            let v = V3::from(d);
+            prop_assume!(v.norm() > 1e-3);
+            let v = v.normalize();
+            let (x, kept) = q.support_point_kept(&v);
+            prop_assert_eq!(x, q.support_point(&v));
+            prop_assert_eq!(q.support_modulus_kept(&v, kept).terms, q.support_modulus(&v).terms);
+            prop_assert_eq!(q.support_modulus_kept(&v, f64::NAN).terms, q.support_modulus(&v).terms);
+        }
+
         /// The gradient and Hessian are the derivatives of f, flat faces included.
         #[test]
         fn derivatives_match_finite_differences(q in sq(), d in prop::array::uniform3(-1.0f64..1.0)) {
