@@ -304,8 +304,9 @@ impl WholePowers {
 /// increasing polynomial P(u) = Σ c_k u^(m_k) − 1 of u = t^(1/M), from where the first group of
 /// terms reaches 1 (so P ≥ 0), descends monotonically onto the root and errs the same way, Σ ≥ 1;
 /// but a step is a power or two by multiplication where [`scale_root`]'s takes an `exp` per
-/// exponent and a `ln` (its roots were a third of a p = 10 collision's instructions).
-fn scale_root_whole(c: &V3, w: &WholePowers) -> f64 {
+/// exponent and a `ln` (its roots were a third of a p = 10 collision's instructions). Returns t
+/// and u, each nudged outwards.
+fn scale_root_whole(c: &V3, w: &WholePowers) -> (f64, f64) {
     let mut sums = [0.0; 3];
     for k in 0..3 {
         sums[w.of[k]] += c[k];
@@ -348,7 +349,10 @@ fn scale_root_whole(c: &V3, w: &WholePowers) -> f64 {
     }
     // t = u^M carries M times u's rounding, and the powers' own: nudged outwards past both (at
     // M = 40 they left Σ 1e-14 short of 1).
-    u.powi(w.big_m) * (1.0 + 4.0 * f64::from(w.big_m) * f64::EPSILON)
+    (
+        u.powi(w.big_m) * (1.0 + 4.0 * f64::from(w.big_m) * f64::EPSILON),
+        u * (1.0 + 4.0 * f64::EPSILON),
+    )
 }
 
 impl Superquadric {
@@ -359,16 +363,26 @@ impl Superquadric {
     /// x·∇f = Σ e_k y_k^(e_k) gives h(v) = x₀·v ≤ λ e_max, and h(v) ≥ s_min (the body holds the ball
     /// of radius s_min). The smaller of the two, or the second alone if the first is not a number.
     fn multiplier_inverse(&self, v: &V3) -> f64 {
-        let q = self.e.map(|e| e / (e - 1.0));
-        let c = V3::from_fn(|k, _| pow((v[k] * self.s[k]).abs() / self.e[k], q[k]));
-        self.multiplier_inverse_from(self.support_root(&c, &q))
+        let (_, _, c) = self.support_terms(v);
+        let mu = match &self.whole {
+            Some(w) => scale_root_whole(&c, w).0,
+            None => scale_root(&c, &self.e.map(|e| e / (e - 1.0))),
+        };
+        self.multiplier_inverse_from(mu)
     }
 
-    /// The root μ of Σ c_k μ^(q_k) = 1, q_k = e_k/(e_k − 1): the support point's equation.
-    fn support_root(&self, c: &V3, q: &V3) -> f64 {
-        match &self.whole {
-            Some(w) => scale_root_whole(c, w),
-            None => scale_root(c, q),
+    /// For the unit body-frame direction v: a_k = |v_k| s_k / e_k; where the exponents are whole,
+    /// a_k^(1/(e_k − 1)), by which the support point's y_k = (a_k μ)^(1/(e_k − 1)) is that times
+    /// u^(r_k) ([`WholePowers`]) without a second power; and the support point's equation's
+    /// c_k = a_k^(q_k), q_k = e_k/(e_k − 1) (a_k times that root, where there is one).
+    fn support_terms(&self, v: &V3) -> (V3, V3, V3) {
+        let a = V3::from_fn(|k, _| (v[k] * self.s[k]).abs() / self.e[k]);
+        if self.whole.is_some() {
+            let root = V3::from_fn(|k, _| pow(a[k], 1.0 / (self.e[k] - 1.0)));
+            (a, root, a.component_mul(&root))
+        } else {
+            let c = V3::from_fn(|k, _| pow(a[k], self.e[k] / (self.e[k] - 1.0)));
+            (a, V3::repeat(f64::NAN), c)
         }
     }
 
@@ -467,13 +481,22 @@ impl Surface for Superquadric {
     /// direction (the same terms c, to the bit): the modulus there costs no second root (the
     /// roots were a third of the instructions of a p = 10 collision, the moduli's 40 % of them).
     fn support_point_kept(&self, n: &V3) -> (V3, f64) {
-        let a = V3::from_fn(|k, _| (n[k] * self.s[k]).abs() / self.e[k]);
-        let q = self.e.map(|e| e / (e - 1.0));
-        let c = V3::from_fn(|k, _| pow(a[k], q[k]));
-        let mu = self.support_root(&c, &q);
-        let x =
-            V3::from_fn(|k, _| n[k].signum() * self.s[k] * pow(a[k] * mu, 1.0 / (self.e[k] - 1.0)));
-        (x, mu)
+        let (a, root, c) = self.support_terms(n);
+        let (mu, y) = match &self.whole {
+            Some(w) => {
+                let (mu, u) = scale_root_whole(&c, w);
+                let powers: [f64; 3] = std::array::from_fn(|g| u.powi(w.groups[g].0));
+                (mu, V3::from_fn(|k, _| root[k] * powers[w.of[k]]))
+            }
+            None => {
+                let mu = scale_root(&c, &self.e.map(|e| e / (e - 1.0)));
+                (
+                    mu,
+                    V3::from_fn(|k, _| pow(a[k] * mu, 1.0 / (self.e[k] - 1.0))),
+                )
+            }
+        };
+        (V3::from_fn(|k, _| n[k].signum() * self.s[k] * y[k]), mu)
     }
     fn support_modulus(&self, v: &V3) -> SupportModulus {
         match &self.modulus {
@@ -675,7 +698,7 @@ mod tests {
             for k in 0..3 {
                 prop_assert_eq!(f64::from(w.m(k)) / f64::from(w.big_m), q[k]);
             }
-            let t = scale_root_whole(&c, &w);
+            let t = scale_root_whole(&c, &w).0;
             let sum: f64 = (0..3).map(|k| c[k] * t.powf(q[k])).sum();
             prop_assert!((1.0..1.0 + 1e-12).contains(&sum), "{e:?}: Σ = {sum}");
             let old = scale_root(&c, &q);
