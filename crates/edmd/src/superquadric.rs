@@ -473,7 +473,8 @@ impl Surface for Superquadric {
         n.dot(&self.support_point(n)) + 1e-13 * self.s.max()
     }
     /// The maximiser of n·x: y_k = |x_k|/s_k = (a_k μ)^(1/(e_k−1)) with a_k = |n_k| s_k / e_k and
-    /// μ from Σ (a_k μ)^(e_k/(e_k−1)) = 1 ([`scale_root`], which errs outwards).
+    /// μ from Σ (a_k μ)^(e_k/(e_k−1)) = 1 ([`scale_root`], or [`scale_root_whole`] for whole
+    /// exponents; both err outwards).
     fn support_point(&self, n: &V3) -> V3 {
         self.support_point_kept(n).0
     }
