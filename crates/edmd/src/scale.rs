@@ -137,13 +137,18 @@ mod tests {
         };
         for (k, touch) in [(1.001, false), (1.005, true)] {
             let pb = Pose { r: r / k, rot: rb };
-            let proved = match certify(&q, &pa, &q, &pb, 1e-13, 100_000) {
-                Certified::Overlapping { .. } => Some(true),
-                Certified::Apart { .. } => Some(false),
-                Certified::Undecided { .. } => None,
-            };
-            assert_eq!(proved, Some(touch), "k {k}");
+            assert_eq!(certified_touch(&q, &pa, &pb), Some(touch), "k {k}");
             assert_eq!(within(&q, &ra, &q, &rb, &r, k), touch, "k {k}");
+        }
+    }
+
+    /// Whether Gilbert's algorithm proves the placed superquadrics overlapping (`Some(true)`) or
+    /// apart (`Some(false)`); `None` where it cannot tell.
+    fn certified_touch(q: &Superquadric, pa: &Pose, pb: &Pose) -> Option<bool> {
+        match certify(q, pa, q, pb, 1e-13, 100_000) {
+            Certified::Overlapping { .. } => Some(true),
+            Certified::Apart { .. } => Some(false),
+            Certified::Undecided { .. } => None,
         }
     }
 
@@ -212,12 +217,7 @@ mod tests {
                 if p == 2.0 {
                     return Some(pw::contact_scale(&e, &ra, &e, &rb, &r) <= s);
                 }
-                let pb = Pose { r: r / s, rot: rb };
-                match certify(&q, &pa, &q, &pb, 1e-13, 100_000) {
-                    Certified::Overlapping { .. } => Some(true),
-                    Certified::Apart { .. } => Some(false),
-                    Certified::Undecided { .. } => None,
-                }
+                certified_touch(&q, &pa, &Pose { r: r / s, rot: rb })
             };
             let (below, above) = (touches_at(k * (1.0 - 1e-7)), touches_at(k * (1.0 + 1e-7)));
             // Touching a little below k, or apart a little above it: decided with a margin.

@@ -364,11 +364,16 @@ impl Superquadric {
     /// of radius s_min). The smaller of the two, or the second alone if the first is not a number.
     fn multiplier_inverse(&self, v: &V3) -> f64 {
         let (_, _, c) = self.support_terms(v);
-        let mu = match &self.whole {
-            Some(w) => scale_root_whole(&c, w).0,
-            None => scale_root(&c, &self.e.map(|e| e / (e - 1.0))),
-        };
-        self.multiplier_inverse_from(mu)
+        self.multiplier_inverse_from(self.support_root(&c).0)
+    }
+
+    /// μ of the support point's equation for the terms c of [`Superquadric::support_terms`], and
+    /// u = μ^(1/M) where the exponents are whole ([`scale_root_whole`]; NaN otherwise).
+    fn support_root(&self, c: &V3) -> (f64, f64) {
+        match &self.whole {
+            Some(w) => scale_root_whole(c, w),
+            None => (scale_root(c, &self.e.map(|e| e / (e - 1.0))), f64::NAN),
+        }
     }
 
     /// For the unit body-frame direction v: a_k = |v_k| s_k / e_k; where the exponents are whole,
@@ -483,19 +488,13 @@ impl Surface for Superquadric {
     /// roots were a third of the instructions of a p = 10 collision, the moduli's 40 % of them).
     fn support_point_kept(&self, n: &V3) -> (V3, f64) {
         let (a, root, c) = self.support_terms(n);
-        let (mu, y) = match &self.whole {
+        let (mu, u) = self.support_root(&c);
+        let y = match &self.whole {
             Some(w) => {
-                let (mu, u) = scale_root_whole(&c, w);
                 let powers: [f64; 3] = std::array::from_fn(|g| u.powi(w.groups[g].0));
-                (mu, V3::from_fn(|k, _| root[k] * powers[w.of[k]]))
+                V3::from_fn(|k, _| root[k] * powers[w.of[k]])
             }
-            None => {
-                let mu = scale_root(&c, &self.e.map(|e| e / (e - 1.0)));
-                (
-                    mu,
-                    V3::from_fn(|k, _| pow(a[k] * mu, 1.0 / (self.e[k] - 1.0))),
-                )
-            }
+            None => V3::from_fn(|k, _| pow(a[k] * mu, 1.0 / (self.e[k] - 1.0))),
         };
         (V3::from_fn(|k, _| n[k].signum() * self.s[k] * y[k]), mu)
     }
