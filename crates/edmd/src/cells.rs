@@ -293,6 +293,68 @@ impl Near {
         true
     }
 
+    /// `f(i, j, r)` once for every pair of points in the same or adjacent cells (every pair
+    /// where the box is not binned), `r` the separation of `j` from `i` as [`Near::around`] of `i`
+    /// gives it, to the bit: half the candidates of a scan around every point. Each pair of cells
+    /// is visited from one side, the 13 neighbours ahead of a cell (z, then y, then x) and the
+    /// cell itself, which is one pair per offset in a box of 3 cells a side or more.
+    pub fn pairs(&self, points: &[V3], mut f: impl FnMut(usize, usize, V3)) {
+        if self.m == 0 {
+            for (i, p) in points.iter().enumerate() {
+                for (j, q) in points.iter().enumerate().skip(i + 1) {
+                    f(i, j, min_image(q - p, self.l));
+                }
+            }
+            return;
+        }
+        let (m, l) = (self.m, self.l);
+        let ahead: Vec<[i32; 3]> = (0..27)
+            .map(|k| [k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1])
+            .filter(|d| (d[2], d[1], d[0]) > (0, 0, 0))
+            .collect();
+        let step = |c: usize, d: i32| {
+            let x = c as i32 + d;
+            if x < 0 {
+                ((x + m as i32) as usize, -l)
+            } else if x >= m as i32 {
+                ((x - m as i32) as usize, l)
+            } else {
+                (x as usize, 0.0)
+            }
+        };
+        let mut cells = Vec::with_capacity(ahead.len());
+        for c in 0..m * m * m {
+            if self.head[c] == NONE {
+                continue;
+            }
+            let [cx, cy, cz] = [c % m, c / m % m, c / (m * m)];
+            cells.clear();
+            cells.extend(ahead.iter().map(|d| {
+                let ((x, sx), (y, sy), (z, sz)) = (step(cx, d[0]), step(cy, d[1]), step(cz, d[2]));
+                (x + m * (y + m * z), V3::new(sx, sy, sz))
+            }));
+            let mut i = self.head[c];
+            while i != NONE {
+                let p = &points[i as usize];
+                let mut j = self.next[i as usize];
+                let own = V3::zeros() - p;
+                while j != NONE {
+                    f(i as usize, j as usize, points[j as usize] + own);
+                    j = self.next[j as usize];
+                }
+                for &(cell, shift) in &cells {
+                    let base = shift - p;
+                    let mut j = self.head[cell];
+                    while j != NONE {
+                        f(i as usize, j as usize, points[j as usize] + base);
+                        j = self.next[j as usize];
+                    }
+                }
+                i = self.next[i as usize];
+            }
+        }
+    }
+
     /// Point `i` is now at `p` (in the box).
     pub fn moved(&mut self, i: usize, p: &V3) {
         if self.m > 0 {
@@ -346,6 +408,47 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// `pairs` calls each pair of points once, with the separation `around` of its first point
+    /// gives, to the bit, and leaves out no pair `around` finds: in boxes of 3, 4 and 10 cells a
+    /// side and without cells, with points on cell and box faces.
+    #[test]
+    fn pairs_are_each_pair_around_finds_once() {
+        let mut rng = crate::rng::Rng::new(8);
+        for (n, l, reach) in [
+            (400, 10.0, 1.0),
+            (60, 3.3, 1.1),
+            (90, 4.0, 1.0),
+            (30, 2.5, 1.0),
+        ] {
+            let mut pts: Vec<V3> = (0..n)
+                .map(|_| V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * l)
+                .collect();
+            pts[0] = V3::new(0.0, l, 1.0);
+            pts[1] = V3::new(1.0, 0.0, l / 2.0);
+            let near = Near::new(&pts, l, reach);
+            let mut seen = std::collections::HashMap::new();
+            near.pairs(&pts, |i, j, r| {
+                assert_ne!(i, j);
+                let key = (i.min(j), i.max(j));
+                assert!(seen.insert(key, (i, r)).is_none(), "{key:?} twice");
+            });
+            let mut found = 0;
+            for (i, p) in pts.iter().enumerate() {
+                near.around(&pts, p, |j, r| {
+                    if j != i {
+                        found += 1;
+                        let (first, got) = seen[&(i.min(j), i.max(j))];
+                        if first == i {
+                            assert_eq!(got.map(f64::to_bits), r.map(f64::to_bits));
+                        }
+                    }
+                    true
+                });
+            }
+            assert_eq!(found, 2 * seen.len(), "n {n}, l {l}");
         }
     }
 

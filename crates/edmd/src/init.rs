@@ -540,9 +540,11 @@ fn lattice(sites: &[V3], rot: Vec<M3>, volume: f64, phi: f64, packing_of: &Packi
 ///
 /// The box is filled block by block (blocks of about 16 σ a side, in a random order, each given
 /// its share of the spheres by its volume): the spheres a try looks at are then the last few
-/// thousand placed, in cache, and consecutive spheres are neighbours, as the pushes of the
-/// compression that follows want them. Tries spread over the whole box took 35 s at N = 10⁶ (a
-/// cache miss per sphere looked at), and sweeps in that order 170 s.
+/// thousand placed, in cache. Tries spread over the whole box took 35 s at N = 10⁶ (a cache miss
+/// per sphere looked at), and sweeps in that order 170 s. The spheres are then numbered along a
+/// Z-order curve, so that the few in each cell of the compression's scans lie side by side in
+/// memory, not anywhere in their block: at N = 10⁶ its steps and pushes took 4.0 s instead of
+/// 4.6 and 5.2 (alternated runs).
 ///
 /// A start without a lattice's memory: sixty sweeps at φ = 0.25 left an FCC lattice of 10⁵
 /// spheres with |ρ_k| = 0.019 at its first Bragg vector (1/√N = 0.003 without order), which the
@@ -615,7 +617,12 @@ fn random_sequential(n: usize, l: f64, sigma: f64, rng: &mut Rng) -> Option<Vec<
             pos.push(p);
         }
     }
-    (pos.len() == n).then_some(pos)
+    (pos.len() == n).then(|| {
+        z_order(n, |i| pos[i], l)
+            .into_iter()
+            .map(|i| pos[i])
+            .collect()
+    })
 }
 
 /// Bodies of shape `geom` (any but a sphere) placed one after another at uniformly random
@@ -1179,14 +1186,17 @@ impl Packing {
     }
 
     fn count_overlaps(&mut self) {
-        if self.one_sphere.is_some() {
-            let [mut partners, other] = std::mem::take(&mut self.partners);
-            for i in 0..self.pos.len() {
-                let ai = self.kept_lab(i);
-                self.partners_of(i, &self.pos[i], &self.rot[i], &ai, &mut partners);
-                self.touching[i] = partners.len() as u32;
-            }
-            self.partners = [partners, other];
+        if let Some(sigma) = self.one_sphere {
+            // Each pair once ([`Near::pairs`]), where the scan around every sphere saw each twice.
+            let reach2 = sigma * sigma;
+            let touching = &mut self.touching;
+            touching.fill(0);
+            self.near.pairs(&self.pos, |i, j, r| {
+                if r.norm_squared() < reach2 {
+                    touching[i] += 1;
+                    touching[j] += 1;
+                }
+            });
         } else {
             // Counts need no contact scales: [`Packing::touch`] decides each pair.
             for i in 0..self.pos.len() {
