@@ -331,11 +331,14 @@ fn same_seed_same_trajectory() {
     assert_eq!((a.pressure_z, a.sim_time), (b.pressure_z, b.sim_time));
 }
 
-/// The validation figures (N = 500, 10^6 collisions, seeds 0–3): run with
+/// The validation figures (N = 500, 10^6 collisions, seeds 0–7): run with
 /// `cargo test --release -p edmd --test physics -- --ignored --nocapture`.
 ///
 /// One run scatters by about 0.15 % (the standard deviation of eight seeds at φ 0.45), so the
-/// mean of four is held to 0.15 %. With Z's temperature over 3N degrees of freedom, not the
+/// mean of eight is held to 0.15 %, nearly three standard errors. The mean of four was held to
+/// it, two standard errors, until seeds 0–3 of the spheres' start numbered along the Z curve
+/// read −0.166 % with LL at φ 0.3, where 28 seeds read −0.076 ± 0.021 % (the start before it:
+/// −0.033 ± 0.016 %, the same 28). With Z's temperature over 3N degrees of freedom, not the
 /// 3N − 3 that the zero net momentum leaves, the means of eight seeds sat 0.08–0.20 % above
 /// Kolafa's, 0.18–0.20 % in two of the six cases (MEASUREMENTS.md, "Z with the measured
 /// temperature of 3N − 3 degrees of freedom").
@@ -345,7 +348,7 @@ fn validation_kolafa_large() {
     for nb in [Neighbours::Ll, Neighbours::Nnl] {
         for (phi, z) in [(0.30, 3.9843), (0.40, 6.9457), (0.45, 9.4029)] {
             let mut devs = Vec::new();
-            for seed in 0..4 {
+            for seed in 0..8 {
                 // Lists with the spheres' default Δ_NNL (0.25), the one users get.
                 let mut s = scene(ShapeKind::Sphere, 500, phi, 1.0, nb, 1_000_000, 100_000);
                 s.seed = seed;
