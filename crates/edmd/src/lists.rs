@@ -88,8 +88,8 @@ pub trait Region: Copy {
 }
 
 /// The lists whose lengths size the room of all ([`Lists::from_regions`]): every one up to this
-/// many, a sample of this size beyond, whose 99.9th percentile is within about one entry of all
-/// the lists' (lengths at φ = 0.45 are 11.3 ± 1.7).
+/// many, every k-th beyond (between half this many and this many), whose 99.9th percentile is
+/// within about one entry of all the lists' (lengths at φ = 0.45 are 11.3 ± 1.7).
 const ROOM_SAMPLE: usize = 65_536;
 
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
