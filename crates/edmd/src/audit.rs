@@ -43,14 +43,14 @@ fn count_pairs<B: Moving>(
     let pos: Vec<V3> = bodies.iter().map(|b| b.r().map(|x| wrap(x, l))).collect();
     let near = Near::new(&pos, l, reach);
     let mut count = 0;
-    for (i, p) in pos.iter().enumerate() {
-        near.around(&pos, p, |j, r| {
-            if j > i && overlaps(i, j, &r) {
-                count += 1;
-            }
-            true
-        });
-    }
+    near.pairs(&pos, |i, j, r| {
+        let overlapping = if i < j {
+            overlaps(i, j, &r)
+        } else {
+            overlaps(j, i, &-r)
+        };
+        count += u64::from(overlapping);
+    });
     count
 }
 
