@@ -1,4 +1,4 @@
-//! Bounding balls as neighbour-list regions (the "bounding neighbourhoods" of Donev et al. [26]):
+//! Bounding balls as neighbour-list regions (the "bounding neighbourhoods" of Donev et al. \[26\]):
 //! the body's centre may wander `delta` from where its list was built, so the body stays inside
 //! the ball of radius (bounding radius + `delta`) around that point, whatever it does in between.
 //! Valid for any shape; for a sphere, which does not rotate, it is the tightest region there is,

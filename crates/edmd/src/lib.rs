@@ -57,7 +57,7 @@
 //!   rigid body's search for a partner also ends at the partner's own next event: every event
 //!   predicts its body anew against all it may meet, so whichever of the pair is predicted last
 //!   before their contact finds it (17–25 % fewer distance calls, X0 = 2, φ = 0.5).
-//! - Neighbour lists are updated per particle, as Donev et al. [26] do: a body that escapes its box
+//! - Neighbour lists are updated per particle, as Donev et al. \[26\] do: a body that escapes its box
 //!   gets a new box and list alone, instead of the global rebuild of Sec. 3.5 step 4. Spheres,
 //!   which do not rotate, get a ball instead of a box (the centre may wander Δ_NNL), with an exact
 //!   escape time and no 15-axis test. Lists hold indices; a sphere prediction gathers the list's

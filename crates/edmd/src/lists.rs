@@ -1,5 +1,5 @@
 //! Nearest-neighbour lists kept per particle (Sec. 3.3, with the partial update of Donev et al.
-//! [26] instead of the global rebuild of Sec. 3.5 step 4).
+//! \[26\] instead of the global rebuild of Sec. 3.5 step 4).
 //!
 //! Each body has its own [`Region`], built when it last escaped the previous one: the oriented
 //! bounding parallelepiped of Sec. 3.3 for a rigid body, a ball for a sphere. Its list holds every

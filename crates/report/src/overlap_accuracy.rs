@@ -37,7 +37,7 @@ pub struct OverlapAccuracy {
     pub settings: Vec<PrecisionSetting>,
     /// The cheapest setting that gave no wrong verdict in the bulk (the papers' benchmark).
     pub recommended: Option<Recommended>,
-    /// The shell's gaps per decade: decade k is [`gap_edges`][k] to [`gap_edges`][k + 1].
+    /// The shell's gaps per decade: decade k is `gap_edges[k]` to `gap_edges[k + 1]`.
     pub gap_edges: Vec<f64>,
 }
 
