@@ -15,12 +15,75 @@ impl Member for u32 {
     }
 }
 
+/// Each cell's members in the cell's own run of `room` slots, all cells in one allocation: the
+/// cells around a particle are read without a header loaded first (a vector's, at an address
+/// of its own), and cells side by side along x lie side by side in memory. A cell that outgrows
+/// its room moves whole to a vector of its own in `spill`, and back once it fits again. Members
+/// are kept in the order a vector's `push` and `swap_remove` keep them.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct Cells<T = u32> {
+#[serde(
+    try_from = "SavedCells<T>",
+    into = "SavedCells<T>",
+    bound = "T: Member + Default + serde::Serialize + serde::de::DeserializeOwned"
+)]
+pub struct Cells<T: Member + Default = u32> {
     /// Cells per side.
     pub m: usize,
     pub side: f64,
+    /// Slots per cell.
+    room: usize,
+    /// Each cell's count of members, or [`SPILLED`] and the index of its vector in `spill`.
+    count: Vec<u32>,
+    slots: Vec<T>,
+    spill: Vec<Vec<T>>,
+    /// Vectors of `spill` no cell holds.
+    free: Vec<u32>,
+}
+
+/// The mark of a cell whose members are in `spill`.
+const SPILLED: u32 = 1 << 31;
+
+/// [`Cells`] as state files hold them: each cell's members in a vector.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SavedCells<T> {
+    m: usize,
+    side: f64,
     members: Vec<Vec<T>>,
+}
+
+impl<T: Member + Default> TryFrom<SavedCells<T>> for Cells<T> {
+    type Error = String;
+
+    fn try_from(saved: SavedCells<T>) -> Result<Self, String> {
+        let cells = saved.m.checked_pow(3);
+        if cells != Some(saved.members.len()) {
+            return Err(format!(
+                "{} cells saved for {} a side",
+                saved.members.len(),
+                saved.m
+            ));
+        }
+        let members: usize = saved.members.iter().map(Vec::len).sum();
+        let mut cells = Cells::sized(saved.m, saved.side, members);
+        for (c, of_cell) in saved.members.iter().enumerate() {
+            for &member in of_cell {
+                cells.insert(c, member);
+            }
+        }
+        Ok(cells)
+    }
+}
+
+impl<T: Member + Default> From<Cells<T>> for SavedCells<T> {
+    fn from(cells: Cells<T>) -> Self {
+        SavedCells {
+            m: cells.m,
+            side: cells.side,
+            members: (0..cells.count.len())
+                .map(|c| cells.members(c).to_vec())
+                .collect(),
+        }
+    }
 }
 
 /// A neighbouring cell and the image shift (in box lengths) of the particles in it.
@@ -30,20 +93,33 @@ pub struct Neighbour {
     pub shift: [i8; 3],
 }
 
-impl<T: Member> Cells<T> {
-    /// Cells of side ≥ `min_side` in a box of side `l`; `None` if fewer than 3 fit per side.
-    pub fn new(l: f64, min_side: f64) -> Option<Self> {
+impl<T: Member + Default> Cells<T> {
+    /// Cells of side ≥ `min_side` in a box of side `l`, for `members` members in all; `None` if
+    /// fewer than 3 fit per side.
+    pub fn new(l: f64, min_side: f64, members: usize) -> Option<Self> {
         let m = (l / min_side).floor();
         // Also rejects NaN.
         if m.is_nan() || m < 3.0 {
             return None;
         }
         let m = m as usize;
-        Some(Cells {
+        Some(Cells::sized(m, l / m as f64, members))
+    }
+
+    /// `m` cells a side of side `side`, with room for `members` spread evenly: the mean count
+    /// and its Poisson deviation, so that few cells spill.
+    fn sized(m: usize, side: f64, members: usize) -> Self {
+        let mean = members as f64 / (m * m * m) as f64;
+        let room = ((mean + mean.sqrt()).ceil() as usize).max(2);
+        Cells {
             m,
-            side: l / m as f64,
-            members: vec![Vec::new(); m * m * m],
-        })
+            side,
+            room,
+            count: vec![0; m * m * m],
+            slots: vec![T::default(); m * m * m * room],
+            spill: Vec::new(),
+            free: Vec::new(),
+        }
     }
 
     pub fn coords_of(&self, r: &V3) -> [usize; 3] {
@@ -64,19 +140,67 @@ impl<T: Member> Cells<T> {
     }
 
     pub fn insert(&mut self, cell: usize, member: T) {
-        self.members[cell].push(member);
+        let count = self.count[cell];
+        if count & SPILLED != 0 {
+            self.spill[(count & !SPILLED) as usize].push(member);
+            return;
+        }
+        let (count, start) = (count as usize, cell * self.room);
+        if count < self.room {
+            self.slots[start + count] = member;
+            self.count[cell] += 1;
+            return;
+        }
+        let k = self.free.pop().unwrap_or_else(|| {
+            self.spill.push(Vec::new());
+            (self.spill.len() - 1) as u32
+        });
+        let moved = &mut self.spill[k as usize];
+        moved.extend_from_slice(&self.slots[start..start + count]);
+        moved.push(member);
+        self.count[cell] = SPILLED | k;
     }
 
     /// Removes particle `i` from `cell`.
     pub fn remove(&mut self, cell: usize, i: u32) {
-        let v = &mut self.members[cell];
-        if let Some(p) = v.iter().position(|m| m.particle() == i) {
-            v.swap_remove(p);
+        let count = self.count[cell];
+        if count & SPILLED != 0 {
+            let k = (count & !SPILLED) as usize;
+            let v = &mut self.spill[k];
+            if let Some(p) = v.iter().position(|m| m.particle() == i) {
+                v.swap_remove(p);
+            }
+            if v.len() <= self.room {
+                let start = cell * self.room;
+                self.slots[start..start + v.len()].copy_from_slice(v);
+                self.count[cell] = v.len() as u32;
+                v.clear();
+                self.free.push(k as u32);
+            }
+            return;
+        }
+        let (count, start) = (count as usize, cell * self.room);
+        let members = &mut self.slots[start..start + count];
+        if let Some(p) = members.iter().position(|m| m.particle() == i) {
+            members[p] = members[count - 1];
+            self.count[cell] -= 1;
         }
     }
 
     pub fn members(&self, cell: usize) -> &[T] {
-        &self.members[cell]
+        let count = self.count[cell];
+        if count & SPILLED != 0 {
+            return &self.spill[(count & !SPILLED) as usize];
+        }
+        let start = cell * self.room;
+        &self.slots[start..start + count as usize]
+    }
+
+    /// Asks for the cell's count and its first members ahead of [`Cells::members`].
+    #[inline]
+    pub fn prefetch(&self, cell: usize) {
+        crate::prefetch(&self.count[cell]);
+        crate::prefetch(&self.slots[cell * self.room]);
     }
 
     /// The cell at offset `d` (each component in −1..=1) from `c`, with the image shift.
@@ -374,7 +498,7 @@ mod tests {
 
     #[test]
     fn neighbours_wrap_with_shift() {
-        let c = Cells::<u32>::new(6.0, 2.0).unwrap();
+        let c = Cells::<u32>::new(6.0, 2.0, 0).unwrap();
         assert_eq!(c.m, 3);
         let n = c.neighbour([0, 2, 1], [-1, 1, 0]);
         assert_eq!(c.coords(n.cell), [2, 0, 1]);
@@ -386,7 +510,7 @@ mod tests {
                 .count(),
             27
         );
-        assert!(Cells::<u32>::new(5.9, 2.0).is_none());
+        assert!(Cells::<u32>::new(5.9, 2.0, 0).is_none());
     }
 
     /// `around` lists, x fastest, the cell and shift `neighbour` gives for each of the 27 offsets,
@@ -394,7 +518,7 @@ mod tests {
     #[test]
     fn around_is_neighbour_at_every_offset() {
         for m in [3, 4, 7] {
-            let c = Cells::<u32>::new(m as f64, 1.0).unwrap();
+            let c = Cells::<u32>::new(m as f64, 1.0, 0).unwrap();
             assert_eq!(c.m, m);
             for idx in 0..m * m * m {
                 let around = c.around(idx);
@@ -494,6 +618,51 @@ mod tests {
                 }
             }
             assert_eq!(near.m > 0, l == 10.0);
+        }
+    }
+
+    proptest::proptest! {
+        /// Inserts and removals in 27 cells with room for two members each (sized for 27 members
+        /// spread over them), four of which take twelve particles, against a vector per cell:
+        /// every cell holds the same members in the same order after every operation, in its
+        /// room exactly where they fit there, and the saved form is the vectors', which reads
+        /// back to the same cells (and is refused with a cell missing).
+        #[test]
+        fn cells_hold_what_vectors_would_in_the_same_order(
+            ops in proptest::collection::vec((0usize..4, 0u32..12, proptest::bool::ANY), 1..300),
+        ) {
+            let mut cells = Cells::<u32>::new(3.0, 1.0, 27).expect("3 cells a side");
+            proptest::prop_assert_eq!(cells.room, 2);
+            let mut model: Vec<Vec<u32>> = vec![Vec::new(); 27];
+            for (cell, particle, add) in ops {
+                // A particle is in one cell at most: it is inserted where it is absent, and
+                // removed (or looked for in vain) where it is present.
+                let at = model.iter().position(|m| m.contains(&particle));
+                if add && at.is_none() {
+                    cells.insert(cell, particle);
+                    model[cell].push(particle);
+                } else {
+                    let cell = at.unwrap_or(cell);
+                    cells.remove(cell, particle);
+                    if let Some(p) = model[cell].iter().position(|&j| j == particle) {
+                        model[cell].swap_remove(p);
+                    }
+                }
+                for (c, members) in model.iter().enumerate() {
+                    proptest::prop_assert_eq!(cells.members(c), &members[..], "cell {}", c);
+                    let spilled = cells.count[c] & SPILLED != 0;
+                    proptest::prop_assert_eq!(spilled, members.len() > cells.room, "cell {}", c);
+                }
+            }
+            let saved = serde_json::to_value(&cells).expect("saved");
+            proptest::prop_assert_eq!(&saved["members"], &serde_json::json!(model));
+            let mut short = saved.clone();
+            short["members"].as_array_mut().expect("cells").pop();
+            proptest::prop_assert!(serde_json::from_value::<Cells<u32>>(short).is_err());
+            let back: Cells<u32> = serde_json::from_value(saved).expect("read back");
+            for (c, members) in model.iter().enumerate() {
+                proptest::prop_assert_eq!(back.members(c), &members[..]);
+            }
         }
     }
 }

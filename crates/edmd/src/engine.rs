@@ -128,7 +128,7 @@ impl<M: FirstCollision> Engine<M> {
         let lb = m.bounding_radius();
         let nb = match scene.neighbours {
             Neighbours::Ll => {
-                let cells = Cells::new(l, 2.0 * lb).ok_or(EdmdError::BoxTooSmall {
+                let cells = Cells::new(l, 2.0 * lb, n).ok_or(EdmdError::BoxTooSmall {
                     l,
                     needed: 6.0 * lb,
                     why: "linked cells need 3 cells of bounding-sphere size per side; use neighbours = \"nnl\" or more particles",

@@ -157,7 +157,7 @@ impl<R: Region> Lists<R> {
         delta: f64,
         sample: usize,
     ) -> Result<Self, ListLimit> {
-        let grid = Cells::new(l, reach).map(|cells| {
+        let grid = Cells::new(l, reach, regions.len()).map(|cells| {
             let mut grid = Grid {
                 cells,
                 cell_of: vec![0; regions.len()],
@@ -337,11 +337,9 @@ impl<R: Region> Lists<R> {
         // As `Grid::place` wrapped it, to the bit.
         let wrapped_i = a.centre() - image_offset(img_i, self.l);
         let around = grid.cells.around(grid.cell_of[i] as usize);
-        // The 27 cells' members lie wherever their allocations are: asked for all at once.
+        // The 27 cells, asked for all at once.
         for nbc in &around {
-            if let Some(m) = grid.cells.members(nbc.cell).first() {
-                crate::prefetch(m);
-            }
+            grid.cells.prefetch(nbc.cell);
         }
         let mut hits = std::mem::take(&mut grid.hits);
         let members: usize = around
@@ -585,7 +583,7 @@ struct Grid {
     hits: Vec<(u32, u8)>,
 }
 
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 struct Centre {
     particle: u32,
     wrapped: V3,
