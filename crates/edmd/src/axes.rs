@@ -30,7 +30,7 @@ struct Partners([u32; SLOTS]);
 /// The axes of all pairs, [`SLOTS`] per body, allocated when the first is kept (never, for
 /// spheres). Saved as [`Saved`], the form it had when partners and axes were kept together.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(from = "Saved", into = "Saved")]
+#[serde(try_from = "Saved", into = "Saved")]
 pub(crate) struct PairAxes {
     partners: Vec<Partners>,
     /// Each slot's direction, in single precision: a start needs no more.
@@ -50,18 +50,27 @@ struct Saved {
     next: Vec<u8>,
 }
 
-impl From<Saved> for PairAxes {
-    fn from(saved: Saved) -> Self {
+impl TryFrom<Saved> for PairAxes {
+    type Error = String;
+
+    fn try_from(saved: Saved) -> Result<Self, String> {
+        if saved.slots.len() != saved.next.len() * SLOTS {
+            return Err(format!(
+                "{} axes kept for {} rows of {SLOTS}",
+                saved.slots.len(),
+                saved.next.len()
+            ));
+        }
         let partners = saved
             .slots
             .chunks(SLOTS)
-            .map(|row| Partners(std::array::from_fn(|k| row.get(k).map_or(EMPTY, |s| s.0))))
+            .map(|row| Partners(std::array::from_fn(|k| row[k].0)))
             .collect();
-        PairAxes {
+        Ok(PairAxes {
             partners,
             axes: saved.slots.iter().map(|s| s.1).collect(),
             next: saved.next,
-        }
+        })
     }
 }
 
@@ -204,7 +213,8 @@ mod tests {
     }
 
     /// State files keep the form axes were saved in before partners had a line of their own:
-    /// one written in that form reads back to the same axes, and is written back the same.
+    /// one written in that form reads back to the same axes, and is written back the same; one
+    /// whose rows and slots disagree is refused.
     #[test]
     fn axes_are_saved_in_the_form_state_files_hold() {
         let mut slots = vec![Slot(EMPTY, [0.0; 3]); 2 * SLOTS];
@@ -220,6 +230,11 @@ mod tests {
         moved.put(2, 1, 2, &V3::y());
         let back: PairAxes =
             serde_json::from_value(serde_json::to_value(&moved).expect("saved")).expect("read");
+        let short = serde_json::json!({ "slots": slots, "next": [6, 0, 0] });
+        assert!(
+            serde_json::from_value::<PairAxes>(short).is_err(),
+            "a row without slots"
+        );
         assert_eq!(back, moved);
         assert_eq!(back.next, vec![6, 1], "row 1's next slot is saved");
         assert!((back.get(0, 1).expect("kept") + V3::x()).norm() < 1e-15);
