@@ -734,8 +734,15 @@ impl<M: Rigid> Engine<M> {
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
                     if let Some((b, contact)) = self.contact_with(i, ju, a, shift) {
-                        // The pair has just collided and parts: rarely the first to meet again,
-                        // it is searched last, with the shortest horizon.
+                        if self.met.is_some_and(|(p, ..)| p as usize == i) {
+                            // The pair has just collided, and the partner is predicted next: its
+                            // search of the pair reaches this body's new event (`until`), which
+                            // covers what this one would (the rule above). Searched by both,
+                            // it took 2.4 % more instructions a collision (X0 = 2, φ 0.5, N 256).
+                            continue;
+                        }
+                        // The pair parts: rarely the first to meet again, it is searched last,
+                        // with the shortest horizon.
                         order.push((f64::INFINITY, 0.0, until, j, shift, near.len() as u32));
                         near.push((b, Some(contact)));
                         continue;
