@@ -77,7 +77,7 @@ const AUDIT_MAX_ITER: u32 = 100_000;
 /// is counted as overlapping, never passed.
 ///
 /// The axis comes from Gilbert's algorithm, and where it cannot decide within
-/// [`AUDIT_MAX_ITER`] iterations, from the normal at the closest point of the engine's distance
+/// `AUDIT_MAX_ITER` iterations, from the normal at the closest point of the engine's distance
 /// solver: Frank–Wolfe crawls on flat faces, and two high-p superquadrics that have just collided
 /// face to face (every run ends on a collision) sit at a gap ~1e-8 that it does not resolve in
 /// 1e5 iterations, while Newton's normal proves it. A wrong Newton answer can only fail to

@@ -433,13 +433,13 @@ pub struct AxisGap {
 /// gradient ascent on the unit sphere from the line of centres come close: ∇g = x_B − x_A, the
 /// vector between the support points, and the step is damped by the largest radii of curvature,
 /// which bound how fast the support points move with n. No Newton–Raphson, no failure.
-/// Bodies of aspect ratio above 5 take [`elongated_axis`] instead.
+/// Bodies of aspect ratio above 5 take `elongated_axis` instead.
 pub fn separating_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
     separating_axis_from(sa, pa, sb, pb, None)
 }
 
 /// [`separating_axis`] started from the unit axis `from` (lab frame, from A to B) where one is
-/// known: an axis from a moment before is close to the best one, and [`WARM_AXIS_STEPS`] steps
+/// known: an axis from a moment before is close to the best one, and `WARM_AXIS_STEPS` steps
 /// take it the rest of the way.
 pub fn separating_axis_from<S: Surface>(
     sa: &S,

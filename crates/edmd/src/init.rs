@@ -1,6 +1,6 @@
 //! Initial configurations at a target φ: bodies of one shape placed by random sequential
-//! addition in random orientations at a dilute density ([`random_sequential`] for spheres,
-//! [`random_sequential_bodies`] for the others), compressed by hard-body Monte Carlo, then
+//! addition in random orientations at a dilute density (`random_sequential` for spheres,
+//! `random_sequential_bodies` for the others), compressed by hard-body Monte Carlo, then
 //! Maxwell–Boltzmann velocities. Where the addition jams, and for mixtures, a dilute FCC lattice
 //! melted by Monte Carlo sweeps takes its place (Sec. 4.1 melts a dilute crystal similarly).
 //! Spheres of one size are compressed without sweeps (`SPHERES`).

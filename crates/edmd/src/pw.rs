@@ -77,7 +77,7 @@ pub fn contact_scale_unless_above_lab(a: &M3, b: &M3, r: &V3, k: f64) -> Option<
 /// Whether μ ≤ `k` (the ellipsoids scaled by `k` touch or overlap), decided as soon as either
 /// side is proved: every F(λ) > k² proves μ > k (F(λ) ≤ μ²), and F, concave, lies under each of
 /// its tangents, so the lowest crossing of a tangent where F rises with one where it falls
-/// bounds μ² from above: at or below k², μ ≤ k. The Newton iterates of [`Pw::scale`] supply both,
+/// bounds μ² from above: at or below k², μ ≤ k. The Newton iterates of `Pw::scale` supply both,
 /// so most pairs of a dense packing are decided in one or two steps instead of converging to
 /// 10⁻⁹ (the Monte Carlo's tests of a move ask this and no more).
 pub fn within(ea: &Ellipsoid, rot_a: &M3, eb: &Ellipsoid, rot_b: &M3, r: &V3, k: f64) -> bool {

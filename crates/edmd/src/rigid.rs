@@ -54,7 +54,7 @@ fn turn(rot: &M3, wn: f64, axes: &[(V3, V3); 3], t: f64) -> M3 {
 }
 
 /// A body's free flight from its own time, for the many poses a contact search asks along it:
-/// the cross products of Eq. (5) that every pose shares ([`turn_axes`]) are taken once, and the
+/// the cross products of Eq. (5) that every pose shares (`turn_axes`) are taken once, and the
 /// last pose is kept, which the search asks for again (the distance, the slope and the safe time
 /// at one time). Each pose is [`Body::pose_after`]'s, to the bit.
 pub struct Flight<'a> {

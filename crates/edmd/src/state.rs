@@ -6,7 +6,7 @@
 //! - `scene`: the scene of the run that saved it, every key (as in the scene TOML);
 //! - `box_length`: the side of the periodic box;
 //! - `engine`: a map with one key, the model (`sphere`, `ellipsoid`, `superquadric`), holding
-//!   everything the engine's future depends on ([`crate::engine::Engine::snapshot`]): every body
+//!   everything the engine's future depends on (`crate::engine::Engine::snapshot`): every body
 //!   as it is (position, unwrapped, velocity, orientation rows, angular velocity, at its own local
 //!   time: bodies are advanced lazily), the clock, the collision counters, the calendar in its
 //!   heap order, the linked cells or the neighbour lists with their regions and build grid, the

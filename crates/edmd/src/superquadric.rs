@@ -478,12 +478,12 @@ impl Surface for Superquadric {
         n.dot(&self.support_point(n)) + 1e-13 * self.s.max()
     }
     /// The maximiser of n·x: y_k = |x_k|/s_k = (a_k μ)^(1/(e_k−1)) with a_k = |n_k| s_k / e_k and
-    /// μ from Σ (a_k μ)^(e_k/(e_k−1)) = 1 ([`scale_root`], or [`scale_root_whole`] for whole
+    /// μ from Σ (a_k μ)^(e_k/(e_k−1)) = 1 ([`scale_root`], or `scale_root_whole` for whole
     /// exponents; both err outwards).
     fn support_point(&self, n: &V3) -> V3 {
         self.support_point_kept(n).0
     }
-    /// Keeps μ, which is the root [`Superquadric::multiplier_inverse`] solves for at the same
+    /// Keeps μ, which is the root `Superquadric::multiplier_inverse` solves for at the same
     /// direction (the same terms c, to the bit): the modulus there costs no second root (the
     /// roots were a third of the instructions of a p = 10 collision, the moduli's 40 % of them).
     fn support_point_kept(&self, n: &V3) -> (V3, f64) {

@@ -68,7 +68,7 @@ impl TuneSearch {
     }
 
     /// Whether `scene` is one of this search's evaluations (the template but for the knob and a
-    /// seed within [`MAX_REPEAT`] of its own): the knob's value and the repeat.
+    /// seed within `MAX_REPEAT` of its own): the knob's value and the repeat.
     pub fn evaluates(&self, scene: &edmd::Scene) -> Option<(f64, u32)> {
         let repeat = scene.seed.checked_sub(self.template.seed)?;
         if repeat >= MAX_REPEAT {

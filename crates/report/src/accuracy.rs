@@ -149,7 +149,7 @@ impl SettingRun {
 
 /// Whether `run` loses nothing measurable against `reference` (the same state point at the
 /// tightest setting), by the rule of this report: no overlap, no solver failure, the energy kept
-/// to [`MAX_ENERGY_DRIFT`], Z within [`MAX_Z_SIGMAS`] combined standard errors of the reference's
+/// to `MAX_ENERGY_DRIFT`, Z within `MAX_Z_SIGMAS` combined standard errors of the reference's
 /// (where both measured one). A run that failed for good is unsafe and has no row.
 pub fn safe_against(run: &EdmdRow, reference: &EdmdRow) -> bool {
     let z_within = match (run.pressure_z_err, reference.pressure_z_err) {

@@ -66,7 +66,7 @@ pub struct PrecisionSetting {
     pub shell_wrong_fraction: f64,
     /// Fraction wrong in each decade of the shell.
     pub shell_wrong_fraction_by_decade: Vec<f64>,
-    /// See [`Recommended::trusted_above_gap`].
+    /// See `Recommended::trusted_above_gap`.
     pub trusted_above_gap: Option<f64>,
     /// No wrong verdict in the bulk.
     pub safe: bool,

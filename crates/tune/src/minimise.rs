@@ -14,7 +14,7 @@
 //! - the vertex within half the tolerance of a value already run, or no convex parabola (noise
 //!   bigger than the curvature): the gaps on either side of the best wider than `tolerance` are
 //!   split; once none is left, the best and its neighbours are run again, up to `max_repeats`
-//!   each, where their 95 % intervals overlap ([`crate::noise`]): a repeat tells close values
+//!   each, where their 95 % intervals overlap (`crate::noise`): a repeat tells close values
 //!   apart, where a guess would report a worse one;
 //! - nothing left to do: converged. Before it would exceed `max_evaluations` it stops (budget;
 //!   the runs of a grid that fall in the range count, as they cost the same).

@@ -300,7 +300,7 @@ fn located(range: &Range, settings: &Settings, pool: &[Member], s: usize) -> Opt
 }
 
 /// The positions of a follower's pair: `h` either side of the expected minimum, the largest
-/// multiple of [`PAIR_STEP`] with c h² ≤ [`TOLERANCE`] (so that where the pair straddles the
+/// multiple of `PAIR_STEP` with c h² ≤ [`TOLERANCE`] (so that where the pair straddles the
 /// minimum, its better run is within the tolerance), kept inside [0, 1].
 pub fn pair(prior: &Prior) -> [f64; 2] {
     let h = ((TOLERANCE / prior.curvature).sqrt() / PAIR_STEP)
