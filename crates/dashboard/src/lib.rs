@@ -6,8 +6,8 @@
 //! Map of the crate:
 //! - [`access`]: the policy (read-only on loopback without the token, nothing else without it;
 //!   a state change always needs it) and the bearer header / session cookie it reads.
-//! - [`snapshot`]: the sampler that reads the store every few seconds; requests read its latest
-//!   sample, so pages cost the store nothing per request.
+//! - [`mod@snapshot`]: the sampler that reads the store every few seconds; requests read its
+//!   latest sample, so pages cost the store nothing per request.
 //! - [`figures`]: the figures and tables, drawn off the runtime and cached by the done count.
 //! - `tls`: HTTPS with the coordinator's certificate.
 //!

@@ -72,7 +72,7 @@ pub(crate) trait Model {
 pub(crate) struct SphereModel {
     sigma: f64,
     /// Scratch: a neighbour list's trajectories with their images applied, contiguous for
-    /// [`sphere::first_contact`](crate::sphere::first_contact), each from one [`SphereBody`].
+    /// [`crate::sphere::first_contact`], each from one [`SphereBody`].
     pub(crate) gathered: Vec<Trajectory>,
 }
 
@@ -188,7 +188,7 @@ impl SpeciesSums {
     }
 
     /// Bodies and mean diameter per species, and per pair of species its collisions and its
-    /// part of Z (`three_nkt`: ∫ 3 N k_B T dt of the measured run, [`crate::run`]'s
+    /// part of Z (`three_nkt`: ∫ 3 N k_B T dt of the measured run, [`crate::run()`]'s
     /// `three_nkt_integral`).
     pub(crate) fn report(&self, three_nkt: f64) -> SpeciesReport {
         let mut count = vec![0usize; self.kinds];

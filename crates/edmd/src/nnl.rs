@@ -144,8 +144,8 @@ mod avx2 {
         _mm256_cmp_pd::<_CMP_GT_OQ>(a, b)
     }
 
-    /// [`super::Obp::overlaps`] of `b[k]` (centre shifted by `shift[k]`) against `a`, with
-    /// `radius` the half reach.
+    /// [`Region::overlaps`](crate::lists::Region::overlaps) of `b[k]` (centre shifted by
+    /// `shift[k]`) against `a`, with `radius` the half reach.
     #[target_feature(enable = "avx2")]
     pub(super) fn overlaps4(a: &Obp, b: [&Obp; 4], shift: &[V3; 4], radius: f64) -> [bool; 4] {
         const EPS: f64 = 1e-12;

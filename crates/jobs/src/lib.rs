@@ -4,7 +4,7 @@
 //!   every value before anything is scheduled; errors carry file, line, column and key.
 //! - [`JobSpec::id`] is a point's identity: BLAKE3 of its canonical JSON (as signac does), so
 //!   resubmitting a plan schedules nothing new and extending a list adds only the new points.
-//! - [`run`] runs one job on the calling thread and returns flat records for the store.
+//! - [`run()`] runs one job on the calling thread and returns flat records for the store.
 //!
 //! # Seeds
 //! An overlap point's `seed` field is the plan's `seed` (top-level or per sweep, default 0): a
@@ -13,7 +13,7 @@
 //! stream and anyone holding the id can regenerate its configurations.
 //!
 //! # Records
-//! See [`run`]: an overlap record is a timing if and only if it has an `algorithm` key; the one
+//! See [`run()`]: an overlap record is a timing if and only if it has an `algorithm` key; the one
 //! record without it describes the point (memory floor, generation time, array size, the noise
 //! references, whether the machine was disturbed, what the precision cost).
 //!

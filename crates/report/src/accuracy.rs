@@ -6,7 +6,7 @@
 //! loses nothing measurable. A run that failed (the engine stopped on an unresolved distance or
 //! contact, say) has no result but counts against its setting: a setting is safe only where
 //! every run of it finished clean. The overlap kernels' family (f32 against f64) is
-//! [`crate::overlap_accuracy`]; [`accuracy_report`] puts both together, and
+//! [`crate::overlap_accuracy()`]; [`accuracy_report`] puts both together, and
 //! [`crate::accuracy_render`] draws them.
 //!
 //! A state point is everything but the knob: shape (with a superquadric's exponents), X0, φ, N, neighbour method, Δ_NNL, seed

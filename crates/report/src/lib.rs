@@ -12,17 +12,17 @@
 //! One file per report:
 //!
 //! - Tables 1–2, `table.rs`: [`table1`], then [`render_table`] as Markdown, CSV, LaTeX or JSON.
-//! - Figures 2–3, `fig2.rs`: run time over the (L*, W*) plane, [`fig2`] (PNG or SVG).
-//! - Figure 7, `fig7.rs`: τ_c against φ, [`fig7`].
-//! - Figure 8, `fig8.rs`: τ_c against X0 with LL and NNL, and their ratio, [`fig8`].
-//! - Figure 9, `fig9.rs`: τ_c against ε_d, [`fig9`].
-//! - Figure 10, `fig10.rs`: τ_c against Δ_NNL and its minimum, [`fig10`].
-//! - Figure 11, `fig11.rs`: that minimum Δ*_NNL against φ and X0, [`fig11`].
-//! - Figure 13, `fig13.rs`: superquadrics against their exponent, [`fig13`].
+//! - Figures 2–3, `fig2.rs`: run time over the (L*, W*) plane, [`fig2()`] (PNG or SVG).
+//! - Figure 7, `fig7.rs`: τ_c against φ, [`fig7()`].
+//! - Figure 8, `fig8.rs`: τ_c against X0 with LL and NNL, and their ratio, [`fig8()`].
+//! - Figure 9, `fig9.rs`: τ_c against ε_d, [`fig9()`].
+//! - Figure 10, `fig10.rs`: τ_c against Δ_NNL and its minimum, [`fig10()`].
+//! - Figure 11, `fig11.rs`: that minimum Δ*_NNL against φ and X0, [`fig11()`].
+//! - Figure 13, `fig13.rs`: superquadrics against their exponent, [`fig13()`].
 //! - The cost of accuracy, [`accuracy_report`]: the EDMD knobs in `accuracy.rs`, the overlap
 //!   kernels in `overlap_accuracy.rs`; drawn as [`accuracy_markdown`] and [`accuracy_plot`] by
 //!   `accuracy_render.rs` and `overlap_accuracy_render.rs`.
-//! - A configuration's picture, [`snapshot`] (`snapshot.rs`): a slab of bodies seen along z,
+//! - A configuration's picture, [`snapshot()`] (`snapshot.rs`): a slab of bodies seen along z,
 //!   coloured by orientation.
 //!
 //! What they share: the curves of Figures 8–13 (`curves.rs`), which runs a figure compares
