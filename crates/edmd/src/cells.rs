@@ -1,6 +1,7 @@
 //! Linked cells in a periodic cubic box (Sec. 2.6). With at least 3 cells per side the 27 cells
 //! around a particle are distinct, so each neighbouring cell fixes one periodic image.
 
+use crate::arena::Arena;
 use crate::geometry::{V3, floor_i32, min_image};
 
 /// What a cell holds: a particle index, possibly with data kept beside it for the loops over
@@ -15,11 +16,8 @@ impl Member for u32 {
     }
 }
 
-/// Each cell's members in the cell's own run of `room` slots, all cells in one allocation: the
-/// cells around a particle are read without a header loaded first (a vector's, at an address
-/// of its own), and cells side by side along x lie side by side in memory. A cell that outgrows
-/// its room moves whole to a vector of its own in `spill`, and back once it fits again. Members
-/// are kept in the order a vector's `push` and `swap_remove` keep them.
+/// Each cell's members in an [`Arena`] row: the cells around a particle are read without a
+/// header loaded first, and cells side by side along x lie side by side in memory.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 #[serde(
     try_from = "SavedCells<T>",
@@ -30,18 +28,8 @@ pub struct Cells<T: Member + Default = u32> {
     /// Cells per side.
     pub m: usize,
     pub side: f64,
-    /// Slots per cell.
-    room: usize,
-    /// Each cell's count of members, or [`SPILLED`] and the index of its vector in `spill`.
-    count: Vec<u32>,
-    slots: Vec<T>,
-    spill: Vec<Vec<T>>,
-    /// Vectors of `spill` no cell holds.
-    free: Vec<u32>,
+    members: Arena<T>,
 }
-
-/// The mark of a cell whose members are in `spill`.
-const SPILLED: u32 = 1 << 31;
 
 /// [`Cells`] as state files hold them: each cell's members in a vector.
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -79,7 +67,7 @@ impl<T: Member + Default> From<Cells<T>> for SavedCells<T> {
         SavedCells {
             m: cells.m,
             side: cells.side,
-            members: (0..cells.count.len())
+            members: (0..cells.m.pow(3))
                 .map(|c| cells.members(c).to_vec())
                 .collect(),
         }
@@ -114,11 +102,7 @@ impl<T: Member + Default> Cells<T> {
         Cells {
             m,
             side,
-            room,
-            count: vec![0; m * m * m],
-            slots: vec![T::default(); m * m * m * room],
-            spill: Vec::new(),
-            free: Vec::new(),
+            members: Arena::new(m * m * m, room, T::default()),
         }
     }
 
@@ -140,67 +124,24 @@ impl<T: Member + Default> Cells<T> {
     }
 
     pub fn insert(&mut self, cell: usize, member: T) {
-        let count = self.count[cell];
-        if count & SPILLED != 0 {
-            self.spill[(count & !SPILLED) as usize].push(member);
-            return;
-        }
-        let (count, start) = (count as usize, cell * self.room);
-        if count < self.room {
-            self.slots[start + count] = member;
-            self.count[cell] += 1;
-            return;
-        }
-        let k = self.free.pop().unwrap_or_else(|| {
-            self.spill.push(Vec::new());
-            (self.spill.len() - 1) as u32
-        });
-        let moved = &mut self.spill[k as usize];
-        moved.extend_from_slice(&self.slots[start..start + count]);
-        moved.push(member);
-        self.count[cell] = SPILLED | k;
+        self.members.push(cell, member);
     }
 
     /// Removes particle `i` from `cell`.
     pub fn remove(&mut self, cell: usize, i: u32) {
-        let count = self.count[cell];
-        if count & SPILLED != 0 {
-            let k = (count & !SPILLED) as usize;
-            let v = &mut self.spill[k];
-            if let Some(p) = v.iter().position(|m| m.particle() == i) {
-                v.swap_remove(p);
-            }
-            if v.len() <= self.room {
-                let start = cell * self.room;
-                self.slots[start..start + v.len()].copy_from_slice(v);
-                self.count[cell] = v.len() as u32;
-                v.clear();
-                self.free.push(k as u32);
-            }
-            return;
-        }
-        let (count, start) = (count as usize, cell * self.room);
-        let members = &mut self.slots[start..start + count];
-        if let Some(p) = members.iter().position(|m| m.particle() == i) {
-            members[p] = members[count - 1];
-            self.count[cell] -= 1;
+        if let Some(p) = self.members(cell).iter().position(|m| m.particle() == i) {
+            self.members.swap_remove(cell, p);
         }
     }
 
     pub fn members(&self, cell: usize) -> &[T] {
-        let count = self.count[cell];
-        if count & SPILLED != 0 {
-            return &self.spill[(count & !SPILLED) as usize];
-        }
-        let start = cell * self.room;
-        &self.slots[start..start + count as usize]
+        self.members.row(cell)
     }
 
     /// Asks for the cell's count and its first members ahead of [`Cells::members`].
     #[inline]
     pub fn prefetch(&self, cell: usize) {
-        crate::prefetch(&self.count[cell]);
-        crate::prefetch(&self.slots[cell * self.room]);
+        self.members.prefetch_slots(cell, &[0]);
     }
 
     /// The cell at offset `d` (each component in −1..=1) from `c`, with the image shift.
@@ -632,7 +573,7 @@ mod tests {
             ops in proptest::collection::vec((0usize..4, 0u32..12, proptest::bool::ANY), 1..300),
         ) {
             let mut cells = Cells::<u32>::new(3.0, 1.0, 27).expect("3 cells a side");
-            proptest::prop_assert_eq!(cells.room, 2);
+            proptest::prop_assert_eq!(cells.members.room, 2);
             let mut model: Vec<Vec<u32>> = vec![Vec::new(); 27];
             for (cell, particle, add) in ops {
                 // A particle is in one cell at most: it is inserted where it is absent, and
@@ -650,8 +591,8 @@ mod tests {
                 }
                 for (c, members) in model.iter().enumerate() {
                     proptest::prop_assert_eq!(cells.members(c), &members[..], "cell {}", c);
-                    let spilled = cells.count[c] & SPILLED != 0;
-                    proptest::prop_assert_eq!(spilled, members.len() > cells.room, "cell {}", c);
+                    let spilled = cells.members.spilled(c).is_some();
+                    proptest::prop_assert_eq!(spilled, members.len() > cells.members.room, "cell {}", c);
                 }
             }
             let saved = serde_json::to_value(&cells).expect("saved");

@@ -84,6 +84,7 @@
 //! and k_B T of the initial state (= 1). Ellipsoids have semi-axes a = X0·b, b = c, a·b·c = 1/8
 //! and the isotropic moment of inertia (2/5) m min(a, b)² of their inscribed sphere.
 
+mod arena;
 pub mod audit;
 mod axes;
 pub mod ball;

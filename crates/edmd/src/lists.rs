@@ -17,6 +17,7 @@
 //! all the lines it will touch (mirrors, cell members) before it touches the first (what that
 //! gained is in MEASUREMENTS.md).
 
+use crate::arena::{Arena, SPILLED};
 use crate::body::Moving;
 use crate::cells::{Cells, Member};
 use crate::geometry::{Surface, V3, floor_i32, image_offset, round_nearest};
@@ -95,7 +96,13 @@ const ROOM_SAMPLE: usize = 65_536;
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct Lists<R: Region> {
     regions: Vec<R>,
-    lists: Rows,
+    /// Every body's list, an [`Arena`] row each: the lists of neighbouring bodies lie side by
+    /// side (bodies are numbered along a Z curve). The room is sized for nearly every list, not
+    /// the longest ([`room_for`]): growing every list to the longest one's length took 27
+    /// entries per body at N = 10⁶ where they hold 11 on average, a third of the run's memory,
+    /// and doubled it for a moment at each growth. Saved as [`SavedRows`].
+    #[serde(with = "saved_rows")]
+    lists: Arena<Link>,
     /// Scratch for [`Lists::rebuild`].
     #[serde(skip)]
     found: Vec<Neighbour>,
@@ -171,7 +178,7 @@ impl<R: Region> Lists<R> {
         });
         let n = regions.len();
         let mut lists = Lists {
-            lists: Rows::new(n, 0),
+            lists: Arena::new(n, 0, VACANT),
             found: Vec::new(),
             regions,
             delta,
@@ -195,7 +202,7 @@ impl<R: Region> Lists<R> {
                 found.len() as u32
             })
             .collect();
-        lists.lists = Rows::new(n, Rows::room_for(lengths));
+        lists.lists = Arena::new(n, room_for(lengths), VACANT);
         for i in 0..n {
             found.clear();
             lists.find(i, |j| j > i, &mut found);
@@ -218,7 +225,7 @@ impl<R: Region> Lists<R> {
             });
         }
         let shift = s.map(|x| x as i16);
-        let (p, q) = (self.lists.room_at(i)?, self.lists.room_at(j)?);
+        let (p, q) = (self.room_at(i)?, self.room_at(j)?);
         self.lists.push(
             i,
             Link {
@@ -238,11 +245,22 @@ impl<R: Region> Lists<R> {
         Ok(())
     }
 
+    /// Where the next entry of list `i` goes, if a list can be that long.
+    #[inline]
+    fn room_at(&self, i: usize) -> Result<u16, ListLimit> {
+        u16::try_from(self.lists.len(i))
+            .ok()
+            .filter(|&len| len < u16::MAX)
+            .ok_or(ListLimit::Length { i: i as u32 })
+    }
+
     /// Removes entry `q` of j's list, moving its last entry into the gap (and telling that entry's
     /// mirror where it went).
     fn unlink_entry(&mut self, j: usize, q: u16) {
-        if let Some(moved) = self.lists.swap_remove(j, q) {
-            self.lists.get_mut(moved.j as usize, moved.back).back = q;
+        if let Some(moved) = self.lists.swap_remove(j, usize::from(q)) {
+            self.lists
+                .get_mut(moved.j as usize, usize::from(moved.back))
+                .back = q;
         }
     }
 
@@ -253,12 +271,8 @@ impl<R: Region> Lists<R> {
     /// Asks for the first two cache lines of list `i` and for its region ahead of their use.
     #[inline]
     pub fn prefetch(&self, i: usize) {
-        let start = i * self.lists.room;
-        for k in [start, start + 5] {
-            if let Some(x) = self.lists.items.get(k) {
-                crate::prefetch(x);
-            }
-        }
+        // Five 12-byte entries to a line.
+        self.lists.prefetch_slots(i, &[0, 5]);
         crate::prefetch(&self.regions[i]);
     }
 
@@ -278,7 +292,7 @@ impl<R: Region> Lists<R> {
         for n in self.lists.row(i) {
             let j = n.j as usize;
             self.lists.prefetch(j, usize::from(n.back));
-            self.lists.prefetch(j, usize::from(self.lists.len[j]) - 1);
+            self.lists.prefetch(j, self.lists.len(j) - 1);
         }
         // Mirrors first: removing one may move another mirror of i (two images of i in one list),
         // which updates the `back` of i's entries as it goes.
@@ -419,154 +433,110 @@ fn overlapping<R: Region>(
     }
 }
 
-/// Every body's list in one allocation with the same room for each: a list is found by its
-/// index, without reading a header first, and the lists of neighbouring bodies lie side by side
-/// (bodies are numbered along a Z curve). The room is sized for nearly every list, not the
-/// longest ([`Rows::room_for`]): a list that outgrows it moves whole to a vector of its own in
-/// `spill` (its first arena entry then names which), and back when it fits again. Growing every
-/// list to the longest one's length instead took 27 entries per body at N = 10⁶ where they hold
-/// 11 on average, a third of the run's memory, and doubled it for a moment at each growth.
-#[derive(Clone, serde::Serialize, serde::Deserialize)]
-struct Rows {
-    room: usize,
-    len: Vec<u16>,
-    items: Vec<Link>,
-    /// The lists longer than `room`, each in full; `len[i] > room` says that list i is here, at
-    /// `items[i * room].j`. Absent from state files written before lists spilled (none did).
-    #[serde(default)]
-    spill: Vec<Vec<Link>>,
-    /// Slots of `spill` free for the next long list.
-    #[serde(default)]
-    free: Vec<u32>,
-}
-
 const VACANT: Link = Link {
     j: u32::MAX,
     back: u16::MAX,
     shift: [0; 3],
 };
 
-impl Rows {
-    fn new(n: usize, room: usize) -> Self {
-        Rows {
-            room,
-            len: vec![0; n],
-            items: vec![VACANT; n * room],
-            spill: Vec::new(),
-            free: Vec::new(),
+/// The room for lists of the given lengths: the 99.9th percentile and two more, so that about one
+/// list in a thousand spills (lengths are bounded by the density and vary little: 11.3 ± 1.7 for
+/// spheres at φ = 0.45, Δ_NNL = 0.25).
+fn room_for(mut lengths: Vec<u32>) -> usize {
+    if lengths.is_empty() {
+        return 1;
+    }
+    let k = (lengths.len() - 1) * 999 / 1000;
+    let (_, &mut q, _) = lengths.select_nth_unstable(k);
+    q as usize + 2
+}
+
+/// The lists as state files hold them, the form they had before they shared their arena with the
+/// cells: each list's length, the arena's entries, and for a list longer than `room` its vector
+/// in `spill`, named by the `j` of its first arena entry.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SavedRows {
+    room: usize,
+    len: Vec<u16>,
+    items: Vec<Link>,
+    /// Absent from state files written before lists spilled (none did).
+    #[serde(default)]
+    spill: Vec<Vec<Link>>,
+    #[serde(default)]
+    free: Vec<u32>,
+}
+
+mod saved_rows {
+    use super::{Arena, Link, SPILLED, SavedRows};
+    use serde::{Deserialize, Deserializer, Serialize, Serializer, de::Error};
+
+    pub(super) fn serialize<S: Serializer>(rows: &Arena<Link>, to: S) -> Result<S::Ok, S::Error> {
+        let mut items = rows.slots.clone();
+        let mut len = Vec::with_capacity(rows.count.len());
+        for i in 0..rows.count.len() {
+            // Lists are refused past 65535 entries (`Lists::room_at`).
+            len.push(rows.len(i) as u16);
+            if let Some(k) = rows.spilled(i)
+                && let Some(first) = items.get_mut(i * rows.room)
+            {
+                first.j = k as u32;
+            }
         }
-    }
-
-    /// The room for lists of the given lengths: the 99.9th percentile and two more, so that
-    /// about one list in a thousand spills (lengths are bounded by the density and vary little:
-    /// 11.3 ± 1.7 for spheres at φ = 0.45, Δ_NNL = 0.25).
-    fn room_for(mut lengths: Vec<u32>) -> usize {
-        if lengths.is_empty() {
-            return 1;
+        SavedRows {
+            room: rows.room,
+            len,
+            items,
+            spill: rows.spill.clone(),
+            free: rows.free.clone(),
         }
-        let k = (lengths.len() - 1) * 999 / 1000;
-        let (_, &mut q, _) = lengths.select_nth_unstable(k);
-        q as usize + 2
+        .serialize(to)
     }
 
-    /// Where list `i` lives: in the arena, or (spilled) in `spill` at the returned slot.
-    #[inline(always)]
-    fn spilled(&self, i: usize) -> Option<usize> {
-        (usize::from(self.len[i]) > self.room).then(|| self.items[i * self.room].j as usize)
-    }
-
-    #[inline]
-    fn row(&self, i: usize) -> &[Link] {
-        let start = i * self.room;
-        match self.spilled(i) {
-            None => &self.items[start..start + usize::from(self.len[i])],
-            Some(slot) => &self.spill[slot],
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(from: D) -> Result<Arena<Link>, D::Error> {
+        let saved = SavedRows::deserialize(from)?;
+        let (n, room) = (saved.len.len(), saved.room);
+        if saved.items.len() != n * room {
+            return Err(D::Error::custom(format!(
+                "{} list entries saved for {n} lists of room {room}",
+                saved.items.len()
+            )));
         }
-    }
-
-    #[inline]
-    fn get_mut(&mut self, i: usize, p: u16) -> &mut Link {
-        debug_assert!(p < self.len[i]);
-        match self.spilled(i) {
-            None => &mut self.items[i * self.room + usize::from(p)],
-            Some(slot) => &mut self.spill[slot][usize::from(p)],
+        let mut taken = vec![false; saved.spill.len()];
+        for &k in &saved.free {
+            match taken.get_mut(k as usize) {
+                Some(t) if !*t => *t = true,
+                _ => return Err(D::Error::custom(format!("free list vector {k} is not one"))),
+            }
         }
-    }
-
-    /// Asks for entry `p` of list `i` ahead of its use.
-    #[inline]
-    fn prefetch(&self, i: usize, p: usize) {
-        match self.spilled(i) {
-            None => crate::prefetch(&self.items[i * self.room + p]),
-            Some(slot) => crate::prefetch(&self.spill[slot][p]),
-        }
-    }
-
-    /// Where the next entry of list `i` goes, if a list can be that long.
-    #[inline]
-    fn room_at(&self, i: usize) -> Result<u16, ListLimit> {
-        let len = self.len[i];
-        if len == u16::MAX {
-            return Err(ListLimit::Length { i: i as u32 });
-        }
-        Ok(len)
-    }
-
-    #[inline]
-    fn push(&mut self, i: usize, link: Link) {
-        let len = usize::from(self.len[i]);
-        let start = i * self.room;
-        if len < self.room {
-            self.items[start + len] = link;
-        } else if len == self.room {
-            // Full: the list moves to a spill slot, which its first arena entry names.
-            let slot = match self.free.pop() {
-                Some(slot) => slot as usize,
-                None => {
-                    self.spill.push(Vec::new());
-                    self.spill.len() - 1
+        let mut count = Vec::with_capacity(n);
+        for (i, &len) in saved.len.iter().enumerate() {
+            let len = usize::from(len);
+            if len <= room {
+                count.push(len as u32);
+                continue;
+            }
+            // A room of 0 has no first entry to name a vector.
+            let k = saved
+                .items
+                .get(i * room)
+                .map_or(usize::MAX, |first| first.j as usize);
+            match (taken.get_mut(k), saved.spill.get(k)) {
+                (Some(t), Some(v)) if !*t && v.len() == len => *t = true,
+                _ => {
+                    return Err(D::Error::custom(format!(
+                        "list {i} of {len} entries names vector {k}, which does not hold it"
+                    )));
                 }
-            };
-            let list = &mut self.spill[slot];
-            list.clear();
-            list.extend_from_slice(&self.items[start..start + len]);
-            list.push(link);
-            self.items[start].j = slot as u32;
-        } else {
-            let slot = self.items[start].j as usize;
-            self.spill[slot].push(link);
+            }
+            count.push(SPILLED | k as u32);
         }
-        self.len[i] += 1;
-    }
-
-    /// Removes entry `q` of list `i`; the entry moved into its place, if one was.
-    #[inline]
-    fn swap_remove(&mut self, i: usize, q: u16) -> Option<Link> {
-        let last = self.len[i] - 1;
-        let start = i * self.room;
-        self.len[i] = last;
-        let Some(slot) = (usize::from(last) >= self.room).then(|| self.items[start].j as usize)
-        else {
-            self.items
-                .swap(start + usize::from(q), start + usize::from(last));
-            return (q != last).then(|| self.items[start + usize::from(q)]);
-        };
-        let list = &mut self.spill[slot];
-        list.swap_remove(usize::from(q));
-        let moved = (q != last).then(|| list[usize::from(q)]);
-        if usize::from(last) == self.room {
-            // It fits again: back to the arena, in the same order.
-            self.items[start..start + self.room].copy_from_slice(list);
-            self.free.push(slot as u32);
-        }
-        moved
-    }
-
-    fn clear(&mut self, i: usize) {
-        if let Some(slot) = self.spilled(i) {
-            self.free.push(slot as u32);
-        }
-        self.len[i] = 0;
+        Ok(Arena {
+            room,
+            count,
+            slots: saved.items,
+            spill: saved.spill,
+            free: saved.free,
+        })
     }
 }
 
@@ -758,7 +728,8 @@ mod tests {
 
     /// Bodies spread out, then 40 of them gathered in one spot, rebuilt one by one: their lists
     /// outgrow the room the build gave them and spill, and still match brute force with every
-    /// mirror; spread out again, every list is back in the arena.
+    /// mirror (and are saved and read back whole); spread out again, every list is back in the
+    /// arena.
     #[test]
     fn lists_that_outgrow_their_room_keep_every_entry_and_mirror() {
         let e = Ellipsoid::new(0.5, 0.5, 0.5);
@@ -783,6 +754,7 @@ mod tests {
         assert!(spilled >= 30, "{spilled} lists outgrew the room {room}");
         assert_eq!(lists.lists.room, room);
         same(&lists, must, may, "after outgrowing");
+        saved_and_read_back(&lists);
         for i in (0..200).step_by(5) {
             lists
                 .rebuild(&e, i, &SphereBody::from_body(&spread[i]))
@@ -791,6 +763,62 @@ mod tests {
         same(&lists, must, may, "spread out again");
         assert!((0..200).all(|i| lists.lists.spilled(i).is_none()));
         assert_eq!(lists.lists.free.len(), lists.lists.spill.len());
+    }
+
+    /// Lists with spilled ones, saved and read back, are the same lists; their saved form is the
+    /// one state files held before the lists shared their arena (a spilled list's vector named by
+    /// its first arena entry), and one whose list names the wrong vector is refused.
+    fn saved_and_read_back(lists: &Lists<Ball>) {
+        let spilled: Vec<usize> = (0..200)
+            .filter(|&i| lists.lists.spilled(i).is_some())
+            .collect();
+        assert!(spilled.len() >= 2);
+        let mut bytes = Vec::new();
+        ciborium::into_writer(&lists, &mut bytes).unwrap();
+        let back: Lists<Ball> = ciborium::from_reader(&bytes[..]).unwrap();
+        for i in 0..200 {
+            assert_eq!(back.of(i), lists.of(i), "list {i}");
+        }
+        // The lists' field alone, as the arena and as its saved form.
+        #[derive(serde::Serialize, serde::Deserialize)]
+        struct Field {
+            #[serde(with = "saved_rows")]
+            rows: Arena<Link>,
+        }
+        #[derive(serde::Serialize, serde::Deserialize)]
+        struct Form {
+            rows: SavedRows,
+        }
+        let field = Field {
+            rows: lists.lists.clone(),
+        };
+        let mut raw = Vec::new();
+        ciborium::into_writer(&field, &mut raw).unwrap();
+        let Form { rows: mut form } = ciborium::from_reader(&raw[..]).unwrap();
+        let i = spilled[0];
+        let k = lists.lists.spilled(i).unwrap();
+        assert_eq!(usize::from(form.len[i]), lists.of(i).len());
+        assert_eq!(form.items[i * form.room].j as usize, k);
+        assert_eq!(form.spill[k], lists.of(i));
+        form.items[i * form.room].j = lists.lists.spilled(spilled[1]).unwrap() as u32;
+        let mut raw = Vec::new();
+        ciborium::into_writer(&Form { rows: form }, &mut raw).unwrap();
+        let err = ciborium::from_reader::<Field, _>(&raw[..])
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.contains("does not hold it"), "{err}");
+        // No room, so no first entry to name the vector: refused, not read out of bounds.
+        let roomless = SavedRows {
+            room: 0,
+            len: vec![1],
+            items: Vec::new(),
+            spill: vec![lists.of(spilled[0])[..1].to_vec()],
+            free: Vec::new(),
+        };
+        let mut raw = Vec::new();
+        ciborium::into_writer(&Form { rows: roomless }, &mut raw).unwrap();
+        assert!(ciborium::from_reader::<Field, _>(&raw[..]).is_err());
     }
 
     /// Lists whose room was sized by 7 of 300 bodies, half of them gathered in a corner, hold
@@ -828,52 +856,6 @@ mod tests {
         }
     }
 
-    /// Rows against a vector per list (the oracle) under random pushes, swap-removes and
-    /// clears that take lists across their room both ways: the same entries in the same order.
-    #[test]
-    fn rows_spill_and_return_as_vectors_of_lists_would() {
-        let mut rng = crate::rng::Rng::new(17);
-        let (n, room) = (6, 3);
-        let mut rows = Rows::new(n, room);
-        let mut oracle: Vec<Vec<Link>> = vec![Vec::new(); n];
-        for step in 0..20_000u32 {
-            let i = (rng.next_u64() % n as u64) as usize;
-            let len = oracle[i].len();
-            match rng.next_u64() % 7 {
-                0..=3 if len < 8 => {
-                    let link = Link {
-                        j: step,
-                        back: (step % 100) as u16,
-                        shift: [(step % 7) as i16, 0, -1],
-                    };
-                    assert_eq!(rows.room_at(i), Ok(len as u16));
-                    rows.push(i, link);
-                    oracle[i].push(link);
-                }
-                6 => {
-                    rows.clear(i);
-                    oracle[i].clear();
-                }
-                _ if len > 0 => {
-                    let q = (rng.next_u64() % len as u64) as usize;
-                    let moved = rows.swap_remove(i, q as u16);
-                    oracle[i].swap_remove(q);
-                    assert_eq!(moved, oracle[i].get(q).copied().filter(|_| q < len - 1));
-                }
-                _ => {}
-            }
-            if step % 3 == 0 && !oracle[i].is_empty() {
-                let p = (rng.next_u64() % oracle[i].len() as u64) as u16;
-                rows.get_mut(i, p).back = p;
-                oracle[i][usize::from(p)].back = p;
-            }
-            for (k, list) in oracle.iter().enumerate() {
-                assert_eq!(rows.row(k), &list[..], "list {k} at step {step}");
-            }
-        }
-        assert!(rows.spill.len() >= 2, "lists never spilled");
-    }
-
     /// A shift beyond ±32767 boxes is refused, naming the bodies, not wrapped; one inside is kept.
     #[test]
     fn shifts_beyond_the_compact_range_are_refused() {
@@ -909,10 +891,14 @@ mod tests {
     /// A list holds at most 65535 entries: the next one is refused and nothing is written.
     #[test]
     fn a_list_stops_at_65535_entries() {
-        let mut rows = Rows::new(2, 4);
+        let e = Ellipsoid::new(0.5, 0.5, 0.5);
+        let b = bodies(2, 12.0, 3);
+        let mut lists =
+            Lists::<Ball>::build(&e, &stored::<Ball>(&b), 12.0, 0.2).expect("lists within limits");
+        lists.lists.clear(0);
         for p in 0..u16::MAX {
-            assert_eq!(rows.room_at(0), Ok(p));
-            rows.push(
+            assert_eq!(lists.room_at(0), Ok(p));
+            lists.lists.push(
                 0,
                 Link {
                     j: 1,
@@ -921,9 +907,10 @@ mod tests {
                 },
             );
         }
-        assert_eq!(rows.room_at(0), Err(ListLimit::Length { i: 0 }));
-        assert_eq!(rows.row(0).len(), usize::from(u16::MAX));
-        assert_eq!(rows.room_at(1), Ok(0));
+        assert_eq!(lists.room_at(0), Err(ListLimit::Length { i: 0 }));
+        assert_eq!(lists.link(0, 1, [0; 3]), Err(ListLimit::Length { i: 0 }));
+        assert_eq!(lists.of(0).len(), usize::from(u16::MAX));
+        assert_eq!(lists.room_at(1), Ok(lists.of(1).len() as u16));
     }
 
     #[test]
