@@ -16,8 +16,8 @@ impl Member for u32 {
     }
 }
 
-/// Each cell's members in an [`Arena`] row: the cells around a particle are read without a
-/// header loaded first, and cells side by side along x lie side by side in memory.
+/// Each cell's members in a row of an `Arena` (`arena.rs`): the cells around a particle are read
+/// without a header loaded first, and cells side by side along x lie side by side in memory.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 #[serde(
     try_from = "SavedCells<T>",
