@@ -505,7 +505,12 @@ mod saved_rows {
         for &k in &saved.free {
             match taken.get_mut(k as usize) {
                 Some(t) if !*t => *t = true,
-                _ => return Err(D::Error::custom(format!("free list vector {k} is not one"))),
+                _ => {
+                    return Err(D::Error::custom(format!(
+                        "free list vector {k} is past the {} saved or named twice",
+                        saved.spill.len()
+                    )));
+                }
             }
         }
         let mut count = Vec::with_capacity(n);
@@ -779,6 +784,11 @@ mod tests {
         for i in 0..200 {
             assert_eq!(back.of(i), lists.of(i), "list {i}");
         }
+        fn bytes_of(value: &impl serde::Serialize) -> Vec<u8> {
+            let mut raw = Vec::new();
+            ciborium::into_writer(value, &mut raw).unwrap();
+            raw
+        }
         // The lists' field alone, as the arena and as its saved form.
         #[derive(serde::Serialize, serde::Deserialize)]
         struct Field {
@@ -808,6 +818,14 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(err.contains("does not hold it"), "{err}");
+        // A free vector named twice.
+        let Form { rows: mut form } = ciborium::from_reader(&bytes_of(&field)[..]).unwrap();
+        form.free = vec![0, 0];
+        let err = ciborium::from_reader::<Field, _>(&bytes_of(&Form { rows: form })[..])
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.contains("named twice"), "{err}");
         // No room, so no first entry to name the vector: refused, not read out of bounds.
         let roomless = SavedRows {
             room: 0,
