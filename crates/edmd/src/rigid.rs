@@ -1,6 +1,9 @@
 //! Free motion of a rigid body with an isotropic inertia tensor (Eqs. 3–6) and the collision rule (Eqs. 40–41).
 
-use crate::geometry::{M3, Pose, SupportModulus, Surface, V3, pow};
+use crate::geometry::{
+    M3, MOST_DENOMINATOR, Pose, SupportModulus, Surface, V3, lcm_at_most, pow, root_above,
+    whole_power,
+};
 
 /// State of one body at its own time `t` (bodies are advanced lazily, only when an event needs them).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -217,6 +220,11 @@ fn push_powers(m: &SupportModulus, turn: f64, w: f64, l: f64, out: &mut Powers) 
     if turn == 0.0 {
         return;
     }
+    out.denominator = if m.denominator == 0 {
+        0
+    } else {
+        lcm_at_most(out.denominator, m.denominator, MOST_DENOMINATOR)
+    };
     out.push(0.5 * l * w * turn, 2.0);
     for &(c, q) in &m.terms {
         if c > 0.0 {
@@ -226,10 +234,23 @@ fn push_powers(m: &SupportModulus, turn: f64, w: f64, l: f64, out: &mut Powers) 
 }
 
 /// P(τ) = Σ a_j τ^(q_j) with a_j > 0 and 1 < q_j ≤ 2, at most seven terms (like powers merged).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct Powers {
     len: usize,
     terms: [(f64, f64); 7],
+    /// A common [`SupportModulus::denominator`] of the powers (2 is 2M/M for every M), 0 where
+    /// there is none.
+    denominator: u32,
+}
+
+impl Default for Powers {
+    fn default() -> Self {
+        Powers {
+            len: 0,
+            terms: [(0.0, 2.0); 7],
+            denominator: 1,
+        }
+    }
 }
 
 impl Powers {
@@ -253,6 +274,8 @@ impl Powers {
 /// method from a point past the root descends onto it from above (the tangent of a concave
 /// function lies above it, so its zero is never short of the root); the result is that upper
 /// bound shrunk until φ is positive there. +∞ when φ never vanishes, 0 when no point is proved.
+/// Where the powers are whole multiples of one fraction, in whole powers
+/// ([`positive_while_whole`]).
 fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
     let terms = p.terms();
     if terms.is_empty() {
@@ -261,6 +284,9 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
         } else {
             f64::INFINITY
         };
+    }
+    if let Some(tau) = positive_while_whole(gap, rate, p) {
+        return tau;
     }
     let phi =
         |tau: f64| gap + rate * tau - terms.iter().map(|&(a, q)| a * pow(tau, q)).sum::<f64>();
@@ -304,6 +330,89 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
         tau *= 0.5;
     }
     0.0
+}
+
+/// [`positive_while`] where every power is q_j = m_j/M, M the [`Powers::denominator`]: the
+/// same Newton's method and the same check, on ψ(s) = φ(s^M), s = τ^(1/M), a polynomial whose
+/// powers are products, from a start the bits of [`root_above`] estimate. In powers of τ a safe
+/// time of superquadrics at p = 10 called `pow` about five times (its start, 4.3 Newton steps
+/// and its check), a tenth of their instructions. `None` where the powers are not whole.
+///
+/// ψ need not be concave in s (it is where ġ ≤ 0), so a step may land short of the root; there
+/// ψ > 0, the search stops, and the shorter τ is what is checked and returned: as safe, a little
+/// less long. Where ψ < 0 it decreases (ψ = g + s^M(ġ − Σ a_j s^(m_j − M)), the bracket
+/// decreasing and negative there), so every step goes down.
+fn positive_while_whole(gap: f64, rate: f64, p: &Powers) -> Option<f64> {
+    let big_m = p.denominator;
+    if big_m == 0 {
+        return None;
+    }
+    let mut powers = [(0.0, 0u32); 7];
+    for (slot, &(a, q)) in powers.iter_mut().zip(p.terms()) {
+        let m = q * f64::from(big_m);
+        let whole = m.round();
+        if (m - whole).abs() > 1e-9 || whole <= f64::from(big_m) || whole > 2.0 * f64::from(big_m) {
+            return None;
+        }
+        *slot = (a, whole as u32 - big_m);
+    }
+    let powers = &powers[..p.len];
+    let order = f64::from(big_m);
+    // ψ(s) = g + s^M (ġ − Σ a_j s^(d_j)), and s ψ'(s) = s^M (M ġ − Σ (M + d_j) a_j s^(d_j)).
+    let parts = |s: f64| {
+        let sm = whole_power(s, big_m);
+        let (mut sum, mut weighted) = (0.0, 0.0);
+        for &(a, d) in powers {
+            let term = a * match d {
+                1 => s,
+                d if d == big_m => sm,
+                d => whole_power(s, d),
+            };
+            sum += term;
+            weighted += f64::from(big_m + d) * term;
+        }
+        (sm, gap + sm * (rate - sum), sm * (order * rate - weighted))
+    };
+    // A point where ψ ≤ 0, as `positive_while` finds one: each term alone overtakes g + ġ s^M
+    // there (a_j s^(m_j) ≥ 2g and a_j s^(d_j) ≥ 2ġ).
+    let mut s = powers
+        .iter()
+        .map(|&(a, d)| {
+            let by_gap = root_above(2.0 * gap / a, big_m + d);
+            let by_rate = root_above(2.0 * rate.max(0.0) / a, d);
+            by_gap.max(by_rate)
+        })
+        .fold(f64::INFINITY, f64::min);
+    if rate < 0.0 {
+        s = s.min(root_above(gap / -rate, big_m));
+    }
+    if !(s.is_finite() && s > 0.0) {
+        return Some(0.0);
+    }
+    for _ in 0..50 {
+        let (_, value, s_slope) = parts(s);
+        if value >= 0.0 || s_slope >= 0.0 {
+            break;
+        }
+        let next = s - s * value / s_slope;
+        // τ = s^M changes M times as much as s does: the same 1e-4 of τ as `positive_while`.
+        let done = next >= s * (1.0 - 1e-4 / order);
+        s = next.min(s);
+        if done {
+            break;
+        }
+    }
+    // 1e-3 of τ off, as in `positive_while`, then τ halved until ψ is positive.
+    s *= 1.0 - 1e-3 / order;
+    let mut halve = None;
+    for _ in 0..60 {
+        let (sm, value, _) = parts(s);
+        if value > 0.0 {
+            return Some(sm);
+        }
+        s *= *halve.get_or_insert_with(|| 0.5f64.powf(1.0 / order));
+    }
+    Some(0.0)
 }
 
 /// One body as seen by [`gap_safe_time`]: its motion, the offset of its support point from its
@@ -462,6 +571,41 @@ pub fn collide(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        /// Safe times in whole powers of τ^(1/M) ([`positive_while_whole`]) against the same
+        /// search in powers of τ (`powf`, the denominator cleared): φ, evaluated with `powf`, is
+        /// positive at the τ returned and at eight points before it; the τ is that search's
+        /// within 10⁻⁶ at most (each takes 10⁻³ off the root it found, here of s, there of τ)
+        /// and within 0.1 % at least, ġ > 0 included, where ψ need not be concave (no step
+        /// landed short in 50,000 cases).
+        #[test]
+        fn whole_powers_give_the_safe_time_of_powf(
+            e in 3u32..=12,
+            flat in 1e-6f64..10.0,
+            curved in proptest::prop_oneof![proptest::strategy::Just(0.0), 1e-6f64..10.0],
+            gap in proptest::prop_oneof![1e-9f64..1e-3, 1e-3f64..1.0],
+            rate in proptest::prop_oneof![-10.0f64..10.0, -1e-3f64..1e-3],
+        ) {
+            let e = f64::from(e);
+            let mut whole = Powers::default();
+            whole.push(flat, e / (e - 1.0));
+            if curved > 0.0 {
+                whole.push(curved, 2.0);
+            }
+            whole.denominator = e as u32 - 1;
+            let by_powf = Powers { denominator: 0, ..whole };
+            let (tau, reference) = (positive_while(gap, rate, &whole), positive_while(gap, rate, &by_powf));
+            let phi = |t: f64| gap + rate * t - flat * t.powf(e / (e - 1.0)) - curved * t * t;
+            proptest::prop_assert!(tau > 0.0 && tau.is_finite(), "{tau}");
+            for k in 1..=8 {
+                let t = tau * f64::from(k) / 8.0;
+                proptest::prop_assert!(phi(t) > 0.0, "φ({t:e}) = {:e}, τ {tau:e}", phi(t));
+            }
+            proptest::prop_assert!(tau <= reference * (1.0 + 1e-6), "{tau:e} against {reference:e}");
+            proptest::prop_assert!(tau >= reference * (1.0 - 1e-3), "{tau:e} against {reference:e}");
+        }
+    }
 
     #[test]
     fn rotation_is_rodrigues_about_w() {

@@ -14,7 +14,10 @@
 //! Scenes ask for it with `shape = "superquadric"` and `exponents`; the engine runs it through the
 //! same rigid-body model as the ellipsoid, and the overlap audit tests it with Gilbert's algorithm.
 
-use crate::geometry::{LabEval, M3, Placed, Pose, SupportModulus, Surface, V3, pow};
+use crate::geometry::{
+    LabEval, M3, MOST_DENOMINATOR, Placed, Pose, SupportModulus, Surface, V3, lcm_at_most, pow,
+    whole_power,
+};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Superquadric {
@@ -30,6 +33,9 @@ pub struct Superquadric {
     /// The support point's equation in whole powers ([`WholePowers::of_support`]), where the
     /// exponents allow it.
     whole: Option<WholePowers>,
+    /// e − 2 per axis where it is whole (at most 64), else `u32::MAX`: the power of
+    /// [`Superquadric::terms`] taken by multiplication without [`pow`]'s tests of its exponent.
+    lowered: [u32; 3],
 }
 
 impl Superquadric {
@@ -49,6 +55,14 @@ impl Superquadric {
                 radius,
                 modulus,
                 whole: WholePowers::of_support(&e),
+                lowered: [0, 1, 2].map(|k| {
+                    let lowered = e[k] - 2.0;
+                    if lowered == lowered.trunc() && lowered <= 64.0 {
+                        lowered as u32
+                    } else {
+                        u32::MAX
+                    }
+                }),
             }
         })
     }
@@ -96,12 +110,15 @@ struct ModulusParts {
     /// Per distinct exponent e: (m^(1 − q/2) max_k (1 − 1/e) s_k^q (e c_e)^(−1/(e−1)), q, 1/(e − 1));
     /// the term's c is the first times (1/λ)^(1/(e−1)). Unused slots have 0.
     groups: [(f64, f64, f64); 3],
+    /// [`SupportModulus::denominator`]: the least common multiple of the whole e − 1.
+    denominator: u32,
 }
 
 impl ModulusParts {
     fn new(s: &V3, e: &V3) -> Self {
         let mut groups = [(0.0, 2.0, 1.0); 3];
         let mut used = 0;
+        let mut denominator = 1u32;
         for k in 0..3 {
             if (0..k).any(|j| e[j] == e[k]) {
                 continue;
@@ -118,8 +135,17 @@ impl ModulusParts {
             // Rounding of the powers above: a relative 1e-12 more is far beyond it.
             groups[used] = (largest * spread * (1.0 + 1e-12), q, inv);
             used += 1;
+            denominator = match ek - 1.0 {
+                k if k == k.trunc() && k <= f64::from(MOST_DENOMINATOR) => {
+                    lcm_at_most(denominator, k as u32, MOST_DENOMINATOR)
+                }
+                _ => 0,
+            };
         }
-        ModulusParts { groups }
+        ModulusParts {
+            groups,
+            denominator,
+        }
     }
 
     fn at(&self, lambda_inverse: f64) -> SupportModulus {
@@ -132,6 +158,7 @@ impl ModulusParts {
                 };
                 (a * scale, q)
             }),
+            denominator: self.denominator,
         }
     }
 }
@@ -321,7 +348,7 @@ fn scale_root_whole(c: &V3, w: &WholePowers) -> (f64, f64) {
     let mut u = log_u.exp();
     let stop = 1e8 * f64::from(w.big_m);
     for _ in 0..100 {
-        let t = u.powi(w.big_m);
+        let t = whole_power(u, w.big_m as u32);
         let (mut value, mut slope) = (-1.0, 0.0);
         for (&(r, m), &sum) in groups.iter().zip(&sums) {
             let power = if r == w.big_m {
@@ -329,7 +356,7 @@ fn scale_root_whole(c: &V3, w: &WholePowers) -> (f64, f64) {
             } else if r == 1 {
                 u
             } else {
-                u.powi(r)
+                whole_power(u, r as u32)
             };
             let term = sum * t * power;
             value += term;
@@ -350,7 +377,7 @@ fn scale_root_whole(c: &V3, w: &WholePowers) -> (f64, f64) {
     // t = u^M carries M times u's rounding, and the powers' own: nudged outwards past both (at
     // M = 40 they left Σ 1e-14 short of 1).
     (
-        u.powi(w.big_m) * (1.0 + 4.0 * f64::from(w.big_m) * f64::EPSILON),
+        whole_power(u, w.big_m as u32) * (1.0 + 4.0 * f64::from(w.big_m) * f64::EPSILON),
         u * (1.0 + 4.0 * f64::EPSILON),
     )
 }
@@ -403,8 +430,11 @@ impl Superquadric {
     fn terms(&self, x: &V3) -> [(f64, f64, f64); 3] {
         std::array::from_fn(|k| {
             let u = (x[k] / self.s[k]).abs();
-            let e = self.e[k];
-            let pm2 = pow(u, e - 2.0);
+            let pm2 = match self.lowered[k] {
+                0 => 1.0,
+                u32::MAX => pow(u, self.e[k] - 2.0),
+                n => whole_power(u, n),
+            };
             (pm2, pm2 * u, pm2 * u * u)
         })
     }
@@ -491,7 +521,8 @@ impl Surface for Superquadric {
         let (mu, u) = self.support_root(&c);
         let y = match &self.whole {
             Some(w) => {
-                let powers: [f64; 3] = std::array::from_fn(|g| u.powi(w.groups[g].0));
+                let powers: [f64; 3] =
+                    std::array::from_fn(|g| whole_power(u, w.groups[g].0 as u32));
                 V3::from_fn(|k, _| root[k] * powers[w.of[k]])
             }
             None => V3::from_fn(|k, _| pow(a[k] * mu, 1.0 / (self.e[k] - 1.0))),
@@ -568,6 +599,29 @@ mod tests {
         assert_eq!(of([4.0, 4.0, 4.0]), None);
         assert_eq!(of([2.0, 2.0, 2.5]), None);
         assert_eq!(of([2.0, 6.0, 10.0]), None);
+    }
+
+    /// The moduli's powers q = e/(e − 1) as m/M ([`SupportModulus::denominator`]), where the
+    /// safe times take them by multiplication; every q times M is whole.
+    #[test]
+    fn moduli_name_the_denominator_of_their_powers() {
+        let of = |e: [f64; 3]| {
+            let q = Superquadric::new([1.0, 0.7, 0.4], e).expect("a superquadric");
+            let m = q.support_modulus(&V3::new(0.3, -0.5, 0.8).normalize());
+            for &(c, q) in &m.terms {
+                let scaled = q * f64::from(m.denominator);
+                assert!(c == 0.0 || m.denominator == 0 || (scaled - scaled.round()).abs() < 1e-9);
+            }
+            m.denominator
+        };
+        assert_eq!(of([2.0, 2.0, 10.0]), 9);
+        assert_eq!(of([2.0, 2.0, 3.0]), 2);
+        assert_eq!(of([2.0, 4.0, 8.0]), 21);
+        assert_eq!(of([4.0, 4.0, 4.0]), 3);
+        assert_eq!(of([2.0, 2.0, 2.0]), 1);
+        // A power that is not whole, and a multiple past 64 (e − 1 = 9, 11 and 13).
+        assert_eq!(of([2.0, 2.0, 2.5]), 0);
+        assert_eq!(of([10.0, 12.0, 14.0]), 0);
     }
 
     #[test]
