@@ -236,7 +236,9 @@ struct Schedule {
     melt_sweeps: usize,
     /// The first displacement step, in bounding radii (the steps adapt from there).
     first_dr: f64,
-    /// The largest compression step (relative change of the box side).
+    /// The first compression step (relative change of the box side), from the dilute start.
+    first_step: f64,
+    /// The largest compression step after it.
     max_step: f64,
     /// Sweeps after each compression step.
     relax_sweeps: usize,
@@ -257,6 +259,7 @@ struct Schedule {
 const LATTICE: Schedule = Schedule {
     melt_sweeps: MELT_SWEEPS,
     first_dr: 0.1,
+    first_step: MAX_STEP,
     max_step: MAX_STEP,
     relax_sweeps: RELAX_SWEEPS,
     push_ahead: 2.0,
@@ -281,10 +284,18 @@ const ADDED: Schedule = Schedule {
 /// leaves g(r) within 2 % of contact 2–2.5 times the fluid's, sweeps or not, and the collisions
 /// flatten it whatever the compression was. Steps of 3, 5, 7, 10, 15 % cost 1.2, 0.72, 0.89,
 /// 0.57, 0.74 s of pushes at N = 10⁵ (a loaded machine); 25 % jam the pushes.
+///
+/// The first step, from the addition's φ 0.25, is 20 %: the pushes' visits grow with the
+/// density of the step, so the dilute one takes the most. N = 10⁶, φ 0.45: 6.3 · 10⁶ visits
+/// in two steps where three of 10 % took 8.0 · 10⁶, the start 1.2 s shorter (17.99, 18.73,
+/// 17.90 s against 19.37, 20.41, 18.30, alternated); Z as above 9.677 against 9.696 (seeds
+/// 0–3, ±0.02 each), and alike at φ 0.3, 0.4, 0.5 and 0.55 (MEASUREMENTS.md, "Safe times in
+/// whole powers; the spheres' first step").
 const SPHERES: Schedule = Schedule {
     melt_sweeps: 0,
     // No sweep uses it.
     first_dr: 0.6,
+    first_step: 0.2,
     max_step: 0.1,
     relax_sweeps: 0,
     push_ahead: 0.5,
@@ -690,7 +701,7 @@ fn compress(
         let acc = packing.sweep(&steps, rng);
         steps.adapt(acc, packing.l);
     }
-    let mut step = schedule.max_step;
+    let mut step = schedule.first_step;
     let mut sweeps = 0;
     while packing.l > l_target {
         let before = (packing.pos.clone(), packing.rot.clone(), packing.l);
