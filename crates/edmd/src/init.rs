@@ -245,7 +245,13 @@ struct Schedule {
     /// Pairs that a step left in contact are pushed this many times the step's relative change
     /// of the box side past contact (see [`Packing::push_apart`]).
     push_ahead: f64,
+    /// [`Schedule::push_ahead`] of steps that end above φ = [`DENSE_PUSHES_FROM`].
+    push_ahead_dense: f64,
 }
+
+/// The packing fraction above which a step's pushes go [`Schedule::push_ahead_dense`] past
+/// contact.
+const DENSE_PUSHES_FROM: f64 = 0.5;
 
 /// A lattice of any shape.
 ///
@@ -263,6 +269,7 @@ const LATTICE: Schedule = Schedule {
     max_step: MAX_STEP,
     relax_sweeps: RELAX_SWEEPS,
     push_ahead: 2.0,
+    push_ahead_dense: 2.0,
 };
 
 /// Bodies of one shape other than spheres, from random sequential addition
@@ -291,6 +298,13 @@ const ADDED: Schedule = Schedule {
 /// 17.90 s against 19.37, 20.41, 18.30, alternated); Z as above 9.677 against 9.696 (seeds
 /// 0–3, ±0.02 each), and alike at φ 0.3, 0.4, 0.5 and 0.55 (MEASUREMENTS.md, "Safe times in
 /// whole powers; the spheres' first step").
+///
+/// Pairs are pushed 1.25 steps past contact up to φ = 0.5 (not half a step): fewer pairs are
+/// left near contact, and 3 relaxing collisions per particle leave Z within 0.4 % of Kolafa's
+/// where 5 left it 2.9 % above ([`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]). The pushes past 0.5
+/// stay at half a step: at φ 0.55, N 10⁵, 1.25 everywhere took 4.8 s a start against 2.3 (the
+/// pushes of dense steps cascade), half a step there 1.5 s. Steps of 2 past contact at 0.45:
+/// Z 9.50 after 5, but 7 s a start at N 10⁵ against 1.5.
 const SPHERES: Schedule = Schedule {
     melt_sweeps: 0,
     // No sweep uses it.
@@ -298,7 +312,8 @@ const SPHERES: Schedule = Schedule {
     first_step: 0.2,
     max_step: 0.1,
     relax_sweeps: 0,
-    push_ahead: 0.5,
+    push_ahead: 1.25,
+    push_ahead_dense: 0.5,
 };
 
 /// The largest compression step (relative change of the box side), and the smallest, below which
@@ -405,7 +420,8 @@ pub struct Config {
     pub l: f64,
     pub bodies: Vec<Body>,
     /// Collisions per particle of the dynamics that ends the start: its pushes leave pairs near
-    /// contact ([`RELAX_COLLISIONS_PER_PARTICLE`] or [`SHORT_RELAX_COLLISIONS_PER_PARTICLE`]).
+    /// contact ([`RELAX_COLLISIONS_PER_PARTICLE`], [`SHORT_RELAX_COLLISIONS_PER_PARTICLE`] or
+    /// [`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]).
     pub relax: u64,
 }
 
@@ -414,12 +430,13 @@ pub struct Config {
 /// mixtures.
 pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 
-/// Collisions per particle that end a start from random sequential addition, of spheres of one
-/// size or of bodies of axis ratio up to [`SHORT_RELAX_AXIS_RATIO`]: their starts are as
-/// relaxed after 5 as after 10. Z over the next 2 collisions per particle after k
-/// (MEASUREMENTS.md, "Five relaxing collisions for rigid bodies of axis ratio up to 2"):
-/// - spheres, N = 10⁵, φ = 0.45, seed 0 (Kolafa 9.403): 10.33 after 2, 9.70 after 5, 9.45 after
-///   10 (ten took 35 of the 75 s at N = 10⁶);
+/// Collisions per particle that end a start from random sequential addition of bodies of axis
+/// ratio up to [`SHORT_RELAX_AXIS_RATIO`]: their starts are as relaxed after 5 as after 10. Z
+/// over the next 2 collisions per particle after k (MEASUREMENTS.md, "Five relaxing collisions
+/// for rigid bodies of axis ratio up to 2"):
+/// - spheres (before [`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]), N = 10⁵, φ = 0.45, seed 0
+///   (Kolafa 9.403): 10.33 after 2, 9.70 after 5, 9.45 after 10 (ten took 35 of the 75 s at
+///   N = 10⁶);
 /// - ellipsoids X0 = 2 and 0.5, φ 0.5, N 2048, seeds 0–3, after 5 / 10 / 20 / 100: 15.17 /
 ///   15.05 / 15.15 / 15.21 and 15.40 / 15.16 / 15.45 / 15.58, the seeds scattering by ±0.3;
 /// - superquadrics [2, 2, 4] (φ 0.4) and [2, 2, 10] (φ 0.256), X0 = 2, N 512, seeds 0–3, after
@@ -427,6 +444,20 @@ pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 /// - but plates of aspect 3 (X0 = 1/3, φ 0.45) 14.34 after 5 against 13.26 / 13.17 / 13.53, and
 ///   needles and plates of aspect 10 are far from their equation of state after 5 or 10.
 pub const SHORT_RELAX_COLLISIONS_PER_PARTICLE: u64 = 5;
+
+/// Collisions per particle that end a start of spheres of one size ([`SPHERES`]), whose pushes
+/// leave fewer pairs near contact. Z over the next 2 collisions per particle, N = 10⁵, seeds
+/// 0–3 (MEASUREMENTS.md, "Safe times in whole powers; the spheres' first step"):
+/// - φ = 0.45 (Kolafa 9.403): 9.441, 9.424, 9.465, 9.417 after 3, where the pushes of 0.5 steps
+///   and 5 collisions left 9.687, 9.662, 9.658, 9.702 and 3 of them 9.97, 9.90, 9.98, 9.92;
+///   after 2, 9.51–9.56;
+/// - φ = 0.3 (Carnahan–Starling 3.974): 3.993 and 3.965 after 3 (seeds 0, 1), 3.973 and 3.977
+///   before;
+/// - φ = 0.5: 14.17 and 14.28 after 3, 15.32 and 15.31 before; φ = 0.55: 29.4 after 3, 30.0
+///   before (both far above the fluid's, as after 10).
+///
+/// N = 10⁶, φ = 0.45, alternated: the start 18.8 and 18.1 s against 20.6 and 19.3 before.
+pub const SPHERE_RELAX_COLLISIONS_PER_PARTICLE: u64 = 3;
 
 /// The largest ratio of the largest to the smallest semi-axis whose starts from the addition end
 /// with [`SHORT_RELAX_COLLISIONS_PER_PARTICLE`].
@@ -459,7 +490,7 @@ pub fn initial_configuration(
     let added = match *geom {
         Geom::Sphere { sigma } => random_sequential(n, l_melt, sigma, rng).map(|pos| {
             let start = Packing::new(pos, vec![M3::identity(); n], l_melt, *geom);
-            (start, &SPHERES, SHORT_RELAX_COLLISIONS_PER_PARTICLE)
+            (start, &SPHERES, SPHERE_RELAX_COLLISIONS_PER_PARTICLE)
         }),
         _ => addition_densities(geom, phi)
             .find_map(|phi_add| random_sequential_bodies(n, (volume / phi_add).cbrt(), geom, rng))
@@ -708,6 +739,11 @@ fn compress(
         let shrink = (l_target / packing.l).max(1.0 / (1.0 + step));
         // The last step is often smaller than `step`: pushes beyond what it took cost passes.
         let taken = 1.0 / shrink - 1.0;
+        let ahead = if volume / (packing.l * shrink).powi(3) > DENSE_PUSHES_FROM {
+            schedule.push_ahead_dense
+        } else {
+            schedule.push_ahead
+        };
         packing.scale(shrink);
         for _ in 0..schedule.relax_sweeps {
             let acc = packing.sweep(&steps, rng);
@@ -715,7 +751,7 @@ fn compress(
         }
         sweeps += schedule.relax_sweeps;
         let clear = packing.overlaps == 0
-            || packing.push_apart(1.0 + schedule.push_ahead * taken.max(MIN_PUSH))
+            || packing.push_apart(1.0 + ahead * taken.max(MIN_PUSH))
             || packing.rescue(&steps, rng);
         if clear {
             step = (step * 1.5).min(schedule.max_step);
