@@ -445,7 +445,7 @@ pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 ///   needles and plates of aspect 10 are far from their equation of state after 5 or 10.
 pub const SHORT_RELAX_COLLISIONS_PER_PARTICLE: u64 = 5;
 
-/// Collisions per particle that end a start of spheres of one size ([`SPHERES`]), whose pushes
+/// Collisions per particle that end a start of spheres of one size (`SPHERES`), whose pushes
 /// leave fewer pairs near contact. Z over the next 2 collisions per particle, N = 10⁵, seeds
 /// 0–3 (MEASUREMENTS.md, "Safe times in whole powers; the spheres' first step"):
 /// - φ = 0.45 (Kolafa 9.403): 9.441, 9.424, 9.465, 9.417 after 3, where the pushes of 0.5 steps
