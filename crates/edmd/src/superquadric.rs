@@ -87,7 +87,7 @@ impl Superquadric {
 /// parts that do not depend on the direction: for every unit v and every u,
 /// h(u) − h(v) − x₀·(u − v) ≤ Σ_k C_k |δ_k|^(q_k), δ = u − v, q_k = e_k/(e_k − 1), x₀ = x(v),
 /// with C_k = (1 − 1/e_k) s_k^(q_k) (e_k λ c_k)^(−1/(e_k − 1)), c_k from [`bregman_floor`] and λ
-/// the multiplier of v ([`Superquadric::multiplier_inverse`] bounds 1/λ from above); axes of
+/// the multiplier of v ([`Superquadric::modulus_from`] bounds 1/λ from above); axes of
 /// equal exponent share one term, m^(1 − q/2) max C_k over the m of them
 /// (Σ|δ_k|^q ≤ m^(1 − q/2)(Σδ_k²)^(q/2) for q ≤ 2), so that every term is c|δ|^q.
 ///
@@ -112,6 +112,10 @@ struct ModulusParts {
     groups: [(f64, f64, f64); 3],
     /// [`SupportModulus::denominator`]: the least common multiple of the whole e − 1.
     denominator: u32,
+    /// Per group, M/(e − 1) where the denominator M is not 0: (1/λ)^(1/(e − 1)) is then
+    /// u^(M/(e − 1)) for the u = (1/λ)^(1/M) of the support point's whole powers
+    /// ([`ModulusParts::at_root`]).
+    roots: [u32; 3],
 }
 
 impl ModulusParts {
@@ -142,9 +146,41 @@ impl ModulusParts {
                 _ => 0,
             };
         }
+        let roots = groups.map(|(_, _, inv)| {
+            if denominator == 0 {
+                0
+            } else {
+                (f64::from(denominator) * inv).round() as u32
+            }
+        });
         ModulusParts {
             groups,
             denominator,
+            roots,
+        }
+    }
+
+    /// [`ModulusParts::at`] where 1/λ = u^M, u from the support point's whole powers (nudged
+    /// outwards) and M the denominator: each (1/λ)^(1/(e − 1)) is u^(M/(e − 1)) by
+    /// multiplication, a relative 1e-12 above for the rounding of its at most 64 products (the
+    /// factor `at` gives 1/λ), instead of a `powf` (1.5 % of p = 10's instructions). Where e_max/s_min
+    /// (`global`) is the smaller bound on 1/λ, that one, by `at`.
+    fn at_root(&self, u: f64, global: f64) -> SupportModulus {
+        let lambda_inverse = whole_power(u, self.denominator) * (1.0 + 1e-12);
+        if lambda_inverse.is_nan() || lambda_inverse > global {
+            return self.at(lambda_inverse.min(global));
+        }
+        let mut terms = self.groups.map(|(a, q, _)| (a, q));
+        for ((term, &(_, _, inv)), &r) in terms.iter_mut().zip(&self.groups).zip(&self.roots) {
+            term.0 *= if inv == 1.0 {
+                lambda_inverse
+            } else {
+                whole_power(u, r) * (1.0 + 1e-12)
+            };
+        }
+        SupportModulus {
+            terms,
+            denominator: self.denominator,
         }
     }
 
@@ -383,15 +419,33 @@ fn scale_root_whole(c: &V3, w: &WholePowers) -> (f64, f64) {
 }
 
 impl Superquadric {
-    /// An upper bound on 1/λ, λ the multiplier of the unit body-frame direction v (v = λ∇f at
-    /// its support point x₀). With y_k = |x₀_k|/s_k, v_k = λ e_k y_k^(e_k−1)/s_k and Σ y_k^(e_k) = 1
+    /// [`Surface::support_modulus`] from an upper bound on 1/λ, λ the multiplier of the unit
+    /// body-frame direction v (v = λ∇f at its support point x₀). With y_k = |x₀_k|/s_k, v_k = λ e_k y_k^(e_k−1)/s_k and Σ y_k^(e_k) = 1
     /// give Σ (|v_k| s_k μ/e_k)^(q_k) = 1 for μ = 1/λ, the equation of [`Surface::support_point`];
     /// [`scale_root`] solves it erring high. Also 1/λ ≤ e_max/s_min: Euler's identity
     /// x·∇f = Σ e_k y_k^(e_k) gives h(v) = x₀·v ≤ λ e_max, and h(v) ≥ s_min (the body holds the ball
     /// of radius s_min). The smaller of the two, or the second alone if the first is not a number.
-    fn multiplier_inverse(&self, v: &V3) -> f64 {
-        let (_, _, c) = self.support_terms(v);
-        self.multiplier_inverse_from(self.support_root(&c).0)
+    ///
+    /// From what [`Superquadric::kept`] keeps of the root of the support point's equation:
+    /// where its powers are whole, u = μ^(1/M) ([`ModulusParts::at_root`]), else μ.
+    fn modulus_from(&self, parts: &ModulusParts, kept: f64) -> SupportModulus {
+        let global = self.e.max() / self.s.min();
+        match &self.whole {
+            Some(w) if parts.denominator != 0 => {
+                debug_assert_eq!(w.big_m as u32, parts.denominator);
+                parts.at_root(kept, global)
+            }
+            _ => parts.at((kept * (1.0 + 1e-12)).min(global)),
+        }
+    }
+
+    /// What [`Surface::support_point_kept`] keeps of the root (μ, u) of the support point's
+    /// equation for [`Superquadric::modulus_from`]: u where the powers are whole, else μ.
+    fn kept(&self, (mu, u): (f64, f64)) -> f64 {
+        match &self.whole {
+            Some(_) => u,
+            None => mu,
+        }
     }
 
     /// μ of the support point's equation for the terms c of [`Superquadric::support_terms`], and
@@ -416,13 +470,6 @@ impl Superquadric {
             let c = V3::from_fn(|k, _| pow(a[k], self.e[k] / (self.e[k] - 1.0)));
             (a, V3::repeat(f64::NAN), c)
         }
-    }
-
-    /// [`Superquadric::multiplier_inverse`] from the root μ of its equation, which
-    /// [`Surface::support_point`] solves too.
-    fn multiplier_inverse_from(&self, mu: f64) -> f64 {
-        let global = self.e.max() / self.s.min();
-        (mu * (1.0 + 1e-12)).min(global)
     }
 
     /// |x_k/s_k| and its powers e−2, e−1, e per axis: the distance's Newton steps evaluate these
@@ -513,9 +560,10 @@ impl Surface for Superquadric {
     fn support_point(&self, n: &V3) -> V3 {
         self.support_point_kept(n).0
     }
-    /// Keeps μ, which is the root `Superquadric::multiplier_inverse` solves for at the same
-    /// direction (the same terms c, to the bit): the modulus there costs no second root (the
-    /// roots were a third of the instructions of a p = 10 collision, the moduli's 40 % of them).
+    /// Keeps the root of the support point's equation (μ, or u = μ^(1/M) where its powers are
+    /// whole: `Superquadric::kept`), which the modulus at the same direction needs (the same
+    /// terms c, to the bit): the modulus there costs no second root (the roots were a third of
+    /// the instructions of a p = 10 collision, the moduli's 40 % of them).
     fn support_point_kept(&self, n: &V3) -> (V3, f64) {
         let (a, root, c) = self.support_terms(n);
         let (mu, u) = self.support_root(&c);
@@ -527,17 +575,23 @@ impl Surface for Superquadric {
             }
             None => V3::from_fn(|k, _| pow(a[k] * mu, 1.0 / (self.e[k] - 1.0))),
         };
-        (V3::from_fn(|k, _| n[k].signum() * self.s[k] * y[k]), mu)
+        (
+            V3::from_fn(|k, _| n[k].signum() * self.s[k] * y[k]),
+            self.kept((mu, u)),
+        )
     }
     fn support_modulus(&self, v: &V3) -> SupportModulus {
         match &self.modulus {
-            Some(parts) => parts.at(self.multiplier_inverse(v)),
+            Some(parts) => {
+                let (_, _, c) = self.support_terms(v);
+                self.modulus_from(parts, self.kept(self.support_root(&c)))
+            }
             None => SupportModulus::quadratic(self.max_curvature_radius()),
         }
     }
-    fn support_modulus_kept(&self, v: &V3, mu: f64) -> SupportModulus {
+    fn support_modulus_kept(&self, v: &V3, kept: f64) -> SupportModulus {
         match &self.modulus {
-            Some(parts) if !mu.is_nan() => parts.at(self.multiplier_inverse_from(mu)),
+            Some(parts) if !kept.is_nan() => self.modulus_from(parts, kept),
             _ => self.support_modulus(v),
         }
     }
@@ -680,7 +734,8 @@ mod tests {
         #[test]
         fn support_rises_no_faster_than_its_modulus(
             ratios in prop::array::uniform2(0.3f64..3.0),
-            p in 2.0f64..20.0,
+            // Whole p too: their moduli come from the support point's whole powers.
+            p in prop_oneof![2.0f64..20.0, (3u32..=20).prop_map(f64::from)],
             v in prop::array::uniform3(-1.0f64..1.0),
             near_face in any::<bool>(),
             step in prop::array::uniform3(-1.0f64..1.0),
