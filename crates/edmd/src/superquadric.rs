@@ -163,8 +163,8 @@ impl ModulusParts {
     /// [`ModulusParts::at`] where 1/λ = u^M, u from the support point's whole powers (nudged
     /// outwards) and M the denominator: each (1/λ)^(1/(e − 1)) is u^(M/(e − 1)) by
     /// multiplication, a relative 1e-12 above for the rounding of its at most 64 products (the
-    /// factor `at` gives 1/λ), instead of a `powf` (1.5 % of p = 10's instructions). Where e_max/s_min
-    /// (`global`) is the smaller bound on 1/λ, that one, by `at`.
+    /// factor `at` gives 1/λ), instead of a `powf` (1.5 % of p = 10's instructions). Where
+    /// e_max/s_min (`global`) is the smaller bound on 1/λ, that one, by `at`.
     fn at_root(&self, u: f64, global: f64) -> SupportModulus {
         let lambda_inverse = whole_power(u, self.denominator) * (1.0 + 1e-12);
         if lambda_inverse.is_nan() || lambda_inverse > global {
@@ -420,9 +420,9 @@ fn scale_root_whole(c: &V3, w: &WholePowers) -> (f64, f64) {
 
 impl Superquadric {
     /// [`Surface::support_modulus`] from an upper bound on 1/λ, λ the multiplier of the unit
-    /// body-frame direction v (v = λ∇f at its support point x₀). With y_k = |x₀_k|/s_k, v_k = λ e_k y_k^(e_k−1)/s_k and Σ y_k^(e_k) = 1
-    /// give Σ (|v_k| s_k μ/e_k)^(q_k) = 1 for μ = 1/λ, the equation of [`Surface::support_point`];
-    /// [`scale_root`] solves it erring high. Also 1/λ ≤ e_max/s_min: Euler's identity
+    /// body-frame direction v (v = λ∇f at its support point x₀). With y_k = |x₀_k|/s_k,
+    /// v_k = λ e_k y_k^(e_k−1)/s_k and Σ y_k^(e_k) = 1 give Σ (|v_k| s_k μ/e_k)^(q_k) = 1 for
+    /// μ = 1/λ, the equation of [`Surface::support_point`]; [`scale_root`] solves it erring high. Also 1/λ ≤ e_max/s_min: Euler's identity
     /// x·∇f = Σ e_k y_k^(e_k) gives h(v) = x₀·v ≤ λ e_max, and h(v) ≥ s_min (the body holds the ball
     /// of radius s_min). The smaller of the two, or the second alone if the first is not a number.
     ///
