@@ -778,16 +778,14 @@ mod tests {
             .filter(|&i| lists.lists.spilled(i).is_some())
             .collect();
         assert!(spilled.len() >= 2);
-        let mut bytes = Vec::new();
-        ciborium::into_writer(&lists, &mut bytes).unwrap();
-        let back: Lists<Ball> = ciborium::from_reader(&bytes[..]).unwrap();
-        for i in 0..200 {
-            assert_eq!(back.of(i), lists.of(i), "list {i}");
-        }
         fn bytes_of(value: &impl serde::Serialize) -> Vec<u8> {
             let mut raw = Vec::new();
             ciborium::into_writer(value, &mut raw).unwrap();
             raw
+        }
+        let back: Lists<Ball> = ciborium::from_reader(&bytes_of(lists)[..]).unwrap();
+        for i in 0..200 {
+            assert_eq!(back.of(i), lists.of(i), "list {i}");
         }
         // The lists' field alone, as the arena and as its saved form.
         #[derive(serde::Serialize, serde::Deserialize)]
@@ -802,18 +800,14 @@ mod tests {
         let field = Field {
             rows: lists.lists.clone(),
         };
-        let mut raw = Vec::new();
-        ciborium::into_writer(&field, &mut raw).unwrap();
-        let Form { rows: mut form } = ciborium::from_reader(&raw[..]).unwrap();
+        let Form { rows: mut form } = ciborium::from_reader(&bytes_of(&field)[..]).unwrap();
         let i = spilled[0];
         let k = lists.lists.spilled(i).unwrap();
         assert_eq!(usize::from(form.len[i]), lists.of(i).len());
         assert_eq!(form.items[i * form.room].j as usize, k);
         assert_eq!(form.spill[k], lists.of(i));
         form.items[i * form.room].j = lists.lists.spilled(spilled[1]).unwrap() as u32;
-        let mut raw = Vec::new();
-        ciborium::into_writer(&Form { rows: form }, &mut raw).unwrap();
-        let err = ciborium::from_reader::<Field, _>(&raw[..])
+        let err = ciborium::from_reader::<Field, _>(&bytes_of(&Form { rows: form })[..])
             .err()
             .unwrap()
             .to_string();
@@ -834,9 +828,9 @@ mod tests {
             spill: vec![lists.of(spilled[0])[..1].to_vec()],
             free: Vec::new(),
         };
-        let mut raw = Vec::new();
-        ciborium::into_writer(&Form { rows: roomless }, &mut raw).unwrap();
-        assert!(ciborium::from_reader::<Field, _>(&raw[..]).is_err());
+        assert!(
+            ciborium::from_reader::<Field, _>(&bytes_of(&Form { rows: roomless })[..]).is_err()
+        );
     }
 
     /// Lists whose room was sized by 7 of 300 bodies, half of them gathered in a corner, hold

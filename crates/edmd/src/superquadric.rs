@@ -329,13 +329,11 @@ impl WholePowers {
         if (0..3).any(|k| f64::from(whole[k]) != e[k]) || (e.x == e.y && e.y == e.z) {
             return None;
         }
-        let gcd = |mut a: i32, mut b: i32| {
-            while b != 0 {
-                (a, b) = (b, a % b);
-            }
-            a
-        };
-        let big_m = whole.iter().fold(1, |l, &w| l / gcd(l, w - 1) * (w - 1));
+        // Past the highest power already (0): no power of it can be whole within it.
+        let most = MOST_WHOLE_POWER as u32;
+        let big_m = whole.iter().try_fold(1, |l, &w| {
+            Some(lcm_at_most(l, w as u32 - 1, most)).filter(|&m| m > 0)
+        })? as i32;
         let mut w = WholePowers {
             big_m,
             groups: [(0, 0); 3],
