@@ -158,6 +158,14 @@ mod tests {
         }
     }
 
+    /// A superquadric of aspect `x0` and exponents [2, 2, `p`], and the two orientations turned
+    /// from the identity by the rotation vectors `wa` and `wb`.
+    fn turned_pair(x0: f64, p: f64, wa: [f64; 3], wb: [f64; 3]) -> (Superquadric, M3, M3) {
+        let q = Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p]).unwrap();
+        let turned = |w: [f64; 3]| rotate(&M3::identity(), &V3::from(w), 1.0);
+        (q, turned(wa), turned(wb))
+    }
+
     /// Whether Gilbert's algorithm proves the placed superquadrics overlapping (`Some(true)`) or
     /// apart (`Some(false)`); `None` where it cannot tell.
     fn certified_touch(q: &Superquadric, pa: &Pose, pb: &Pose) -> Option<bool> {
@@ -216,8 +224,7 @@ mod tests {
             wb in prop::array::uniform3(-3.0f64..3.0),
             at in prop_oneof![0.5f64..2.0, 0.99f64..1.01, 0.9999f64..1.0001],
         ) {
-            let q = Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p]).unwrap();
-            let (ra, rb) = (rotate(&M3::identity(), &V3::from(wa), 1.0), rotate(&M3::identity(), &V3::from(wb), 1.0));
+            let (q, ra, rb) = turned_pair(x0, p, wa, wb);
             let r = V3::from(r);
             prop_assume!(r.norm() > 0.1);
             let r = r * (at / contact_scale(&q, &ra, &q, &rb, &r));
@@ -254,8 +261,7 @@ mod tests {
             at in prop_oneof![0.9f64..1.1, 0.9999f64..1.0001, 0.999999f64..1.000001, Just(0.5), Just(2.0)],
             k in prop_oneof![Just(1.0), Just(1.0 + 1e-9), Just(1.0 + 1e-3)],
         ) {
-            let q = Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p]).unwrap();
-            let (ra, rb) = (rotate(&M3::identity(), &V3::from(wa), 1.0), rotate(&M3::identity(), &V3::from(wb), 1.0));
+            let (q, ra, rb) = turned_pair(x0, p, wa, wb);
             let r = V3::from(r);
             prop_assume!(r.norm() > 0.1);
             let e = Ellipsoid::new(q.s.x, q.s.y, q.s.z);
