@@ -91,7 +91,7 @@ pub fn contact_scale<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3)
 
 /// Whether the bodies scaled by `k` about their centres touch or overlap (μ ≤ k). Most pairs are
 /// decided by a certificate of Gilbert's algorithm ([`certify`]) within
-/// [`CERTIFY_ITERATIONS`]: a positive gap along an axis proves them apart, a point inside both
+/// `CERTIFY_ITERATIONS`: a positive gap along an axis proves them apart, a point inside both
 /// proves them overlapping. Pairs at contact or nearly are left undecided, and take the sign of
 /// their distance at that scale, g(k) = k·d(r/k) ≤ 0: one solve where [`contact_scale`] takes
 /// several to converge μ (its bracket trusts the same sign at every scale it tries). Where the
