@@ -197,7 +197,8 @@ mod avx2 {
 /// A body that does not rotate moves linearly and its escape time is exact. A rotating body advances
 /// by steps that no face gap can close within (a sharper bound than ḋ_k ≤ |v·u_k| + L‖w‖ of
 /// Eq. 60, see below), and the escape time is taken as soon as a gap falls below ε_d^nnl (Eq. 61):
-/// a lower bound, so a rebuild comes early, never late.
+/// a lower bound, so a rebuild comes early, never late. Each axis is looked at again only when
+/// the safe time of its own two faces runs out.
 pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f64 {
     let axes = [
         obp.rot.row(0).transpose(),
