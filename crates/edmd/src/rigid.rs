@@ -288,8 +288,6 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
     if let Some(tau) = positive_while_whole(gap, rate, p) {
         return tau;
     }
-    let phi =
-        |tau: f64| gap + rate * tau - terms.iter().map(|&(a, q)| a * pow(tau, q)).sum::<f64>();
     // A point where φ ≤ 0: each term alone overtakes g + ġτ there (a_j τ^q_j ≥ 2g and ≥ 2ġτ).
     let mut hi = terms
         .iter()
@@ -305,29 +303,45 @@ fn positive_while(gap: f64, rate: f64, p: &Powers) -> f64 {
     if !(hi.is_finite() && hi > 0.0) {
         return 0.0;
     }
-    for _ in 0..50 {
-        let (mut value, mut slope) = (gap + rate * hi, rate);
+    // φ(τ), and τφ'(τ) = ġτ − Σ q_j a_j τ^(q_j).
+    descend_to_positive(hi, 1.0, |tau| {
+        let (mut value, mut tau_slope) = (gap + rate * tau, rate * tau);
         for &(a, q) in terms {
-            let term = a * pow(hi, q);
+            let term = a * pow(tau, q);
             value -= term;
-            slope -= q * term / hi;
+            tau_slope -= q * term;
         }
-        if value >= 0.0 || slope >= 0.0 {
+        (tau, value, tau_slope)
+    })
+}
+
+/// The end of [`positive_while`] and [`positive_while_whole`], in a variable x with τ = x^`order`:
+/// from `x` past the root of φ (φ ≤ 0 there), Newton's method down onto it, stopped within
+/// 10⁻⁴ of τ, then 10⁻³ of τ off and τ halved until φ is positive there. `at(x)` gives τ, φ(τ)
+/// and xφ'(x). The τ returned, or 0 where no point is proved.
+fn descend_to_positive(mut x: f64, order: f64, at: impl Fn(f64) -> (f64, f64, f64)) -> f64 {
+    for _ in 0..50 {
+        let (_, value, x_slope) = at(x);
+        if value >= 0.0 || x_slope >= 0.0 {
             break;
         }
-        let next = hi - value / slope;
-        let done = next >= hi * (1.0 - 1e-4);
-        hi = next.min(hi);
+        let next = x - x * value / x_slope;
+        // τ = x^order changes `order` times as much as x does.
+        let done = next >= x * (1.0 - 1e-4 / order);
+        x = next.min(x);
         if done {
             break;
         }
     }
-    let mut tau = hi * (1.0 - 1e-3);
+    x *= 1.0 - 1e-3 / order;
+    // Halving τ is a root of ½ in x: taken only where the first point is not proved.
+    let mut halve = None;
     for _ in 0..60 {
-        if phi(tau) > 0.0 {
+        let (tau, value, _) = at(x);
+        if value > 0.0 {
             return tau;
         }
-        tau *= 0.5;
+        x *= *halve.get_or_insert_with(|| 0.5f64.powf(1.0 / order));
     }
     0.0
 }
@@ -389,30 +403,7 @@ fn positive_while_whole(gap: f64, rate: f64, p: &Powers) -> Option<f64> {
     if !(s.is_finite() && s > 0.0) {
         return Some(0.0);
     }
-    for _ in 0..50 {
-        let (_, value, s_slope) = parts(s);
-        if value >= 0.0 || s_slope >= 0.0 {
-            break;
-        }
-        let next = s - s * value / s_slope;
-        // τ = s^M changes M times as much as s does: the same 1e-4 of τ as `positive_while`.
-        let done = next >= s * (1.0 - 1e-4 / order);
-        s = next.min(s);
-        if done {
-            break;
-        }
-    }
-    // 1e-3 of τ off, as in `positive_while`, then τ halved until ψ is positive.
-    s *= 1.0 - 1e-3 / order;
-    let mut halve = None;
-    for _ in 0..60 {
-        let (sm, value, _) = parts(s);
-        if value > 0.0 {
-            return Some(sm);
-        }
-        s *= *halve.get_or_insert_with(|| 0.5f64.powf(1.0 / order));
-    }
-    Some(0.0)
+    Some(descend_to_positive(s, order, parts))
 }
 
 /// One body as seen by [`gap_safe_time`]: its motion, the offset of its support point from its
