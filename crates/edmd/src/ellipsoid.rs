@@ -105,6 +105,9 @@ impl Surface for Ellipsoid {
         let sn = self.s.component_mul(n);
         sn.norm()
     }
+    fn enclosing_support(&self, n: &V3) -> f64 {
+        self.support(n)
+    }
     fn support_point(&self, n: &V3) -> V3 {
         let sn = self.s.component_mul(n);
         self.s.component_mul(&sn) / sn.norm()

@@ -132,6 +132,10 @@ pub trait Surface {
     fn support(&self, n: &V3) -> f64;
     /// The point of the surface farthest along the unit body-frame direction `n` (body frame).
     fn support_point(&self, n: &V3) -> V3;
+    /// At least [`Surface::support`] at the unit body-frame direction `n`, without a solve: the
+    /// support of a simple body that holds this one (a box, a cylinder, or the body itself where
+    /// its support has a closed form), for bounds that need only be rigorous.
+    fn enclosing_support(&self, n: &V3) -> f64;
     /// [`Surface::support_point`], and what its solve leaves for
     /// [`Surface::support_modulus_kept`] at the same direction (NaN where the shape keeps
     /// nothing): a separating axis's ascent tries several directions and needs the modulus of its

@@ -17,8 +17,9 @@
 //!   algorithm on support functions, with certified bounds); a distance it cannot decide either
 //!   stops the run with [`EdmdError::Unresolved`], naming the pair.
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
-//!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31).
-//!   [`first_step`]: the first step of its quick bound for one ellipsoid shape, four candidates
+//!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31); the bounds
+//!   that rule candidates out before a search (`quick_bound`, and `enclosing_bound` from the
+//!   boxes and cylinders that hold superquadrics). [`first_step`]: the first step of its quick bound for one ellipsoid shape, four candidates
 //!   at a time on AVX2, which rules out most candidates of a prediction. `lanes`: the AVX2
 //!   arithmetic it shares with [`nnl`]'s box tests, four at a time.
 //! - [`calendar`]: one event per particle in a 4-ary heap that knows where each particle's is.

@@ -3,7 +3,9 @@
 
 use crate::ball::{Ball, SizedBall};
 use crate::body::{Moving, SphereBody};
-use crate::contact::{ContactParams, Known, QuickBound, predict_from, quick_bound};
+use crate::contact::{
+    ContactParams, Known, QuickBound, enclosing_bound, predict_from, quick_bound,
+};
 use crate::distance::{SolverStats, elongated};
 use crate::ellipsoid::Ellipsoid;
 use crate::first_step::EllipsoidLanes;
@@ -345,6 +347,9 @@ pub(crate) trait Rigid: Model<Extra = (V3, V3), Region = Obp, Body = Body> {
         start: Option<&V3>,
         first: Option<f64>,
     ) -> QuickBound;
+    /// [`crate::contact::enclosing_bound`] of bodies `pair` = [i, j] (`a`, `b`, at the present
+    /// time) along the unit axis `n` from A to B.
+    fn enclosing_bound(&self, pair: [usize; 2], a: &Body, b: &Body, n: &V3) -> f64;
     fn solver_stats(&self) -> &SolverStats;
     /// The shape of every body where [`crate::first_step::first_steps`] bounds four candidates at
     /// once (one ellipsoid shape, not elongated); `None` otherwise.
@@ -488,6 +493,9 @@ impl<S: Surface + Copy> Rigid for RigidModel<S> {
         first: Option<f64>,
     ) -> QuickBound {
         quick_bound(&self.e, a, &self.e, b, horizon, start, first)
+    }
+    fn enclosing_bound(&self, _: [usize; 2], a: &Body, b: &Body, n: &V3) -> f64 {
+        enclosing_bound(&self.e, a, &self.e, b, n)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats
@@ -661,6 +669,9 @@ impl<S: Surface + Copy> Rigid for MixedRigidModel<S> {
             start,
             first,
         )
+    }
+    fn enclosing_bound(&self, [i, j]: [usize; 2], a: &Body, b: &Body, n: &V3) -> f64 {
+        enclosing_bound(&self.shapes[i], a, &self.shapes[j], b, n)
     }
     fn solver_stats(&self) -> &SolverStats {
         &self.stats
