@@ -581,9 +581,9 @@ impl Surface for Superquadric {
     fn support(&self, n: &V3) -> f64 {
         n.dot(&self.support_point(n)) + 1e-13 * self.s.max()
     }
-    /// The support of the [`Enclosure`] (the elliptic cylinder's is the sum of its round
-    /// section's and its flat ends'), plus the margin of [`Surface::support`] for its rounding:
-    /// along the axes the two supports are equal.
+    /// The support of the box, elliptic cylinder or ellipsoid that holds this body (`Enclosure`;
+    /// the cylinder's is the sum of its round section's and its flat ends'), plus the margin of
+    /// [`Surface::support`] for its rounding: along the axes the two supports are equal.
     fn enclosing_support(&self, n: &V3) -> f64 {
         let sn = self.s.component_mul(n).abs();
         let along = match self.enclosure {
