@@ -695,13 +695,15 @@ fn elongated_axis<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> AxisGap {
 const GILBERT_AXIS_TOL: f64 = 0.05;
 const GILBERT_AXIS_ITER: u32 = 16;
 
-/// The largest radius of curvature, or the bounding radius where a flat face has none.
+/// The largest radius of curvature, or where a flat face has none the half-diagonal of the box
+/// of the semi-axes: a step length only. The bounding radius, once as loose as that box, took the
+/// ascent longer at p = 10 once it was tight (`farthest_point` in `superquadric.rs`).
 fn search_radius<S: Surface>(s: &S) -> f64 {
     let rho = s.max_curvature_radius();
     if rho.is_finite() {
         rho
     } else {
-        s.bounding_radius()
+        s.semi_axes().norm()
     }
 }
 

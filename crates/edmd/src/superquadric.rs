@@ -25,7 +25,8 @@ pub struct Superquadric {
     pub s: V3,
     /// Exponents (n, m, p) on those axes, each ≥ 2.
     pub e: V3,
-    /// [`Surface::bounding_radius`], computed once: the contact-free bounds ask for it often.
+    /// [`Surface::bounding_radius`], computed once ([`farthest_point`]): the contact-free bounds
+    /// ask for it often.
     radius: f64,
     /// The direction-free parts of [`Surface::support_modulus`]; `None` when every exponent
     /// is 2 (an ellipsoid, whose modulus is a constant).
@@ -38,6 +39,64 @@ pub struct Superquadric {
     lowered: [u32; 3],
     /// The body of [`Surface::enclosing_support`].
     enclosure: Enclosure,
+}
+
+/// The largest |x| on the superquadric of semi-axes `s` and exponents `e`, from above: with
+/// z_k = |x_k/s_k|^(e_k), the largest Σ s_k² z_k^(2/e_k) over z_k ≥ 0, Σ z_k ≤ 1, a concave
+/// function (2/e_k ≤ 1) on a simplex. Its Lagrangian dual g(λ) = λ + Σ_k max over z in [0, 1] of
+/// (s_k² z^(2/e_k) − λz) bounds it from above at every λ ≥ 0 (each z of the simplex pays
+/// λ(1 − Σ z_k) ≥ 0), and meets it at the best λ; g is convex, and each maximum has a closed
+/// form (z = (2s_k²/(e_k λ))^(e_k/(e_k − 2)) within [0, 1]; where e_k = 2, 1 or 0). The
+/// golden-section search on λ ends within 1e-15 of the best, and whatever λ it ends at, g is an
+/// upper bound; the root is nudged by 1e-12 for the rounding.
+///
+/// The bound it replaces, s_max 3^(1/2 − 1/e_max) (or |s|), was 17–25 % above this for the
+/// figures' shapes ([2, 2, p], X0 0.5–2): every bounding sphere, and every linear contact-free
+/// bound by the turning of a body, was that much too large.
+fn farthest_point(s: &V3, e: &V3) -> f64 {
+    if e.iter().all(|&e| e == 2.0) {
+        // An ellipsoid: its largest semi-axis, exactly.
+        return s.max();
+    }
+    let dual = |lambda: f64| {
+        lambda
+            + (0..3)
+                .map(|k| {
+                    let s2 = s[k] * s[k];
+                    if e[k] == 2.0 {
+                        return (s2 - lambda).max(0.0);
+                    }
+                    let p = 2.0 / e[k];
+                    let z = if lambda > 0.0 {
+                        (p * s2 / lambda).powf(1.0 / (1.0 - p)).min(1.0)
+                    } else {
+                        1.0
+                    };
+                    s2 * z.powf(p) - lambda * z
+                })
+                .sum::<f64>()
+    };
+    let (mut lo, mut hi) = (0.0, s.max() * s.max());
+    let golden = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (hi - golden * (hi - lo), lo + golden * (hi - lo));
+    let (mut g1, mut g2) = (dual(x1), dual(x2));
+    while hi - lo > 1e-15 * s.max() * s.max() {
+        if g1 <= g2 {
+            hi = x2;
+            (x2, g2) = (x1, g1);
+            x1 = hi - golden * (hi - lo);
+            g1 = dual(x1);
+        } else {
+            lo = x1;
+            (x1, g1) = (x2, g2);
+            x2 = lo + golden * (hi - lo);
+            g2 = dual(x2);
+        }
+    }
+    let best = [dual(lo), g1, g2, dual(hi)]
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    best.sqrt() * (1.0 + 1e-12)
 }
 
 /// A simple body that holds a superquadric, whose support has a closed form. Every term of
@@ -73,9 +132,7 @@ impl Superquadric {
             && e.iter().all(|x| x.is_finite() && *x >= 2.0);
         ok.then(|| {
             let (s, e) = (V3::from(s), V3::from(e));
-            // s_max · 3^(1/2 − 1/e_max): with u_k = |x_k/s_k| ≤ 1, Σ u_k^(e_max) ≤ Σ u_k^(e_k) ≤ 1,
-            // and Σ u_k² under that constraint is largest at equal u_k. Exact for an ellipsoid.
-            let radius = (s.max() * 3f64.powf(0.5 - 1.0 / e.max())).min(s.norm());
+            let radius = farthest_point(&s, &e);
             let modulus = (e.iter().any(|&e| e != 2.0)).then(|| ModulusParts::new(&s, &e));
             Superquadric {
                 s,
@@ -879,6 +936,29 @@ mod tests {
                     prop_assert!(x.norm() <= q.bounding_radius() * (1.0 + 1e-12));
                 }
             }
+        }
+    }
+
+    proptest! {
+        /// The bounding radius is the farthest point of the body: no point of a dense sample of
+        /// the surface lies beyond it (`support_bounds_every_surface_point` samples too), the
+        /// farthest of them lies within 1 % of it, and it is never above the bound it replaced
+        /// (which was 17–25 % above it for the figures' shapes).
+        #[test]
+        fn the_bounding_radius_is_the_farthest_point(q in prop_oneof![sq(), round_across_one_axis()]) {
+            let l = q.bounding_radius();
+            let mut farthest = 0.0f64;
+            for i in 0..200 {
+                for j in 0..100 {
+                    let (th, ph) = (std::f64::consts::PI * (j as f64 + 0.5) / 100.0, std::f64::consts::TAU * i as f64 / 200.0);
+                    let x = q.ray_point(&V3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
+                    farthest = farthest.max(x.norm());
+                }
+            }
+            prop_assert!(farthest <= l, "a point at {farthest} beyond {l}");
+            prop_assert!(farthest >= 0.99 * l, "the farthest sampled point at {farthest}, the radius {l}");
+            let replaced = (q.s.max() * 3f64.powf(0.5 - 1.0 / q.e.max())).min(q.s.norm());
+            prop_assert!(l >= q.s.max() && l <= replaced * (1.0 + 1e-12), "{l} against {replaced}");
         }
     }
 
