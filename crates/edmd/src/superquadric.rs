@@ -41,6 +41,11 @@ pub struct Superquadric {
     enclosure: Enclosure,
 }
 
+/// Whether every exponent is 2: the superquadric is an ellipsoid.
+fn ellipsoidal(e: &V3) -> bool {
+    e.iter().all(|&e| e == 2.0)
+}
+
 /// The largest |x| on the superquadric of semi-axes `s` and exponents `e`, from above: with
 /// z_k = |x_k/s_k|^(e_k), the largest Σ s_k² z_k^(2/e_k) over z_k ≥ 0, Σ z_k ≤ 1, a concave
 /// function (2/e_k ≤ 1) on a simplex. Its Lagrangian dual g(λ) = λ + Σ_k max over z in [0, 1] of
@@ -54,7 +59,7 @@ pub struct Superquadric {
 /// figures' shapes ([2, 2, p], X0 0.5–2): every bounding sphere, and every linear contact-free
 /// bound by the turning of a body, was that much too large.
 fn farthest_point(s: &V3, e: &V3) -> f64 {
-    if e.iter().all(|&e| e == 2.0) {
+    if ellipsoidal(e) {
         // An ellipsoid: its largest semi-axis, exactly.
         return s.max();
     }
@@ -116,7 +121,7 @@ enum Enclosure {
 
 impl Enclosure {
     fn of(e: &V3) -> Self {
-        if e.iter().all(|&e| e == 2.0) {
+        if ellipsoidal(e) {
             return Enclosure::Ellipsoid;
         }
         (0..3)
@@ -133,7 +138,7 @@ impl Superquadric {
         ok.then(|| {
             let (s, e) = (V3::from(s), V3::from(e));
             let radius = farthest_point(&s, &e);
-            let modulus = (e.iter().any(|&e| e != 2.0)).then(|| ModulusParts::new(&s, &e));
+            let modulus = (!ellipsoidal(&e)).then(|| ModulusParts::new(&s, &e));
             Superquadric {
                 s,
                 e,
@@ -695,7 +700,7 @@ impl Surface for Superquadric {
         }
     }
     fn max_curvature_radius(&self) -> f64 {
-        if self.e.iter().all(|&e| e == 2.0) {
+        if ellipsoidal(&self.e) {
             self.s.max().powi(2) / self.s.min()
         } else {
             f64::INFINITY
@@ -710,7 +715,7 @@ impl Surface for Superquadric {
         self.s.min()
     }
     fn ellipsoid_semi_axes(&self) -> Option<V3> {
-        self.e.iter().all(|&e| e == 2.0).then_some(self.s)
+        ellipsoidal(&self.e).then_some(self.s)
     }
 }
 
