@@ -696,8 +696,9 @@ const GILBERT_AXIS_TOL: f64 = 0.05;
 const GILBERT_AXIS_ITER: u32 = 16;
 
 /// The largest radius of curvature, or where a flat face has none the half-diagonal of the box
-/// of the semi-axes: a step length only. The bounding radius, once as loose as that box, took the
-/// ascent longer at p = 10 once it was tight (`farthest_point` in `superquadric.rs`).
+/// of the semi-axes: a step length only. A superquadric's bounding radius was about that long
+/// until it became exact (`farthest_point` in `superquadric.rs`); as the step length, the exact
+/// one cost p = 10 4 % more instructions.
 fn search_radius<S: Surface>(s: &S) -> f64 {
     let rho = s.max_curvature_radius();
     if rho.is_finite() {

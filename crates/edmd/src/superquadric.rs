@@ -85,7 +85,12 @@ fn farthest_point(s: &V3, e: &V3) -> f64 {
     let golden = 0.5 * (5f64.sqrt() - 1.0);
     let (mut x1, mut x2) = (hi - golden * (hi - lo), lo + golden * (hi - lo));
     let (mut g1, mut g2) = (dual(x1), dual(x2));
-    while hi - lo > 1e-15 * s.max() * s.max() {
+    // 0.618 a step from s_max² to 1e-15 of it: 72 steps. The cap holds where rounding stalls
+    // the interval; any λ reached is still an upper bound.
+    for _ in 0..200 {
+        if hi - lo <= 1e-15 * s.max() * s.max() {
+            break;
+        }
         if g1 <= g2 {
             hi = x2;
             (x2, g2) = (x1, g1);
