@@ -14,7 +14,8 @@
 //! - [`distance`]: Newton–Raphson on Eqs. (23) with the relaxed step (26–29), the guess of
 //!   Sec. 3.2 and steepest descent (Sec. 2.3.2); negative distances for slight overlaps.
 //!   [`support_distance`]: the globally convergent fallback when all of those fail (Gilbert's
-//!   algorithm on support functions, with certified bounds); a distance it cannot decide either
+//!   algorithm on support functions, with certified bounds, and Newton–Raphson from its support
+//!   points, whose last try backtracks on the residual); a distance it cannot decide either
 //!   stops the run with [`EdmdError::Unresolved`], naming the pair.
 //! - [`contact`]: contact time (Sec. 2.4): bounding spheres, ε_d stepping (Eq. 39), grazing by
 //!   quadratic interpolation and Brent's method, Newton–Raphson on Eqs. (30)–(31); the bounds
