@@ -446,10 +446,10 @@ pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 ///
 /// Five end what the pushes did (Z over the first N collisions is 55 % high for [2, 2, 4] at
 /// φ 0.4); what is left is equilibration, which scenes ask for with `equilibrate`. Measured with
-/// 32–96 seeds instead of 4 (MEASUREMENTS.md, "A distance the support fallback gave up on; how
-/// relaxed the starts are"), [2, 2, 4] at φ 0.4 is still 1.3 % low after 5 and 0.45 % after 10;
-/// bodies added at φ 0.256 overshoot by 0.5–1 % for 2–4 and settle within 6, so fewer than 5
-/// would leave them high.
+/// 32–96 seeds instead of 4 (MEASUREMENTS.md, "A distance the support fallback gave up on;
+/// Gilbert's start from aspect 3; how relaxed the starts are"), [2, 2, 4] at φ 0.4 is still
+/// 1.3 % low after 5 and 0.45 % after 10; bodies added at φ 0.256 overshoot by 0.5–1 % for 2–4
+/// and settle within 6, so fewer than 5 would leave them high.
 pub const SHORT_RELAX_COLLISIONS_PER_PARTICLE: u64 = 5;
 
 /// Collisions per particle that end a start of spheres of one size (`SPHERES`), whose pushes
