@@ -369,9 +369,9 @@ const GUESS_ASPECT: f64 = 3.0;
 const ASCENT_ASPECT: f64 = 5.0;
 
 /// Newton–Raphson iterations a warm start (the previous solution along the trajectory) is given
-/// where the guess is poor ([`poor_guess`]): from inside its basin it converges in a few; past this it is drifting
-/// (towards α → 0 and a stationary point that is not the distance) and the cold start is cheaper
-/// than the rest of `nr_max_iter`.
+/// where the guess is poor ([`poor_guess`]): from inside its basin it converges in a few; past
+/// this it is drifting (towards α → 0 and a stationary point that is not the distance) and the
+/// cold start is cheaper than the rest of `nr_max_iter`.
 const WARM_ITERATIONS: u32 = 8;
 
 /// How close to the distance (in units of the smallest semi-axis) Gilbert's algorithm brings
