@@ -952,21 +952,39 @@ mod tests {
     proptest! {
         /// The bounding radius is the farthest point of the body: no point of a dense sample of
         /// the surface lies beyond it (`support_bounds_every_surface_point` samples too), the
-        /// farthest of them lies within 1 % of it, and it is never above the bound it replaced
-        /// (which was 17–25 % above it for the figures' shapes).
+        /// farthest of them, climbed to the nearest maximum, lies within 0.1 % of it, and it is
+        /// never above the bound it replaced (which was 17–25 % above it for the figures'
+        /// shapes). The climb matters for long bodies: the grid's rays nearest the tip of
+        /// semi-axes 1.91, 0.2, 0.2 end 1.1 % short of it.
         #[test]
         fn the_bounding_radius_is_the_farthest_point(q in prop_oneof![sq(), round_across_one_axis()]) {
             let l = q.bounding_radius();
-            let mut farthest = 0.0f64;
+            let reach = |d: &V3| q.ray_point(&d.normalize()).norm();
+            let mut best = (0.0f64, V3::x());
             for i in 0..200 {
                 for j in 0..100 {
                     let (th, ph) = (std::f64::consts::PI * (j as f64 + 0.5) / 100.0, std::f64::consts::TAU * i as f64 / 200.0);
-                    let x = q.ray_point(&V3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
-                    farthest = farthest.max(x.norm());
+                    let d = V3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                    let r = reach(&d);
+                    prop_assert!(r <= l * (1.0 + 1e-12), "a point at {r} beyond {l}");
+                    if r > best.0 {
+                        best = (r, d);
+                    }
                 }
             }
-            prop_assert!(farthest <= l, "a point at {farthest} beyond {l}");
-            prop_assert!(farthest >= 0.99 * l, "the farthest sampled point at {farthest}, the radius {l}");
+            // Coordinate ascent of the ray's reach from the best ray, its step halved when no
+            // axis improves on it.
+            let (mut farthest, mut d) = best;
+            let mut h = 0.05;
+            while h > 1e-10 {
+                let tried = (0..6).map(|k| d + V3::ith(k % 3, if k < 3 { h } else { -h })).map(|e| (reach(&e), e.normalize()));
+                match tried.max_by(|a, b| a.0.total_cmp(&b.0)) {
+                    Some((r, e)) if r > farthest => (farthest, d) = (r, e),
+                    _ => h *= 0.5,
+                }
+            }
+            prop_assert!(farthest <= l * (1.0 + 1e-12), "a point at {farthest} beyond {l}");
+            prop_assert!(farthest >= 0.999 * l, "the farthest point climbed to at {farthest}, the radius {l}");
             let replaced = (q.s.max() * 3f64.powf(0.5 - 1.0 / q.e.max())).min(q.s.norm());
             prop_assert!(l >= q.s.max() && l <= replaced * (1.0 + 1e-12), "{l} against {replaced}");
         }
