@@ -362,12 +362,6 @@ fn overlap_distance(inside: V3, lower: f64, l: f64, tol: &Tolerances) -> Distanc
 /// aspect 3; …").
 const GUESS_ASPECT: f64 = 3.0;
 
-/// Beyond this aspect ratio the contact search's damped axis ascent stalls near the line of
-/// centres ([`elongated`]). Between [`GUESS_ASPECT`] and this the ascent, four lanes at a time,
-/// still costs less than the needles' axes on neighbour lists (X0 = 5, N 400, φ 0.3: 302 against
-/// 329 M instructions), though not on linked cells (1,166 against 844 M).
-const ASCENT_ASPECT: f64 = 5.0;
-
 /// Newton–Raphson iterations a warm start (the previous solution along the trajectory) is given
 /// where the guess is poor ([`poor_guess`]): from inside its basin it converges in a few; past
 /// this it is drifting (towards α → 0 and a stationary point that is not the distance) and the
@@ -380,7 +374,7 @@ const GILBERT_START_TOL: f64 = 0.3;
 const GILBERT_START_ITER: u32 = 1_000;
 
 /// The ratio of a body's longest to its shortest semi-axis.
-fn aspect<S: Surface>(s: &S) -> f64 {
+pub(crate) fn aspect<S: Surface>(s: &S) -> f64 {
     let semi = s.semi_axes();
     semi.max() / semi.min()
 }
@@ -388,12 +382,6 @@ fn aspect<S: Surface>(s: &S) -> f64 {
 /// Whether the guess of Sec. 3.2 is poor for `s`: its aspect ratio is above [`GUESS_ASPECT`].
 fn poor_guess<S: Surface>(s: &S) -> bool {
     aspect(s) > GUESS_ASPECT
-}
-
-/// Whether the contact search's damped axis ascent is poor for `s`: its aspect ratio is above
-/// [`ASCENT_ASPECT`].
-pub(crate) fn elongated<S: Surface>(s: &S) -> bool {
-    aspect(s) > ASCENT_ASPECT
 }
 
 /// The start of Newton–Raphson where the guess is poor: the support points along the best
