@@ -14,6 +14,7 @@
 //! Scenes ask for it with `shape = "superquadric"` and `exponents`; the engine runs it through the
 //! same rigid-body model as the ellipsoid, and the overlap audit tests it with Gilbert's algorithm.
 
+use crate::contact::brent_min;
 use crate::geometry::{
     LabEval, M3, MOST_DENOMINATOR, Placed, Pose, SupportModulus, Surface, V3, lcm_at_most, pow,
     whole_power,
@@ -51,9 +52,8 @@ fn ellipsoidal(e: &V3) -> bool {
 /// function (2/e_k ≤ 1) on a simplex. Its Lagrangian dual g(λ) = λ + Σ_k max over z in [0, 1] of
 /// (s_k² z^(2/e_k) − λz) bounds it from above at every λ ≥ 0 (each z of the simplex pays
 /// λ(1 − Σ z_k) ≥ 0), and meets it at the best λ; g is convex, and each maximum has a closed
-/// form (z = (2s_k²/(e_k λ))^(e_k/(e_k − 2)) within [0, 1]; where e_k = 2, 1 or 0). The
-/// golden-section search on λ ends within 1e-15 of the best, and whatever λ it ends at, g is an
-/// upper bound; the root is nudged by 1e-12 for the rounding.
+/// form (z = (2s_k²/(e_k λ))^(e_k/(e_k − 2)) within [0, 1]; where e_k = 2, 1 or 0). Whatever
+/// λ the search ends at, g is an upper bound; the root is nudged by 1e-12 for the rounding.
 ///
 /// The bound it replaces, s_max 3^(1/2 − 1/e_max) (or |s|), was 17–25 % above this for the
 /// figures' shapes ([2, 2, p], X0 0.5–2): every bounding sphere, and every linear contact-free
@@ -81,31 +81,11 @@ fn farthest_point(s: &V3, e: &V3) -> f64 {
                 })
                 .sum::<f64>()
     };
-    let (mut lo, mut hi) = (0.0, s.max() * s.max());
-    let golden = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut x1, mut x2) = (hi - golden * (hi - lo), lo + golden * (hi - lo));
-    let (mut g1, mut g2) = (dual(x1), dual(x2));
-    // 0.618 a step from s_max² to 1e-15 of it: 72 steps. The cap holds where rounding stalls
-    // the interval; any λ reached is still an upper bound.
-    for _ in 0..200 {
-        if hi - lo <= 1e-15 * s.max() * s.max() {
-            break;
-        }
-        if g1 <= g2 {
-            hi = x2;
-            (x2, g2) = (x1, g1);
-            x1 = hi - golden * (hi - lo);
-            g1 = dual(x1);
-        } else {
-            lo = x1;
-            (x1, g1) = (x2, g2);
-            x2 = lo + golden * (hi - lo);
-            g2 = dual(x2);
-        }
-    }
-    let best = [dual(lo), g1, g2, dual(hi)]
-        .into_iter()
-        .fold(f64::INFINITY, f64::min);
+    // g is convex on [0, s_max²] (past s_max² it only grows): Brent's minimisation, with the
+    // ends, which it does not evaluate, where the best λ lies at one.
+    let top = s.max() * s.max();
+    let (_, inside) = brent_min(0.0, 0.5 * top, top, 1e-15 * top, dual);
+    let best = inside.min(dual(0.0)).min(dual(top));
     best.sqrt() * (1.0 + 1e-12)
 }
 
