@@ -3,7 +3,7 @@
 //! encounters, and Newton–Raphson on Eqs. (30)–(31) for the exact time and point.
 
 use crate::distance::{
-    Bordered, Distance, Guess, SolverStats, Tolerances, aspect, distance, multipliers_guess,
+    Bordered, Distance, Guess, SolverStats, Tolerances, distance, elongated, multipliers_guess,
 };
 use crate::ellipsoid::lab_matrix;
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
@@ -642,19 +642,6 @@ pub fn quick_bound<S: Surface>(
         now: Some((gap, safe)),
         axis: Some(ascent.next_axis()),
     }
-}
-
-/// Beyond this aspect ratio the contact search's damped axis ascent stalls near the line of
-/// centres ([`elongated`]). Between `distance::GUESS_ASPECT` (the distance's own line) and this the
-/// ascent, four lanes at a time, still costs less than the needles' axes on neighbour lists
-/// (X0 = 5, N 400, φ 0.3: 302 against 329 M instructions), though not on linked cells (1,166
-/// against 844 M).
-const ASCENT_ASPECT: f64 = 5.0;
-
-/// Whether the contact search's damped axis ascent is poor for `s`: its aspect ratio is above
-/// [`ASCENT_ASPECT`]; it takes [`elongated_axis`] instead.
-pub(crate) fn elongated<S: Surface>(s: &S) -> bool {
-    aspect(s) > ASCENT_ASPECT
 }
 
 /// [`separating_axis`] for needles and plates, whose largest radius of curvature (aspect² times

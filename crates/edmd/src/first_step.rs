@@ -399,8 +399,8 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-    use crate::contact::elongated;
     use crate::contact::quick_bound;
+    use crate::distance::elongated;
     use crate::ellipsoid::Ellipsoid;
     use crate::geometry::{M3, Surface};
     use crate::pw::contact_scale;

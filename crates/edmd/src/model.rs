@@ -3,11 +3,10 @@
 
 use crate::ball::{Ball, SizedBall};
 use crate::body::{Moving, SphereBody};
-use crate::contact::elongated;
 use crate::contact::{
     ContactParams, Known, QuickBound, enclosing_bound, predict_from, quick_bound,
 };
-use crate::distance::SolverStats;
+use crate::distance::{SolverStats, elongated};
 use crate::ellipsoid::Ellipsoid;
 use crate::first_step::EllipsoidLanes;
 use crate::geometry::{Surface, V3};
