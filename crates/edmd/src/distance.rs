@@ -46,7 +46,7 @@ pub struct SolverStats {
     pub failures: u64,
     /// Contact times for which Newton–Raphson on Eqs. (30) failed and bisection of d(t) was used.
     pub contact_fallbacks: u64,
-    /// Distances of bodies of aspect above `GUESS_ASPECT` (3) that Gilbert's algorithm
+    /// Distances of needles and plates (aspect above `NEEDLE_ASPECT`, 5) that Gilbert's algorithm
     /// proved overlapping and Newton–Raphson did not resolve (no negative distance of Eqs. 9
     /// that deep): reported as the certified overlap at once, without steepest descent or the
     /// support fallback.

@@ -45,7 +45,7 @@ pub struct RunReport {
     /// Distances decided by the support-function fallback after Newton–Raphson and steepest
     /// descent failed (whole run; converged or a proved overlap, not failures).
     pub distance_fallbacks: u64,
-    /// Distances of bodies of aspect above 3 that Gilbert's algorithm proved
+    /// Distances of bodies of aspect above 5 that Gilbert's algorithm proved
     /// overlapping where Newton–Raphson found no negative distance (whole run): the certified
     /// overlap, decided before steepest descent and the support fallback (not failures).
     pub certified_overlaps: u64,
