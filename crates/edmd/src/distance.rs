@@ -516,19 +516,22 @@ fn newton<S: Surface, const BACKTRACK: bool>(
         // Not in the paper: nor may x_A move by more than l in one step. Along the flat sides of
         // a high exponent the Jacobian is nearly singular, and an undamped step there leaves the
         // body by orders of magnitude (f, a power 10 of the coordinates, then overflows).
-        let dx = step.fixed_rows::<3>(0).norm();
+        let dxa = step.fixed_rows::<3>(0).into_owned();
+        let dx = dxa.norm();
         if dx > l {
             xi = xi.min(l / dx);
         }
-        let dxa = step.fixed_rows::<3>(0).into_owned();
         if BACKTRACK {
+            // The residual of Eqs. (23), its first row relative to |f_x| as the test above takes it.
+            let merit =
+                |f1: &V3, fxn: f64, fa: f64, fb: f64| (f1.norm() / fxn).powi(2) + fa * fa + fb * fb;
             let residual = |xa: &V3, alpha: f64, beta: f64| {
                 let ea = qa.eval(xa);
                 let eb = qb.eval(&(xa + ea.grad * beta));
                 let f1 = ea.grad + eb.grad * (alpha * alpha);
-                (f1.norm() / ea.grad.norm()).powi(2) + ea.f * ea.f + eb.f * eb.f
+                merit(&f1, ea.grad.norm(), ea.f, eb.f)
             };
-            let now = (f1.norm() / fxn).powi(2) + ea.f * ea.f + eb.f * eb.f;
+            let now = merit(&f1, fxn, ea.f, eb.f);
             let mut halvings = 0;
             // A NaN residual (a step off the bodies' powers) is no decrease either.
             while residual(
