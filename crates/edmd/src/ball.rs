@@ -6,7 +6,7 @@
 
 use crate::body::SphereBody;
 use crate::geometry::{Surface, V3};
-use crate::lists::Region;
+use crate::lists::{ExactCentre, Region, SingleCentre};
 
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ball {
@@ -29,6 +29,8 @@ impl Region for Ball {
     fn centre(&self) -> &V3 {
         &self.c
     }
+
+    type Centre = ExactCentre;
 
     fn overlaps(&self, _: &Self, _: &V3, _: f64) -> bool {
         // Equal balls overlap exactly when their centres are at most `reach` apart.
@@ -72,6 +74,8 @@ impl Region for SizedBall {
     fn centre(&self) -> &V3 {
         &self.c
     }
+
+    type Centre = SingleCentre;
 
     fn overlaps(&self, other: &Self, shift: &V3, _: f64) -> bool {
         let reach = self.radius + other.radius + self.delta + other.delta;

@@ -169,12 +169,16 @@ impl<M: FirstCollision> Engine<M> {
             .enumerate()
             .map(|(i, b)| m.kinetic(i, b))
             .sum();
+        let mut cal = Calendar::new(n);
+        if M::READS_EVENT_TIMES {
+            cal.keep_times();
+        }
         let mut e = Engine {
             m,
             l,
             bodies,
             count: vec![0; n],
-            cal: Calendar::new(n),
+            cal,
             t,
             nb,
             scratch: Vec::new(),
@@ -225,12 +229,16 @@ impl<M: FirstCollision> Engine<M> {
     /// The engine of a [`snapshot`](Self::snapshot), with the model `m` of the same scene.
     pub(crate) fn restore(mut m: M, l: f64, s: EngineState<M::Extra, M::Region>) -> Self {
         m.set_stats(s.stats);
+        let mut cal = s.cal;
+        if M::READS_EVENT_TIMES {
+            cal.keep_times();
+        }
         Engine {
             m,
             l,
             bodies: s.bodies.iter().map(M::Body::from_body).collect(),
             count: s.count,
-            cal: s.cal,
+            cal,
             t: s.t,
             nb: s.nb,
             scratch: Vec::new(),

@@ -27,6 +27,9 @@ pub(crate) trait Model {
     type Region: Region<Body = Self::Body>;
     /// The shape every body has.
     type Shape: Surface + Copy;
+    /// Whether predictions read other bodies' event times ([`crate::calendar::Calendar::time_of`]), which the
+    /// calendar then keeps in an array of their own ([`crate::calendar::Calendar::keep_times`]).
+    const READS_EVENT_TIMES: bool = false;
     /// The largest body's bounding radius: what linked cells are sized for.
     fn bounding_radius(&self) -> f64;
     /// Body `i`'s own shape, which its neighbour-list region is built around (one shape for
@@ -415,6 +418,7 @@ impl<S: Surface + Copy> Model for RigidModel<S> {
     type Body = Body;
     type Region = Obp;
     type Shape = S;
+    const READS_EVENT_TIMES: bool = true;
     fn bounding_radius(&self) -> f64 {
         self.e.bounding_radius()
     }
@@ -568,6 +572,7 @@ impl<S: Surface + Copy> Model for MixedRigidModel<S> {
     type Body = Body;
     type Region = Obp;
     type Shape = S;
+    const READS_EVENT_TIMES: bool = true;
     fn bounding_radius(&self) -> f64 {
         self.r_max
     }

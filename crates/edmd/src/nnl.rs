@@ -2,7 +2,7 @@
 //! the 15-axis separation test (Eqs. 62–64), and the escape time of a body from its box (Eqs. 59–61).
 
 use crate::geometry::{M3, Surface, V3};
-use crate::lists::Region;
+use crate::lists::{Region, SingleCentre};
 use crate::rigid::{Body, Flight, positive_for, support_acceleration_bound};
 
 /// Oriented bounding parallelepiped, immobile between two rebuilds.
@@ -43,6 +43,8 @@ impl Region for Obp {
     fn centre(&self) -> &V3 {
         &self.c
     }
+
+    type Centre = SingleCentre;
 
     fn overlaps(&self, other: &Self, shift: &V3, reach: f64) -> bool {
         // The other box inside its circumsphere against this box's three slabs: most candidates
