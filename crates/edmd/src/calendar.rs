@@ -54,8 +54,7 @@ const VACANT: Entry = Entry {
 #[repr(C, align(64))]
 struct Siblings([Entry; 4]);
 
-#[derive(Clone, Deserialize)]
-#[serde(from = "SavedCalendar<X>")]
+#[derive(Clone, Serialize, Deserialize)]
 pub struct Calendar<X> {
     /// Min-heap on `t`: node k has children 4k + 1 … 4k + 4, which are `groups[k + 1]`; the root
     /// is the last lane of `groups[0]`. Lanes past `len` are [`VACANT`].
@@ -70,50 +69,9 @@ pub struct Calendar<X> {
     /// rigid body's event takes 96. A rigid prediction asks it of every candidate, and
     /// candidates are numbered near their body (along a Z curve), so their times share lines:
     /// ellipsoids X0 = 2, φ 0.5, N 16,384 missed the second-level cache on 33 of these reads a
-    /// collision through `pos` and `events` (MEASUREMENTS.md).
+    /// collision through `pos` and `events` (MEASUREMENTS.md). Not saved: the events give them.
+    #[serde(skip)]
     times: Vec<f64>,
-}
-
-/// [`Calendar`] as state files hold it: without the times, which its events give.
-#[derive(Deserialize)]
-struct SavedCalendar<X> {
-    groups: Vec<Siblings>,
-    len: usize,
-    pos: Vec<u32>,
-    events: Vec<Stored<X>>,
-}
-
-/// [`SavedCalendar`] borrowed from a calendar, to be written.
-#[derive(Serialize)]
-struct SavingCalendar<'a, X> {
-    groups: &'a [Siblings],
-    len: usize,
-    pos: &'a [u32],
-    events: &'a [Stored<X>],
-}
-
-impl<X: Serialize> Serialize for Calendar<X> {
-    fn serialize<S: serde::Serializer>(&self, to: S) -> Result<S::Ok, S::Error> {
-        SavingCalendar {
-            groups: &self.groups,
-            len: self.len,
-            pos: &self.pos,
-            events: &self.events,
-        }
-        .serialize(to)
-    }
-}
-
-impl<X> From<SavedCalendar<X>> for Calendar<X> {
-    fn from(saved: SavedCalendar<X>) -> Self {
-        Calendar {
-            groups: saved.groups,
-            len: saved.len,
-            pos: saved.pos,
-            events: saved.events,
-            times: Vec::new(),
-        }
-    }
 }
 
 /// An event as the calendar keeps it: without its particle, which is its index. A sphere's is 32
@@ -235,20 +193,23 @@ impl<X: Copy> Calendar<X> {
     pub fn time_of(&self, a: usize) -> f64 {
         match self.times.get(a) {
             Some(&t) => t,
-            None if self.pos[a] == NONE => f64::INFINITY,
-            None => self.events[a].t,
+            None => self.event_time(a),
+        }
+    }
+
+    /// Particle `a`'s event time as its event holds it, +∞ where it has none.
+    fn event_time(&self, a: usize) -> f64 {
+        if self.pos[a] == NONE {
+            f64::INFINITY
+        } else {
+            self.events[a].t
         }
     }
 
     /// Keeps every particle's event time in an array of its own from now on, for
     /// [`Calendar::time_of`] to read.
     pub fn keep_times(&mut self) {
-        self.times = (0..self.pos.len())
-            .map(|a| match self.pos[a] {
-                NONE => f64::INFINITY,
-                _ => self.events[a].t,
-            })
-            .collect();
+        self.times = (0..self.pos.len()).map(|a| self.event_time(a)).collect();
     }
 
     /// The earliest event.

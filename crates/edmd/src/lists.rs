@@ -325,11 +325,11 @@ impl<R: Region> Lists<R> {
     /// region `i`, with their images.
     fn find(&mut self, i: usize, take: impl Fn(usize) -> bool, found: &mut Vec<Neighbour>) {
         let a = &self.regions[i];
-        let reach2 = self.reach * self.reach;
         let Some(grid) = &mut self.grid else {
             // Without cells, every body, at the image nearest to i and, when the box is small,
             // the images around that one. No division, and the image's integers only where in
             // reach: at N 256 this loop was a quarter of every rebuild's instructions.
+            let reach2 = self.reach * self.reach;
             let offsets: &[[i32; 3]] = if self.single_image {
                 &[[0; 3]]
             } else {

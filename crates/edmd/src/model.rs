@@ -27,8 +27,9 @@ pub(crate) trait Model {
     type Region: Region<Body = Self::Body>;
     /// The shape every body has.
     type Shape: Surface + Copy;
-    /// Whether predictions read other bodies' event times ([`crate::calendar::Calendar::time_of`]), which the
-    /// calendar then keeps in an array of their own ([`crate::calendar::Calendar::keep_times`]).
+    /// Whether predictions read other bodies' event times
+    /// ([`crate::calendar::Calendar::time_of`]), which the calendar then keeps in an array of
+    /// their own ([`crate::calendar::Calendar::keep_times`]).
     const READS_EVENT_TIMES: bool = false;
     /// The largest body's bounding radius: what linked cells are sized for.
     fn bounding_radius(&self) -> f64;
