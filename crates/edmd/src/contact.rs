@@ -484,7 +484,9 @@ struct AxisAscent {
 
 impl AxisAscent {
     /// Before the first step, from the axis `from` (lab frame, from A to B) or else from the line
-    /// of centres.
+    /// of centres. Inlined, the poses come in registers: stored by the caller and loaded here in
+    /// other widths straight after, they waited for the stores to reach the cache.
+    #[inline(always)]
     fn start<S: Surface>(sa: &S, pa: &Pose, sb: &S, pb: &Pose, from: Option<&V3>) -> Self {
         let r = pa.rot * (pb.r - pa.r);
         let (n, full) = match from {

@@ -777,7 +777,8 @@ impl<M: Rigid> Engine<M> {
                     };
                     let steps =
                         first_steps(shape, a, self.t, &[lane(0), lane(1), lane(2), lane(3)]);
-                    for (&(j, shift, until, start), step) in group.iter().zip(steps) {
+                    for (k, &(j, shift, until, start)) in group.iter().enumerate() {
+                        let step = steps.lane(k);
                         if step.lower >= until - self.t {
                             // No contact before the horizon: nothing to search.
                             self.axes

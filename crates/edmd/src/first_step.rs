@@ -27,6 +27,31 @@ pub struct FirstStep {
     pub next_axis: V3,
 }
 
+/// [`FirstStep`] of four candidates, lane by lane, as the lanes leave them: each array is one
+/// vector store, and reading one lane of it is served from that store. Returned as four
+/// `FirstStep`s, eight or sixteen bytes at a time, each was then read back across two stores,
+/// which waits for both to reach the cache.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstSteps {
+    lower: [f64; 4],
+    next_axis: [[f64; 4]; 3],
+}
+
+impl FirstSteps {
+    /// The first step of candidate `k` (0 to 3).
+    #[inline]
+    pub fn lane(&self, k: usize) -> FirstStep {
+        FirstStep {
+            lower: self.lower[k],
+            next_axis: V3::new(
+                self.next_axis[0][k],
+                self.next_axis[1][k],
+                self.next_axis[2][k],
+            ),
+        }
+    }
+}
+
 /// One ellipsoid shape, as the lanes need it. Made only by [`EllipsoidLanes::of`], where the
 /// CPU has AVX2: holding one is what makes [`first_steps`] safe.
 #[derive(Clone, Copy, Debug)]
@@ -68,12 +93,7 @@ pub struct Lane<'a> {
 
 /// [`FirstStep`] of body `a` (at time `now`) against each of four candidates, every one moved
 /// freely from its own time to `now`, all of shape `shape` ([`EllipsoidLanes::of`] checked AVX2).
-pub fn first_steps(
-    shape: &EllipsoidLanes,
-    a: &Body,
-    now: f64,
-    lanes: &[Lane; 4],
-) -> [FirstStep; 4] {
+pub fn first_steps(shape: &EllipsoidLanes, a: &Body, now: f64, lanes: &[Lane; 4]) -> FirstSteps {
     #[cfg(target_arch = "x86_64")]
     {
         // SAFETY: an `EllipsoidLanes` exists only where the CPU has AVX2.
@@ -87,7 +107,7 @@ pub fn first_steps(
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::{EllipsoidLanes, FirstStep, Lane};
+    use super::{EllipsoidLanes, FirstSteps, Lane};
     use crate::geometry::V3;
     use crate::lanes::{add, lanes, mul, splat, sub};
     use crate::rigid::Body;
@@ -264,7 +284,7 @@ mod avx2 {
         a: &Body,
         now: f64,
         lanes4: &[Lane; 4],
-    ) -> [FirstStep; 4] {
+    ) -> FirstSteps {
         let body = |k: usize| -> &Body { lanes4[k].body };
         // B at the present: r + v τ and R(τ) row by row (rigid::rotate), unturned where w or τ
         // is 0.
@@ -379,18 +399,18 @@ mod avx2 {
             _mm256_max_pd(curved, linear),
             zero,
         );
-        let (mut lower4, mut next4) = ([0.0; 4], [[0.0; 4]; 3]);
+        let mut steps = FirstSteps {
+            lower: [0.0; 4],
+            next_axis: [[0.0; 4]; 3],
+        };
         // SAFETY: four f64 to four f64.
         unsafe {
-            _mm256_storeu_pd(lower4.as_mut_ptr(), lower);
-            for c in 0..3 {
-                _mm256_storeu_pd(next4[c].as_mut_ptr(), next[c]);
+            _mm256_storeu_pd(steps.lower.as_mut_ptr(), lower);
+            for (to, from) in steps.next_axis.iter_mut().zip(next) {
+                _mm256_storeu_pd(to.as_mut_ptr(), from);
             }
         }
-        [0, 1, 2, 3].map(|k| FirstStep {
-            lower: lower4[k],
-            next_axis: V3::new(next4[0][k], next4[1][k], next4[2][k]),
-        })
+        steps
     }
 }
 
@@ -507,7 +527,7 @@ mod tests {
                 let mut b = bs[k].at(now);
                 b.r += lanes[k].offset;
                 let scalar = quick_bound(&e, &a, &e, &b, 0.0, starts[k].as_ref(), None);
-                let lane = steps[k];
+                let lane = steps.lane(k);
                 prop_assert!(lane.lower >= 0.0);
                 prop_assert!(
                     lane.lower == scalar.lower

@@ -228,24 +228,17 @@ impl<R: Region> Lists<R> {
                 shift: s,
             });
         }
-        let shift = s.map(|x| x as i16);
         let (p, q) = (self.room_at(i)?, self.room_at(j)?);
-        self.lists.push(
-            i,
-            Link {
-                j: j as u32,
-                back: q,
-                shift,
-            },
-        );
-        self.lists.push(
-            j,
-            Link {
-                j: i as u32,
-                back: p,
-                shift: shift.map(|x| -x),
-            },
-        );
+        self.lists.push_with(i, || Link {
+            j: j as u32,
+            back: q,
+            shift: s.map(|x| x as i16),
+        });
+        self.lists.push_with(j, || Link {
+            j: i as u32,
+            back: p,
+            shift: s.map(|x| -x as i16),
+        });
         Ok(())
     }
 

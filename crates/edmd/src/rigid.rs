@@ -81,6 +81,11 @@ impl<'a> Flight<'a> {
     }
 
     /// [`Body::pose_after`].
+    // Inlined, the new pose goes from registers to `last` and to the caller. Called, it was
+    // written to the caller's slot eight bytes at a time and copied to `last` sixteen at a time
+    // straight after: loads that span two stores wait for both to reach the cache (about 2 % of
+    // an ellipsoid collision's time at X0 = 2, φ = 0.5, N = 256, MEASUREMENTS.md).
+    #[inline(always)]
     pub fn pose_after(&self, tau: f64) -> Pose {
         // By the bits: 0.0 and −0.0 give r + v τ apart where v has a zero.
         if let Some((at, pose)) = self.last.get()
@@ -104,6 +109,8 @@ impl<'a> Flight<'a> {
 
 impl Body {
     /// Pose after a free flight of `tau` (Eq. 6); a body without angular velocity is not rotated.
+    // Inlined for the reason `Flight::pose_after` is.
+    #[inline(always)]
     pub fn pose_after(&self, tau: f64) -> Pose {
         Pose {
             r: self.r + self.v * tau,
