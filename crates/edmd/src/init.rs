@@ -12,7 +12,8 @@
 //! through cells ([`Near`]), and the number of steps does not grow with N, unlike a compression
 //! limited by the closest pair (some pair is always nearly in contact, so its steps shrink as N
 //! grows: O(N²) in all). The pushes leave pairs near contact, which the engine relaxes with a few
-//! collisions per particle before anything is measured ([`Config::relax`]).
+//! collisions per particle before anything is measured ([`Config::relax`]); compact bodies at a
+//! dilute target are equilibrated by Monte Carlo sweeps at the target instead ([`DILUTE_SWEEPS`]).
 
 use crate::EdmdError;
 use crate::bracket::outer_factor_squared;
@@ -247,6 +248,9 @@ struct Schedule {
     push_ahead: f64,
     /// [`Schedule::push_ahead`] of steps that end above φ = [`DENSE_PUSHES_FROM`].
     push_ahead_dense: f64,
+    /// Sweeps at the target after the compression: the equilibration of a dilute start
+    /// ([`ADDED_DILUTE`]).
+    final_sweeps: usize,
 }
 
 /// The packing fraction above which a step's pushes go [`Schedule::push_ahead_dense`] past
@@ -270,6 +274,7 @@ const LATTICE: Schedule = Schedule {
     relax_sweeps: RELAX_SWEEPS,
     push_ahead: 2.0,
     push_ahead_dense: 2.0,
+    final_sweeps: 0,
 };
 
 /// Bodies of one shape other than spheres, from random sequential addition
@@ -281,6 +286,35 @@ const ADDED: Schedule = Schedule {
     melt_sweeps: 0,
     ..LATTICE
 };
+
+/// [`ADDED`] ending with [`DILUTE_SWEEPS`] at the target, and without the sweep after its step:
+/// a step of under 1.3 % of the side leaves few pairs in contact, which the pushes part at once,
+/// where a sweep of bodies in contact asks for their contact scales (p = 10, X0 = 2, φ 0.256,
+/// N 512: 0.049 s of a 0.174 s start, against 0.011 s for the pushes alone).
+const ADDED_DILUTE: Schedule = Schedule {
+    relax_sweeps: 0,
+    final_sweeps: DILUTE_SWEEPS,
+    ..ADDED
+};
+
+/// The densest target whose start from the addition of bodies of axis ratio up to
+/// [`SHORT_RELAX_AXIS_RATIO`] ends with [`DILUTE_SWEEPS`] instead of relaxing collisions: the
+/// addition's density (0.25) and a compression step of under 1.3 % of the side, whose
+/// pushes leave few pairs near contact. At φ 0.3 (six steps of pushes) 30 sweeps left Z over
+/// the first 2 collisions per particle +0.48 ± 0.18 % above the run's later Z, 5 relaxing
+/// collisions −0.20 ± 0.20 % ([2, 2, 10], X0 = 2, N 2048, 96 seeds).
+pub const DILUTE_PHI: f64 = 0.26;
+
+/// Monte Carlo sweeps at the target that end a dilute start ([`DILUTE_PHI`]) instead of relaxing
+/// collisions ([`Config::relax`] is 0). The sweeps sample the equilibrium of hard bodies
+/// (symmetric trial moves, every overlap refused) and cost a few µs a body each, where a
+/// superquadric's collision costs 100. Z over the first 2 collisions per particle against the
+/// same run's collisions 6–12 per particle, φ 0.256, X0 = 2, N 2048, 96 seeds: [2, 2, 10]
+/// −0.85 ± 0.17 % after 10 sweeps, −0.52 ± 0.17 % after 20, −0.20 ± 0.16 % after 30 (0.29 ms a
+/// body), where 5 relaxing collisions left +0.28 ± 0.22 % (0.88 ms a body); after 30, [2, 2, 4]
+/// −0.16 ± 0.19 % and ellipsoids −0.34 ± 0.16 % (MEASUREMENTS.md, "Dilute starts equilibrated
+/// by Monte Carlo sweeps").
+pub const DILUTE_SWEEPS: usize = 30;
 
 /// Spheres of one size, from random sequential addition ([`random_sequential`]): no Monte Carlo
 /// sweeps at all, the compression is the box's steps of 10 % and Jodrey–Tory pushes alone. The
@@ -314,6 +348,7 @@ const SPHERES: Schedule = Schedule {
     relax_sweeps: 0,
     push_ahead: 1.25,
     push_ahead_dense: 0.5,
+    final_sweeps: 0,
 };
 
 /// The largest compression step (relative change of the box side), and the smallest, below which
@@ -421,7 +456,8 @@ pub struct Config {
     pub bodies: Vec<Body>,
     /// Collisions per particle of the dynamics that ends the start: its pushes leave pairs near
     /// contact ([`RELAX_COLLISIONS_PER_PARTICLE`], [`SHORT_RELAX_COLLISIONS_PER_PARTICLE`] or
-    /// [`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]).
+    /// [`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]); 0 where Monte Carlo sweeps ended it
+    /// ([`DILUTE_SWEEPS`]).
     pub relax: u64,
 }
 
@@ -431,9 +467,9 @@ pub struct Config {
 pub const RELAX_COLLISIONS_PER_PARTICLE: u64 = 10;
 
 /// Collisions per particle that end a start from random sequential addition of bodies of axis
-/// ratio up to [`SHORT_RELAX_AXIS_RATIO`]: their starts are as relaxed after 5 as after 10. Z
-/// over the next 2 collisions per particle after k (MEASUREMENTS.md, "Five relaxing collisions
-/// for rigid bodies of axis ratio up to 2"):
+/// ratio up to [`SHORT_RELAX_AXIS_RATIO`] at a target above [`DILUTE_PHI`]: their starts are as
+/// relaxed after 5 as after 10. Z over the next 2 collisions per particle after k
+/// (MEASUREMENTS.md, "Five relaxing collisions for rigid bodies of axis ratio up to 2"):
 /// - spheres (before [`SPHERE_RELAX_COLLISIONS_PER_PARTICLE`]), N = 10⁵, φ = 0.45, seed 0
 ///   (Kolafa 9.403): 10.33 after 2, 9.70 after 5, 9.45 after 10 (ten took 35 of the 75 s at
 ///   N = 10⁶);
@@ -513,12 +549,13 @@ pub fn initial_configuration(
         _ => addition_densities(geom, phi)
             .find_map(|phi_add| random_sequential_bodies(n, (volume / phi_add).cbrt(), geom, rng))
             .map(|start| {
-                let relax = if geom.axis_ratio() <= SHORT_RELAX_AXIS_RATIO {
-                    SHORT_RELAX_COLLISIONS_PER_PARTICLE
+                if geom.axis_ratio() > SHORT_RELAX_AXIS_RATIO {
+                    (start, &ADDED, RELAX_COLLISIONS_PER_PARTICLE)
+                } else if phi <= DILUTE_PHI {
+                    (start, &ADDED_DILUTE, 0)
                 } else {
-                    RELAX_COLLISIONS_PER_PARTICLE
-                };
-                (start, &ADDED, relax)
+                    (start, &ADDED, SHORT_RELAX_COLLISIONS_PER_PARTICLE)
+                }
             }),
     };
     let (start, schedule, relax_per_particle) = match added {
@@ -707,12 +744,16 @@ fn random_sequential_bodies(n: usize, l: f64, geom: &Geom, rng: &mut Rng) -> Opt
     ))
 }
 
-/// Tries of [`random_sequential_bodies`] to place one body.
-const ADD_TRIES: usize = 1000;
+/// Tries of [`random_sequential_bodies`] to place one body. Superquadrics [2, 2, 10], X0 = 2,
+/// at φ 0.25 (seed 0) took 20 tries a body on average and at most 584 at N 2048, 1100 at
+/// N 8192 and 1092 at N 10⁵: with 1000 the two larger additions failed and fell back to φ 0.15,
+/// whose compression (7 steps of pushes) took ten times the addition's time (MEASUREMENTS.md,
+/// "Dilute starts equilibrated by Monte Carlo sweeps").
+const ADD_TRIES: usize = 10_000;
 
 /// Packing fractions at which [`random_sequential_bodies`] is tried in turn, before the lattice:
 /// the melting density, or 0.8 / aspect where lower, then lower again. Long and flat bodies
-/// jam early: with [`ADD_TRIES`] tries a body (N 512, seed 0) the addition placed X0 = 5 up to
+/// jam early: with 1000 tries a body (N 512, seed 0) the addition placed X0 = 5 up to
 /// φ 0.2, X0 = 0.2 up to 0.15, X0 = 10 and 0.1 only at 0.1. A failed addition fails at its
 /// last bodies, so it costs about as much as one that succeeds.
 fn addition_densities(geom: &Geom, phi: f64) -> impl Iterator<Item = f64> {
@@ -792,6 +833,10 @@ fn compress(
                 target: phi,
             });
         }
+    }
+    for _ in 0..schedule.final_sweeps {
+        let acc = packing.sweep(&steps, rng);
+        steps.adapt(acc, packing.l);
     }
     Ok(packing)
 }
@@ -1679,6 +1724,46 @@ mod tests {
         assert!(random_sequential_bodies(500, l(0.3), &needle, &mut rng).is_none());
         let first = addition_densities(&needle, 0.3).next().expect("a density");
         assert!(random_sequential_bodies(500, l(first), &needle, &mut rng).is_some());
+    }
+
+    /// A dilute start of compact bodies ends with Monte Carlo sweeps at the target and asks for
+    /// no relaxing collision, and no pair is left in contact; above [`DILUTE_PHI`], and for
+    /// bodies longer than [`SHORT_RELAX_AXIS_RATIO`], the collisions stay.
+    #[test]
+    fn dilute_starts_end_with_sweeps_not_collisions() {
+        let inertia = Inertia {
+            inv_m: 1.0,
+            inv_i: 2.5,
+        };
+        let p10 = Geom::Superquadric(
+            Superquadric::with_unit_volume([1.0, 1.0, 2.0], [2.0, 2.0, 10.0]).unwrap(),
+        );
+        let long = Geom::Ellipsoid(Ellipsoid::new(1.0, 0.125f64.sqrt(), 0.125f64.sqrt()));
+        let mut unchanged = |bodies: Vec<Body>, _: f64, _: u64| Ok(bodies);
+        for (geom, phi, relax) in [
+            (p10, 0.256, 0),
+            (p10, DILUTE_PHI, 0),
+            (p10, 0.35, SHORT_RELAX_COLLISIONS_PER_PARTICLE),
+            (long, 0.2, RELAX_COLLISIONS_PER_PARTICLE),
+        ] {
+            let n = 120;
+            let mut rng = Rng::new(3);
+            let cfg = initial_configuration(n, phi, &geom, inertia, &mut rng, &mut unchanged)
+                .expect("a start");
+            assert_eq!(cfg.relax, relax, "{geom:?} at {phi}");
+            let reached = n as f64 * std::f64::consts::PI / 6.0 / cfg.l.powi(3);
+            assert!((reached / phi - 1.0).abs() < 1e-12, "φ {reached}");
+            let b = &cfg.bodies;
+            for i in 0..n {
+                for j in 0..i {
+                    let r = min_image(b[j].r - b[i].r, cfg.l);
+                    if r.norm() < 2.0 * geom.bounding_radius() {
+                        let mu = geom.contact_scale(&geom, &b[i].rot, &b[j].rot, &r);
+                        assert!(mu > 1.0 + GAP, "{geom:?} at {phi}: pair {i} {j} at {mu}");
+                    }
+                }
+            }
+        }
     }
 
     /// Pushes that end clear leave no contact anywhere (the counts they skip, recounted, are 0),

@@ -223,6 +223,34 @@ fn ellipsoid_with_unit_aspect_ratio_is_a_sphere() {
     assert_eq!(e.solver_failures, 0);
 }
 
+/// A dilute start of rigid bodies ends with Monte Carlo sweeps at the target, not relaxing
+/// collisions (`edmd::init::DILUTE_SWEEPS`), and is in equilibrium from its first collision:
+/// X0 = 1 ellipsoids at φ = 0.25 measured from the start, with no equilibration, give Kolafa's
+/// Z.
+#[test]
+fn a_dilute_start_of_rigid_bodies_is_in_equilibrium_from_its_first_collision() {
+    let phi = 0.25;
+    assert!(phi <= edmd::init::DILUTE_PHI);
+    let r = go(&scene(
+        ShapeKind::Ellipsoid,
+        1000,
+        phi,
+        1.0,
+        Neighbours::Nnl,
+        100_000,
+        0,
+    ));
+    let dev = r.pressure_z / kolafa(phi) - 1.0;
+    assert!(
+        dev.abs() < 0.01 && dev.abs() < 4.0 * r.pressure_z_err / r.pressure_z,
+        "Z {} ± {} against Kolafa's {}",
+        r.pressure_z,
+        r.pressure_z_err,
+        kolafa(phi)
+    );
+    assert_eq!(r.solver_failures, 0);
+}
+
 #[test]
 fn linked_cells_and_neighbour_lists_give_the_same_pressure() {
     let ll = go(&scene(
