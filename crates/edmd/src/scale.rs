@@ -11,7 +11,7 @@
 
 use crate::distance::{SolverStats, Tolerances, distance};
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
-use crate::support_distance::{Certified, certify};
+use crate::support_distance::{Certified, certify_from};
 
 /// [`contact_scale`] is exact (to the solver's tolerance) from about 0.95 up to 1 + this, and a
 /// lower bound above and (by property tests, not by proof) in deep overlaps.
@@ -90,13 +90,23 @@ pub fn contact_scale<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3)
 }
 
 /// Whether the bodies scaled by `k` about their centres touch or overlap (μ ≤ k). Most pairs are
-/// decided by a certificate of Gilbert's algorithm ([`certify`]) within
+/// decided by a certificate of Gilbert's algorithm ([`certify_from`]) within
 /// `CERTIFY_ITERATIONS`: a positive gap along an axis proves them apart, a point inside both
 /// proves them overlapping. Pairs at contact or nearly are left undecided, and take the sign of
 /// their distance at that scale, g(k) = k·d(r/k) ≤ 0: one solve where [`contact_scale`] takes
 /// several to converge μ (its bracket trusts the same sign at every scale it tries). Where the
-/// solver gives no answer, [`contact_scale`] decides.
-pub fn within<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3, k: f64) -> bool {
+/// solver gives no answer, [`contact_scale`] decides. The certificates start from `axis` (unit,
+/// from A to B) where the caller has a good one ([`certify_from`]): any axis gives the same
+/// decisions.
+pub fn within<S: Surface>(
+    sa: &S,
+    rot_a: &M3,
+    sb: &S,
+    rot_b: &M3,
+    r: &V3,
+    k: f64,
+    axis: Option<&V3>,
+) -> bool {
     let pa = Pose {
         r: V3::zeros(),
         rot: *rot_a,
@@ -105,7 +115,7 @@ pub fn within<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3, k: f64
         r: r / k,
         rot: *rot_b,
     };
-    match certify(sa, &pa, sb, &pb, f64::INFINITY, CERTIFY_ITERATIONS) {
+    match certify_from(sa, &pa, sb, &pb, axis, f64::INFINITY, CERTIFY_ITERATIONS) {
         Certified::Apart { .. } => return false,
         Certified::Overlapping { .. } => return true,
         Certified::Undecided { .. } => {}
@@ -124,6 +134,7 @@ mod tests {
     use crate::pw;
     use crate::rigid::rotate;
     use crate::superquadric::Superquadric;
+    use crate::support_distance::certify;
     use proptest::prelude::*;
 
     /// The pair the property test once failed on, against an oracle of [`contact_scale`]: two
@@ -154,7 +165,7 @@ mod tests {
         for (k, touch) in [(1.001, false), (1.005, true)] {
             let pb = Pose { r: r / k, rot: rb };
             assert_eq!(certified_touch(&q, &pa, &pb), Some(touch), "k {k}");
-            assert_eq!(within(&q, &ra, &q, &rb, &r, k), touch, "k {k}");
+            assert_eq!(within(&q, &ra, &q, &rb, &r, k, None), touch, "k {k}");
         }
     }
 
@@ -240,7 +251,7 @@ mod tests {
                 Certified::Overlapping { .. } => prop_assert!(d.d < 0.0, "overlapping, d {}", d.d),
                 Certified::Undecided { .. } => {}
             }
-            prop_assert_eq!(within(&q, &ra, &q, &rb, &r, k), d.d < 0.0);
+            prop_assert_eq!(within(&q, &ra, &q, &rb, &r, k, None), d.d < 0.0);
         }
 
         /// `within` decides as an independent oracle does: Perram–Wertheim for ellipsoids
@@ -260,6 +271,11 @@ mod tests {
             wb in prop::array::uniform3(-3.0f64..3.0),
             at in prop_oneof![0.9f64..1.1, 0.9999f64..1.0001, 0.999999f64..1.000001, Just(0.5), Just(2.0)],
             k in prop_oneof![Just(1.0), Just(1.0 + 1e-9), Just(1.0 + 1e-3)],
+            axis in prop_oneof![
+                Just(None),
+                prop::array::uniform3(-1.0f64..1.0).prop_map(|n| Some((V3::from(n), 0.0))),
+                prop::array::uniform3(-0.3f64..0.3).prop_map(|n| Some((V3::from(n), 1.0))),
+            ],
         ) {
             let (q, ra, rb) = turned_pair(x0, p, wa, wb);
             let r = V3::from(r);
@@ -282,7 +298,10 @@ mod tests {
                 (_, Some(false)) => false,
                 _ => return Err(TestCaseError::reject("within 1e-7 of contact")),
             };
-            prop_assert_eq!(within(&q, &ra, &q, &rb, &r, k), expected, "k {}", k);
+            // Any first axis for the certificates: none (the line of centres), one at random, or
+            // one near the line of centres (a good axis of bodies reaching into each other).
+            let axis = axis.and_then(|(n, centres)| (n + r.normalize() * centres).try_normalize(1e-3));
+            prop_assert_eq!(within(&q, &ra, &q, &rb, &r, k, axis.as_ref()), expected, "k {}, axis {:?}", k, axis);
         }
     }
 }
