@@ -9,7 +9,7 @@
 //! method on g (the slope from the closest points of [`distance`], Eqs. 9 and 11) therefore never
 //! steps past μ from the left, and every iterate after the first is a lower bound converging to it.
 
-use crate::distance::{SolverStats, Tolerances, distance};
+use crate::distance::{Guess, SolverStats, Tolerances, distance, multipliers_guess};
 use crate::geometry::{M3, Placed, Pose, Surface, V3};
 use crate::support_distance::{Certified, certify_from};
 
@@ -93,7 +93,9 @@ pub fn contact_scale<S: Surface>(sa: &S, rot_a: &M3, sb: &S, rot_b: &M3, r: &V3)
 /// decided by a certificate of Gilbert's algorithm ([`certify_from`]) within
 /// `CERTIFY_ITERATIONS`: a positive gap along an axis proves them apart, a point inside both
 /// proves them overlapping. Pairs at contact or nearly are left undecided, and take the sign of
-/// their distance at that scale, g(k) = k·d(r/k) ≤ 0: one solve where [`contact_scale`] takes
+/// their distance at that scale, g(k) = k·d(r/k) ≤ 0, Newton–Raphson started from the support
+/// points of the certificates' best axis (at N 2048 of [2, 2, 10], X0 = 2, φ 0.256: 1,528 M
+/// instructions a start from their cold start, 1,417 M so): one solve where [`contact_scale`] takes
 /// several to converge μ (its bracket trusts the same sign at every scale it tries). Where the
 /// solver gives no answer, [`contact_scale`] decides. The certificates start from `axis` (unit,
 /// from A to B) where the caller has a good one ([`certify_from`]): any axis gives the same
@@ -115,13 +117,28 @@ pub fn within<S: Surface>(
         r: r / k,
         rot: *rot_b,
     };
-    match certify_from(sa, &pa, sb, &pb, axis, f64::INFINITY, CERTIFY_ITERATIONS) {
+    let guess = match certify_from(sa, &pa, sb, &pb, axis, f64::INFINITY, CERTIFY_ITERATIONS) {
         Certified::Apart { .. } => return false,
         Certified::Overlapping { .. } => return true,
-        Certified::Undecided { .. } => {}
-    }
+        Certified::Undecided { xa, xb, .. } => {
+            let (alpha, beta) = multipliers_guess(sa, &pa, sb, &pb, &xa, &xb);
+            Guess {
+                xa_body: pa.to_body(&xa),
+                alpha,
+                beta,
+            }
+        }
+    };
     let mut stats = SolverStats::default();
-    match distance(sa, &pa, sb, &pb, None, &Tolerances::default(), &mut stats) {
+    match distance(
+        sa,
+        &pa,
+        sb,
+        &pb,
+        Some(&guess),
+        &Tolerances::default(),
+        &mut stats,
+    ) {
         Some(d) => d.d <= 0.0,
         None => contact_scale(sa, rot_a, sb, rot_b, r) <= k,
     }
