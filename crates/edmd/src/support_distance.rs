@@ -88,6 +88,8 @@ pub fn certify_from<S: Surface>(
 ) -> Certified {
     let (qa, qb) = (sa.place(pa), sb.place(pb));
     let centres = pb.r - pa.r;
+    // A degenerate axis (the normal of coincident centres) is no start.
+    let from = from.filter(|n| n.iter().all(|x| x.is_finite()));
     let dir = match from {
         Some(n) => *n,
         None if centres.norm() > 0.0 => centres.normalize(),
@@ -253,6 +255,19 @@ mod tests {
         assert!(matches!(
             certify_from(&q, &pa, &q, &pb, Some(&V3::y()), f64::INFINITY, 0),
             Certified::Undecided { .. }
+        ));
+        // Not a number is no axis: the line of centres starts the iterations.
+        assert!(matches!(
+            certify_from(
+                &q,
+                &pa,
+                &q,
+                &pb,
+                Some(&V3::repeat(f64::NAN)),
+                f64::INFINITY,
+                32
+            ),
+            Certified::Overlapping { .. }
         ));
         // A hair into each other, the axis is no certificate of a gap, and the iterations
         // from it find the overlap.
