@@ -1315,19 +1315,20 @@ impl Packing {
         if self.surely_apart(i, j, q, r) {
             return false;
         }
-        let outer = self.outer_ellipsoids(i, j, ai, r, k);
-        if matches!(outer, Outer::Apart) {
-            return false;
-        }
-        if !self.kappa2.is_empty() && pw::within_lab(ai, &self.lab[j], r, k) {
-            return true;
-        }
-        // The certificates start from the outer ellipsoids' normal: from the line of centres,
-        // which long bodies seldom touch along, they took 5.6 iterations a pair ([2, 2, 10],
-        // X0 = 2, φ 0.256), and a start 2,141 M instructions at N 2048 where it takes 1,527 M.
-        let axis = match outer {
-            Outer::Touch { a, b, lambda } => Some(pw::normal_at_lab(&a, &b, r, lambda)),
-            _ => None,
+        let axis = match self.outer_ellipsoids(i, j, ai, r, k) {
+            Outer::Apart => return false,
+            Outer::Touch { a, b, lambda } => {
+                // The inscribed ellipsoids touch: so do the superquadrics.
+                if pw::within_lab(ai, &self.lab[j], r, k) {
+                    return true;
+                }
+                // The certificates start from the outer ellipsoids' normal: from the line of
+                // centres, which long bodies seldom touch along, they took 5.6 iterations a
+                // pair ([2, 2, 10], X0 = 2, φ 0.256), and a start 2,141 M instructions at
+                // N 2048 where it takes 1,527 M.
+                Some(pw::normal_at_lab(&a, &b, r, lambda))
+            }
+            Outer::Unknown => None,
         };
         self.geom_of(i)
             .within(self.geom_of(j), q, &self.rot[j], r, k, axis.as_ref())
