@@ -114,6 +114,22 @@ pub fn predict_from<S: Surface>(
                 _ => None,
             };
             let (t, near) = approach(&mut search, t1, t2, now)?;
+            // Newton–Raphson on Eqs. (30) straight from the support points the approach ended
+            // at, without the distance there: the support gap along their axis bounds the
+            // distance from below as the distance itself does, so the proof that the contact
+            // comes first holds as it stands. Measured at X0 = 2, φ = 0.5, N 256, NNL: 98 % of
+            // these tries find the contact, distances per collision fall from 2.06 to 0.38, and
+            // a collision takes 4.3 % fewer instructions (MEASUREMENTS.md, "Newton from the
+            // approach's support points"). The contact may lie anywhere before the horizon: the
+            // gap's linear estimate falls short of it more often than the distance's does.
+            if near.d > 0.0 {
+                let slope = search.slope(t, &near);
+                if slope < 0.0
+                    && let Some(h) = search.direct(t, &near, slope, t2)
+                {
+                    return Some(h);
+                }
+            }
             (t, search.dist(t, Some(&near)))
         }
     };
@@ -389,18 +405,7 @@ fn approach<S: Surface>(
         }
         if gap.gap <= FAR_GAP {
             // The support points are nearly the closest points: Newton–Raphson starts there.
-            let (xa, xb) = (pa.r + gap.offset_a, pb.r + gap.offset_b);
-            let (alpha, beta) = multipliers_guess(sa, &pa, sb, &pb, &xa, &xb);
-            return Some((
-                t,
-                Distance {
-                    d: gap.gap,
-                    xa,
-                    xb,
-                    alpha,
-                    beta,
-                },
-            ));
+            return Some((t, gap.support_start(sa, &pa, sb, &pb)));
         }
         t += safe;
     }
@@ -724,6 +729,20 @@ impl AxisGap {
         )
     }
 
+    /// The support points and their gap as a start for Newton–Raphson, which needs the
+    /// multipliers too; `pa` and `pb` are the poses the gap was found at.
+    fn support_start<S: Surface>(&self, sa: &S, pa: &Pose, sb: &S, pb: &Pose) -> Distance {
+        let (xa, xb) = (pa.r + self.offset_a, pb.r + self.offset_b);
+        let (alpha, beta) = multipliers_guess(sa, pa, sb, pb, &xa, &xb);
+        Distance {
+            d: self.gap,
+            xa,
+            xb,
+            alpha,
+            beta,
+        }
+    }
+
     /// The time the gap takes to close at its present rate (+∞ if it opens): an estimate to
     /// order searches by.
     pub fn closing_estimate(&self, a: &Body, b: &Body) -> f64 {
@@ -863,7 +882,8 @@ impl<'a, S: Surface> Search<'a, S> {
     /// closest point is exactly the support point along its own normal, which matches n to the
     /// solver's tolerance ε: anchoring each body's bound there (its support modulus holds for
     /// any u) changes the bound by terms of order ε, however fast a flat face's support point
-    /// runs with the direction.
+    /// runs with the direction. The support points along a separating axis, `d` their gap, are
+    /// such points too.
     fn safe_time_towards(&self, t: f64, d: &Distance, towards: Towards) -> f64 {
         let pa = self.fa.pose_after(t);
         let pb = self.fb.pose_after(t);
@@ -889,8 +909,8 @@ impl<'a, S: Surface> Search<'a, S> {
             && (forward >= dt || forward + self.safe_time_towards(t0 + dt, hi, Towards::Past) >= dt)
     }
 
-    /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart), is the first
-    /// after t0. The support gap g along the contact normal n bounds d from below at every time
+    /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart, or `d0` holds
+    /// their support points along a separating axis and its gap), is the first after t0. The support gap g along the contact normal n bounds d from below at every time
     /// and is zero at the contact, where it closes at the rate ġ < 0; with |g̈| ≤ M
     /// ([`support_acceleration_bound`]), g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M; on
     /// flat faces (M = ∞) g(t_c − s) ≥ |ġ|s − P(s) with the powers P of the support modulus
@@ -981,7 +1001,8 @@ impl<'a, S: Surface> Search<'a, S> {
     /// Newton–Raphson on Eqs. (30) from the linear estimate t0 + d/|ḋ| of the contact (`slope`
     /// is ḋ at t0 < 0), started at the closest points of t0 carried there with their bodies: the
     /// contact it converges to before `t_hi`, which [`Search::first_contact_after`] proves the
-    /// first after t0. A converged solution of Eqs. (30) is a contact (both surfaces through x,
+    /// first after t0. `d0` may also be the support points along a separating axis, `d` their
+    /// gap: each is the support point along its own normal, as closest points are. A converged solution of Eqs. (30) is a contact (both surfaces through x,
     /// their normals opposite), so no bracket is needed; `None` where Newton–Raphson does not
     /// converge or nothing is proved.
     fn direct(&mut self, t0: f64, d0: &Distance, slope: f64, t_hi: f64) -> Option<Hit> {
@@ -1120,6 +1141,7 @@ impl<'a, S: Surface> Search<'a, S> {
         let mut t = t0;
         let tol = self.p.tol;
         let slack = 1e-9 * (t_hi - t_lo) + 1e-15 * t_hi.abs();
+        self.stats.contact_solves += 1;
         for _ in 0..tol.nr_max_iter {
             self.stats.nr_iterations += 1;
             let pa = self.fa.pose_after(t);
@@ -1673,5 +1695,63 @@ mod tests {
             }
         }
         assert!(found > 300, "{found} contacts");
+    }
+
+    /// [`Search::direct`] as [`predict_from`] calls it at the end of its approach: from the
+    /// support points of a separating axis and their gap (a lower bound of the distance, not the
+    /// distance), up to a far horizon, on bodies spinning alike ([`spinning_alike`]) from up to
+    /// 0.01 apart. What it returns is a contact, approached, with no overlap anywhere before it.
+    #[test]
+    fn a_direct_contact_from_support_points_has_no_overlap_before_it() {
+        let mut rng = crate::rng::Rng::new(41);
+        let params = ContactParams {
+            eps_d: 1e-5,
+            brent_tol: 1e-12,
+            tol: crate::distance::Tolerances::default(),
+        };
+        let (mut found, mut declined) = (0, 0);
+        for case in 0..3000 {
+            let p = [2.0, 4.0, 10.0][case % 3];
+            let x0 = [0.5, 2.0, 4.0][(case / 3) % 3];
+            let q =
+                crate::superquadric::Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p])
+                    .unwrap();
+            let normal =
+                |rng: &mut crate::rng::Rng| V3::new(rng.normal(), rng.normal(), rng.normal());
+            let rot = rotate(&M3::identity(), &normal(&mut rng), 1.0);
+            let (dir, w) = (normal(&mut rng).normalize(), normal(&mut rng) * 6.0);
+            let beyond = rng.range(1e-6, 1e-2);
+            let v = -dir * rng.range(0.05, 2.0) + normal(&mut rng) * 0.5;
+            let (a, b, overlap) = spinning_alike(&q, rot, w, dir, beyond, v);
+            let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
+            let gap = separating_axis(&q, &pa, &q, &pb);
+            let mut stats = SolverStats::default();
+            let mut search = Search::new(&q, &a, &q, &b, &params, &mut stats);
+            let d0 = gap.support_start(&q, &pa, &q, &pb);
+            let slope = search.slope(0.0, &d0);
+            if !(d0.d > 0.0 && slope < 0.0) {
+                continue;
+            }
+            let horizon = 4.0;
+            let Some(hit) = search.direct(0.0, &d0, slope, horizon) else {
+                declined += 1;
+                continue;
+            };
+            found += 1;
+            assert!(overlap(hit.t).abs() < 1e-7, "case {case}: not a contact");
+            assert!(
+                search.closing_at(&hit),
+                "case {case}: the bodies part there"
+            );
+            for k in 0..2000 {
+                let t = hit.t * f64::from(k) / 2000.0;
+                assert!(
+                    overlap(t) > -1e-9,
+                    "case {case}: overlap at {t} before the contact at {}",
+                    hit.t
+                );
+            }
+        }
+        assert!(found > 300, "{found} contacts, {declined} declined");
     }
 }

@@ -37,6 +37,9 @@ pub struct SolverStats {
     /// Pair contact-time searches (Sec. 2.4).
     pub searches: u64,
     pub distance_calls: u64,
+    /// Newton–Raphson solves of a contact time (Eqs. 30), converged or not.
+    #[serde(default)]
+    pub contact_solves: u64,
     pub nr_iterations: u64,
     /// The most Newton–Raphson iterations one distance evaluation took, all its attempts
     /// (warm start, guess, after steepest descent, inside the fallback) together.

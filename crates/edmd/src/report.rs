@@ -49,8 +49,9 @@ pub struct RunReport {
     /// overlapping where Newton–Raphson found no negative distance (whole run): the certified
     /// overlap, decided before steepest descent and the support fallback (not failures).
     pub certified_overlaps: u64,
-    /// Newton–Raphson iterations, of the distances and of the contact times (Eqs. 30) alike, per
-    /// distance evaluation in the measured run (0 on the sphere path).
+    /// Newton–Raphson iterations per solve, of the distances (Eqs. 9) and of the contact times
+    /// (Eqs. 30) alike, in the measured run (0 on the sphere path). A contact time is solved
+    /// without a distance before it where the search can (`contact::predict_from`).
     pub nr_iterations_mean: f64,
     /// The most Newton–Raphson iterations one distance evaluation took (whole run).
     pub nr_iterations_max: u64,

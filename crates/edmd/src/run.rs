@@ -937,10 +937,13 @@ fn figures<M: Saves>(
         contact_nr_fallbacks: stats.contact_fallbacks,
         distance_fallbacks: stats.distance_fallbacks,
         certified_overlaps: stats.certified_overlaps,
-        nr_iterations_mean: if calls > 0.0 {
-            (stats.nr_iterations - stats0.nr_iterations) as f64 / calls
-        } else {
-            0.0
+        nr_iterations_mean: {
+            let solves = calls + (stats.contact_solves - stats0.contact_solves) as f64;
+            if solves > 0.0 {
+                (stats.nr_iterations - stats0.nr_iterations) as f64 / solves
+            } else {
+                0.0
+            }
         },
         nr_iterations_max: stats.nr_iterations_max,
         distance_calls_per_collision: calls / scene.collisions as f64,
