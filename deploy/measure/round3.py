@@ -24,7 +24,7 @@ ELLIPSOID = 'shape="ellipsoid" n=256 phi=0.5 x0=2.0 equilibrate=2000 collisions=
 CASES = [
     ("spheres φ 0.5", SPHERES),
     ("ellipsoids X0 2 φ 0.5", ELLIPSOID),
-    ("ellipsoids X0 2 φ 0.5 Δ 0.05", ELLIPSOID + " delta_nnl=0.05"),
+    ("ellipsoids X0 2 φ 0.5 Δ 0.085", ELLIPSOID + " delta_nnl=0.085"),
     ("X0 0.1 φ 0.3 N 128", 'shape="ellipsoid" n=128 phi=0.3 x0=0.1 equilibrate=200 collisions=10000'),
     ("X0 10 φ 0.2 N 512", 'shape="ellipsoid" n=512 phi=0.2 x0=10.0 equilibrate=200 collisions=10000'),
     ("HE X0 2 φ 0.256 N 512", 'shape="ellipsoid" n=512 phi=0.256 x0=2.0 equilibrate=400 collisions=4000'),
@@ -90,7 +90,7 @@ def main(argv):
             args.remove(argv[i + 1])
     old, new = args[0], args[1]
     peer_bin = args[2] if len(args) > 2 else None
-    print("| case | binary | τ_c CPU (µs) | / spheres | distance calls/coll. | NR it./call "
+    print("| case | binary | τ_c CPU (µs) | / spheres | distance calls/coll. | NR it./solve "
           "| distance fallbacks (per 10⁵) | contact fallbacks | overlaps / failures | Z | init ms/body |")
     print("|---|---|---:|---:|---:|---:|---|---:|---|---|---:|")
     for rnd in range(rounds):

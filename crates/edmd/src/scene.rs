@@ -197,9 +197,11 @@ pub fn default_neighbours() -> Neighbours {
 /// 85 misses of a 512 KiB cache per collision against 6942 and 101 at 0.15 (Kolafa's Z the same
 /// to 1e-6; see MEASUREMENTS.md). Everything else keeps 0.15: the bounding parallelepipeds of
 /// rigid bodies have their own optimum (Figs. 10–11), which moves with φ (at X0 = 2, N 256:
-/// 0.25 at φ 0.2, 0.15 at 0.3, 0.08–0.1 at 0.4, 0.06 at 0.5), and the campaign plans' points
-/// written without `delta_nnl` (Fig. 7's X0 = 1 ellipsoids) keep their ids; a sphere on linked
-/// cells has no lists, so its Δ_NNL, which hashes into the point's id, stays what it was.
+/// 0.25 at φ 0.2, 0.15 at 0.3, 0.08–0.1 at 0.4, 0.085 at 0.5, where searches that cost fewer
+/// distances moved it up from 0.06: MEASUREMENTS.md, "Newton from the approach's support
+/// points"), and the campaign plans' points written without `delta_nnl` (Fig. 7's X0 = 1
+/// ellipsoids) keep their ids; a sphere on linked cells has no lists, so its Δ_NNL, which hashes
+/// into the point's id, stays what it was.
 ///
 /// A default that changes what a point is changes its id: a sphere NNL point written without
 /// `delta_nnl` before this default names a different point now, and is simulated anew.
