@@ -94,6 +94,7 @@ pub fn predict_from<S: Surface>(
         return None;
     }
     let mut search = Search::new(sa, a, sb, b, p, stats);
+    let growth = FarGrowth::of(sa, sb);
     let (mut t, mut cur) = match known {
         Some(Known::Contact { offset_a, offset_b }) if t1 == 0.0 => {
             let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
@@ -122,7 +123,10 @@ pub fn predict_from<S: Surface>(
             // a collision takes 4.3 % fewer instructions (MEASUREMENTS.md, "Newton from the
             // approach's support points"). The contact may lie anywhere before the horizon: the
             // gap's linear estimate falls short of it more often than the distance's does.
-            if near.d > 0.0 {
+            // Flat faces are left to the distance: their support points run across a face as
+            // the axis turns, and Newton from there failed often enough to cost superquadrics
+            // of p = 10 and 4 3.3 and 2.5 % more instructions.
+            if near.d > 0.0 && !growth.flat() {
                 let slope = search.slope(t, &near);
                 if slope < 0.0
                     && let Some(h) = search.direct(t, &near, slope, t2)
@@ -145,7 +149,6 @@ pub fn predict_from<S: Surface>(
     let mut failures = 0;
     // Step multiplier for the far regime (see below); 1 is the plain step of Eq. (39).
     let mut k: f64 = 1.0;
-    let growth = FarGrowth::of(sa, sb);
     // A contact found by a jump but not proved the first, kept on flat faces (see `Candidate`).
     let keep_candidates = growth.flat();
     let mut candidate: Option<Candidate> = None;
