@@ -119,8 +119,8 @@ pub fn predict_from<S: Surface>(
             // at, without the distance there: the support gap along their axis bounds the
             // distance from below as the distance itself does, so the proof that the contact
             // comes first holds as it stands. Measured at X0 = 2, φ = 0.5, N 256, NNL: 98 % of
-            // these tries find the contact, distances per collision fall from 2.06 to 0.38, and
-            // a collision takes 4.3 % fewer instructions (MEASUREMENTS.md, "Newton from the
+            // these tries find the contact, distances per collision fall from 2.06 to 0.34, and
+            // a collision takes 5.8 % fewer instructions (MEASUREMENTS.md, "Newton from the
             // approach's support points"). The contact may lie anywhere before the horizon: the
             // gap's linear estimate falls short of it more often than the distance's does.
             // Flat faces are left to the distance: their support points run across a face as
