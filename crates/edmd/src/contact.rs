@@ -1451,6 +1451,33 @@ mod tests {
         assert!((z - 1.0).abs() < 1e-14);
     }
 
+    /// A pair [`spinning_alike`] at random, spinning fast (|w| about 10), between `near` and
+    /// `far` beyond their contact along the line of centres, and moving towards each other along
+    /// it (with a sideways drift).
+    fn closing_alike(
+        rng: &mut crate::rng::Rng,
+        q: &crate::superquadric::Superquadric,
+        near: f64,
+        far: f64,
+    ) -> (Body, Body, impl Fn(f64) -> f64) {
+        let mut normal = || V3::new(rng.normal(), rng.normal(), rng.normal());
+        let rot = rotate(&M3::identity(), &normal(), 1.0);
+        let (dir, w) = (normal().normalize(), normal() * 6.0);
+        let beyond = rng.range(near, far);
+        let v =
+            -dir * rng.range(0.05, 2.0) + V3::new(rng.normal(), rng.normal(), rng.normal()) * 0.5;
+        spinning_alike(q, rot, w, dir, beyond, v)
+    }
+
+    /// The contact parameters of the searches on bodies [`spinning_alike`].
+    fn spinning_params() -> ContactParams {
+        ContactParams {
+            eps_d: 1e-5,
+            brent_tol: 1e-12,
+            tol: crate::distance::Tolerances::default(),
+        }
+    }
+
     /// Two copies of superquadric `q` turned alike (`rot`) and spinning alike (`w`): A at rest at
     /// the origin, B along the unit `dir` at `beyond` past where they touch, moving at `v`; and
     /// the exact overlap test of such a pair at time t, negative exactly where they overlap: they
@@ -1593,11 +1620,7 @@ mod tests {
     #[test]
     fn a_jumps_contact_has_no_overlap_where_it_is_proved_free() {
         let mut rng = crate::rng::Rng::new(29);
-        let params = ContactParams {
-            eps_d: 1e-5,
-            brent_tol: 1e-12,
-            tol: crate::distance::Tolerances::default(),
-        };
+        let params = spinning_params();
         let (mut first, mut candidates) = (0, 0);
         for case in 0..3000 {
             let p = [4.0, 10.0][case % 2];
@@ -1651,11 +1674,7 @@ mod tests {
     #[test]
     fn a_direct_contact_has_no_overlap_before_it() {
         let mut rng = crate::rng::Rng::new(37);
-        let params = ContactParams {
-            eps_d: 1e-5,
-            brent_tol: 1e-12,
-            tol: crate::distance::Tolerances::default(),
-        };
+        let params = spinning_params();
         let mut found = 0;
         for case in 0..3000 {
             let p = [2.0, 4.0, 10.0][case % 3];
@@ -1663,13 +1682,8 @@ mod tests {
             let q =
                 crate::superquadric::Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p])
                     .unwrap();
-            let normal =
-                |rng: &mut crate::rng::Rng| V3::new(rng.normal(), rng.normal(), rng.normal());
-            let rot = rotate(&M3::identity(), &normal(&mut rng), 1.0);
-            let (dir, w) = (normal(&mut rng).normalize(), normal(&mut rng) * 6.0);
-            let beyond = rng.range(1e-4, 0.5 * q.bounding_radius());
-            let v = -dir * rng.range(0.05, 2.0) + normal(&mut rng) * 0.5;
-            let (a, b, overlap) = spinning_alike(&q, rot, w, dir, beyond, v);
+            let far = 0.5 * q.bounding_radius();
+            let (a, b, overlap) = closing_alike(&mut rng, &q, 1e-4, far);
             let mut stats = SolverStats::default();
             let mut search = Search::new(&q, &a, &q, &b, &params, &mut stats);
             let Some(d0) = search.dist(0.0, None) else {
@@ -1683,21 +1697,29 @@ mod tests {
                 continue;
             };
             found += 1;
-            assert!(overlap(hit.t).abs() < 1e-7, "case {case}: not a contact");
-            assert!(
-                search.closing_at(&hit),
-                "case {case}: the bodies part there"
-            );
-            for k in 0..2000 {
-                let t = hit.t * f64::from(k) / 2000.0;
-                assert!(
-                    overlap(t) > -1e-9,
-                    "case {case}: overlap at {t} before the contact at {}",
-                    hit.t
-                );
-            }
+            assert_first_contact(case, &search, &hit, overlap);
         }
         assert!(found > 300, "{found} contacts");
+    }
+
+    /// What [`Search::direct`] returns from the present: a contact (`overlap`, the exact test of
+    /// [`spinning_alike`], zero there), approached, with no overlap anywhere before it.
+    fn assert_first_contact<S: Surface>(
+        case: usize,
+        search: &Search<'_, S>,
+        hit: &Hit,
+        overlap: impl Fn(f64) -> f64,
+    ) {
+        assert!(overlap(hit.t).abs() < 1e-7, "case {case}: not a contact");
+        assert!(search.closing_at(hit), "case {case}: the bodies part there");
+        for k in 0..2000 {
+            let t = hit.t * f64::from(k) / 2000.0;
+            assert!(
+                overlap(t) > -1e-9,
+                "case {case}: overlap at {t} before the contact at {}",
+                hit.t
+            );
+        }
     }
 
     /// [`Search::direct`] as [`predict_from`] calls it at the end of its approach: from the
@@ -1707,11 +1729,7 @@ mod tests {
     #[test]
     fn a_direct_contact_from_support_points_has_no_overlap_before_it() {
         let mut rng = crate::rng::Rng::new(41);
-        let params = ContactParams {
-            eps_d: 1e-5,
-            brent_tol: 1e-12,
-            tol: crate::distance::Tolerances::default(),
-        };
+        let params = spinning_params();
         let (mut found, mut declined) = (0, 0);
         for case in 0..3000 {
             let p = [2.0, 4.0, 10.0][case % 3];
@@ -1719,13 +1737,7 @@ mod tests {
             let q =
                 crate::superquadric::Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p])
                     .unwrap();
-            let normal =
-                |rng: &mut crate::rng::Rng| V3::new(rng.normal(), rng.normal(), rng.normal());
-            let rot = rotate(&M3::identity(), &normal(&mut rng), 1.0);
-            let (dir, w) = (normal(&mut rng).normalize(), normal(&mut rng) * 6.0);
-            let beyond = rng.range(1e-6, 1e-2);
-            let v = -dir * rng.range(0.05, 2.0) + normal(&mut rng) * 0.5;
-            let (a, b, overlap) = spinning_alike(&q, rot, w, dir, beyond, v);
+            let (a, b, overlap) = closing_alike(&mut rng, &q, 1e-6, 1e-2);
             let (pa, pb) = (a.pose_after(0.0), b.pose_after(0.0));
             let gap = separating_axis(&q, &pa, &q, &pb);
             let mut stats = SolverStats::default();
@@ -1741,19 +1753,7 @@ mod tests {
                 continue;
             };
             found += 1;
-            assert!(overlap(hit.t).abs() < 1e-7, "case {case}: not a contact");
-            assert!(
-                search.closing_at(&hit),
-                "case {case}: the bodies part there"
-            );
-            for k in 0..2000 {
-                let t = hit.t * f64::from(k) / 2000.0;
-                assert!(
-                    overlap(t) > -1e-9,
-                    "case {case}: overlap at {t} before the contact at {}",
-                    hit.t
-                );
-            }
+            assert_first_contact(case, &search, &hit, overlap);
         }
         assert!(found > 300, "{found} contacts, {declined} declined");
     }
