@@ -125,7 +125,7 @@ pub fn predict_from<S: Surface>(
             // gap's linear estimate falls short of it more often than the distance's does.
             // Flat faces are left to the distance: their support points run across a face as
             // the axis turns, and Newton from there failed often enough to cost superquadrics
-            // of p = 10 and 4 3.3 and 2.5 % more instructions.
+            // 3.3 % (p = 10) and 2.5 % (p = 4) more instructions.
             if near.d > 0.0 && !growth.flat() {
                 let slope = search.slope(t, &near);
                 if slope < 0.0
@@ -913,8 +913,9 @@ impl<'a, S: Surface> Search<'a, S> {
     }
 
     /// Whether the contact `h`, found beyond t0 (where the bodies are `d0` apart, or `d0` holds
-    /// their support points along a separating axis and its gap), is the first after t0. The support gap g along the contact normal n bounds d from below at every time
-    /// and is zero at the contact, where it closes at the rate ġ < 0; with |g̈| ≤ M
+    /// their support points along a separating axis and its gap), is the first after t0. The
+    /// support gap g along the contact normal n bounds d from below at every time and is zero
+    /// at the contact, where it closes at the rate ġ < 0; with |g̈| ≤ M
     /// ([`support_acceleration_bound`]), g(t_c − s) ≥ |ġ|s − ½Ms² > 0 for 0 < s < 2|ġ|/M; on
     /// flat faces (M = ∞) g(t_c − s) ≥ |ġ|s − P(s) with the powers P of the support modulus
     /// ([`gap_safe_time_towards`] backwards from g = 0). The
@@ -1005,9 +1006,9 @@ impl<'a, S: Surface> Search<'a, S> {
     /// is ḋ at t0 < 0), started at the closest points of t0 carried there with their bodies: the
     /// contact it converges to before `t_hi`, which [`Search::first_contact_after`] proves the
     /// first after t0. `d0` may also be the support points along a separating axis, `d` their
-    /// gap: each is the support point along its own normal, as closest points are. A converged solution of Eqs. (30) is a contact (both surfaces through x,
-    /// their normals opposite), so no bracket is needed; `None` where Newton–Raphson does not
-    /// converge or nothing is proved.
+    /// gap: each is the support point along its own normal, as closest points are. A converged
+    /// solution of Eqs. (30) is a contact (both surfaces through x, their normals opposite), so
+    /// no bracket is needed; `None` where Newton–Raphson does not converge or nothing is proved.
     fn direct(&mut self, t0: f64, d0: &Distance, slope: f64, t_hi: f64) -> Option<Hit> {
         let te = t0 + d0.d / -slope;
         let x = self.carried_midpoint(t0, d0, te);
