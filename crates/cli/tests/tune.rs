@@ -37,6 +37,11 @@ collisions = 300000
 
 /// (id, finished_at, attempts) of every done job.
 fn done_jobs(db: &str) -> Vec<(String, f64, i64)> {
+    try_done_jobs(db).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`done_jobs`], or why the query failed (the database may not be written yet).
+fn try_done_jobs(db: &str) -> Result<Vec<(String, f64, i64)>, String> {
     let out = sweep(&[
         "query",
         "SELECT id, finished_at, attempts FROM jobs WHERE state = 'done' ORDER BY id",
@@ -46,10 +51,14 @@ fn done_jobs(db: &str) -> Vec<(String, f64, i64)> {
         "json",
     ]);
     if !out.status.success() {
-        return Vec::new();
+        return Err(format!(
+            "sweep query: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
     }
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
-    rows.iter()
+    Ok(rows
+        .iter()
         .map(|r| {
             (
                 r["id"].as_str().unwrap().to_owned(),
@@ -57,7 +66,7 @@ fn done_jobs(db: &str) -> Vec<(String, f64, i64)> {
                 r["attempts"].as_i64().unwrap(),
             )
         })
-        .collect()
+        .collect())
 }
 
 #[test]
@@ -79,25 +88,50 @@ fn resumed_after_kill_9(plan_text: &str, searches: usize) {
     let plan = plan.to_str().unwrap();
     let db = dir.path().join("t.db").to_str().unwrap().to_owned();
 
+    let log = dir.path().join("run.stderr");
     let mut child = Command::new(env!("CARGO_BIN_EXE_sweep"))
         .args(["run", plan, "--db", &db, "--cores", "0", "--format", "json"])
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
         .spawn()
         .unwrap();
+    // Why the run made no progress, where it did not: its exit and its log.
+    let stalled = |child: &mut std::process::Child, why: &str| -> String {
+        format!(
+            "{why}; run exited: {:?}; its stderr:\n{}",
+            child.try_wait(),
+            std::fs::read_to_string(&log).unwrap_or_default()
+        )
+    };
     let started = Instant::now();
     let before = loop {
         std::thread::sleep(Duration::from_millis(50));
+        // Asked before the jobs, so that the jobs of a run that has ended are its last.
+        let exited = child.try_wait().ok().flatten();
         let done = if Path::new(&db).exists() {
-            done_jobs(&db)
+            try_done_jobs(&db)
         } else {
-            Vec::new()
+            Ok(Vec::new())
         };
         // The initial three, and at least one the search issued after them.
-        if done.len() >= 4 {
-            break done;
+        if let Ok(done) = &done
+            && done.len() >= 4
+        {
+            break done.clone();
         }
-        assert!(started.elapsed() < Duration::from_secs(120), "no progress");
+        if started.elapsed() > Duration::from_secs(120) {
+            let why = match &done {
+                Ok(done) => format!("no progress in 120 s: {} evaluations done", done.len()),
+                Err(e) => format!("no progress in 120 s: {e}"),
+            };
+            panic!("{}", stalled(&mut child, &why));
+        }
+        if let Some(status) = exited {
+            panic!(
+                "{}",
+                stalled(&mut child, &format!("the run ended early: {status}"))
+            );
+        }
     };
     child.kill().unwrap();
     child.wait().unwrap();
