@@ -110,6 +110,9 @@ pub struct Lists<R: Region> {
     /// Scratch for [`Lists::rebuild`].
     #[serde(skip)]
     found: Vec<Neighbour>,
+    /// Scratch for [`Lists::find`] without cells: the bodies within reach.
+    #[serde(skip)]
+    within: Vec<u32>,
     delta: f64,
     l: f64,
     /// [`Region::reach`]: regions farther apart cannot overlap.
@@ -184,6 +187,7 @@ impl<R: Region> Lists<R> {
         let mut lists = Lists {
             lists: Arena::new(n, 0, VACANT),
             found: Vec::new(),
+            within: Vec::new(),
             regions,
             delta,
             l,
@@ -332,10 +336,25 @@ impl<R: Region> Lists<R> {
             };
             if self.single_image {
                 // The nearest image alone, without an iterator of offsets for each body: 2 % of
-                // the instructions of an ellipsoid's collision at N 256 (X0 = 2, φ 0.5).
-                let candidates =
-                    (self.regions.iter().enumerate()).filter_map(|(j, b)| image(j, b, nearest(b)));
+                // the instructions of an ellipsoid's collision at N 256 (X0 = 2, φ 0.5). The
+                // bodies within reach are gathered first without a branch (about one in seven
+                // is), and only they are looked at further: tested as they came, a fifth of a
+                // collision's branches were mispredicted here, and the rebuild took 9 % of the
+                // time, 6 % so (`perf`).
+                let mut within = std::mem::take(&mut self.within);
+                within.resize(self.regions.len(), 0);
+                let mut n = 0;
+                for (j, b) in self.regions.iter().enumerate() {
+                    let d = b.centre() + nearest(b) * l - centre;
+                    within[n] = j as u32;
+                    n += usize::from(d.norm_squared() <= reach2);
+                }
+                let candidates = within[..n]
+                    .iter()
+                    .map(|&j| (j as usize, &self.regions[j as usize]))
+                    .filter_map(|(j, b)| image(j, b, nearest(b)));
                 overlapping(a, &self.regions, candidates, l, self.reach, found);
+                self.within = within;
                 return;
             }
             let candidates = self.regions.iter().enumerate().flat_map(|(j, b)| {
