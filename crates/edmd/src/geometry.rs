@@ -9,9 +9,11 @@ pub type M3 = Matrix3<f64>;
 /// 1.5·2⁵² leaves no fraction bits. `f64::round` is a libm call on baseline x86-64 (no SSE4.1),
 /// and nearest images are taken for every pair a push moves.
 pub fn round_nearest(x: f64) -> f64 {
-    const MAGIC: f64 = 6_755_399_441_055_744.0;
-    (x + MAGIC) - MAGIC
+    (x + ROUND_MAGIC) - ROUND_MAGIC
 }
+
+/// 1.5·2⁵²: see [`round_nearest`].
+pub(crate) const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
 
 /// x^e without `powf` where e is a whole number up to 64 (by multiplications, within e ulp of
 /// `powf` at a tenth of its cost) or ½: the Hölder powers are where a superquadric's time goes.
