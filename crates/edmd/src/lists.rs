@@ -343,7 +343,13 @@ impl<R: Region> Lists<R> {
                 // 9 % of the time (`perf`); 6 % without the branch, 4.7 % four at a time.
                 let mut within = std::mem::take(&mut self.within);
                 within.resize(self.regions.len(), 0);
-                let n = within_reach(&self.regions, &centre, l, reach2, &mut within);
+                let reach = Reach {
+                    centre,
+                    l,
+                    inv_l,
+                    reach2,
+                };
+                let n = within_reach(&self.regions, &reach, &mut within);
                 let candidates = within[..n]
                     .iter()
                     .map(|&j| (j as usize, &self.regions[j as usize]))
@@ -416,34 +422,38 @@ impl<R: Region> Lists<R> {
 /// Appends to `found` the `candidates` (index, image shift) whose regions overlap `a`: four at
 /// a time where the region tests them so ([`Region::IN_FOURS`]; a last group of fewer padded
 /// with its first), else one at a time.
-/// Writes to the front of `within` the index of every region whose centre's nearest image (in a
-/// box of side `l`) lies within √`reach2` of `centre`, in order, and returns how many: each
-/// index is written and kept by the count alone, not by a branch. Four at a time where the CPU
-/// has AVX2, to the bit what one at a time computes.
-fn within_reach<R: Region>(
-    regions: &[R],
-    centre: &V3,
+/// Where [`within_reach`] looks: bodies whose centre's nearest image, in a box of side `l`
+/// (`inv_l` = 1/`l`), lies within √`reach2` of `centre`.
+#[derive(Clone, Copy)]
+struct Reach {
+    centre: V3,
     l: f64,
+    inv_l: f64,
     reach2: f64,
-    within: &mut [u32],
-) -> usize {
-    let inv_l = 1.0 / l;
+}
+
+/// Writes to the front of `within` the index of every region within `reach`, in order, and
+/// returns how many: each index is written and kept by the count alone, not by a branch. Four
+/// at a time where the CPU has AVX2, to the bit what one at a time computes.
+fn within_reach<R: Region>(regions: &[R], reach: &Reach, within: &mut [u32]) -> usize {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
-        let (n, from) = unsafe { avx2::within_reach(regions, centre, l, inv_l, reach2, within) };
-        return within_reach_from(regions, centre, l, inv_l, reach2, within, (n, from));
+        let done = unsafe { avx2::within_reach(regions, reach, within) };
+        return within_reach_from(regions, reach, within, done);
     }
-    within_reach_from(regions, centre, l, inv_l, reach2, within, (0, 0))
+    within_reach_from(regions, reach, within, (0, 0))
 }
 
 /// [`within_reach`] one region at a time, from region `from` on, `n` indices written already.
 fn within_reach_from<R: Region>(
     regions: &[R],
-    centre: &V3,
-    l: f64,
-    inv_l: f64,
-    reach2: f64,
+    &Reach {
+        centre,
+        l,
+        inv_l,
+        reach2,
+    }: &Reach,
     within: &mut [u32],
     (mut n, from): (usize, usize),
 ) -> usize {
@@ -460,8 +470,8 @@ fn within_reach_from<R: Region>(
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::Region;
-    use crate::geometry::{ROUND_MAGIC, V3};
+    use super::{Reach, Region};
+    use crate::geometry::ROUND_MAGIC;
     use crate::lanes::{add, lanes, mul, splat, sub};
 
     /// [`super::within_reach`] of the regions in whole fours: (how many written, how many
@@ -473,14 +483,12 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     pub(super) fn within_reach<R: Region>(
         regions: &[R],
-        centre: &V3,
-        l: f64,
-        inv_l: f64,
-        reach2: f64,
+        reach: &Reach,
         within: &mut [u32],
     ) -> (usize, usize) {
-        let c = [0, 1, 2].map(|k| splat(centre[k]));
-        let (magic, l, inv_l, reach2) = (splat(ROUND_MAGIC), splat(l), splat(inv_l), splat(reach2));
+        let c = [0, 1, 2].map(|k| splat(reach.centre[k]));
+        let (magic, l, inv_l) = (splat(ROUND_MAGIC), splat(reach.l), splat(reach.inv_l));
+        let reach2 = splat(reach.reach2);
         let mut n = 0;
         for (q, four) in regions.chunks_exact(4).enumerate() {
             let d = [0, 1, 2].map(|k| {
@@ -1265,10 +1273,10 @@ mod tests {
                     Ball { c, delta: 0.1 }
                 })
                 .collect();
-            let reach2 = reach * reach;
+            let reach = Reach { centre, l, inv_l: 1.0 / l, reach2: reach * reach };
             let (mut fours, mut ones) = (vec![0; regions.len()], vec![0; regions.len()]);
-            let n = within_reach(&regions, &centre, l, reach2, &mut fours);
-            let m = within_reach_from(&regions, &centre, l, 1.0 / l, reach2, &mut ones, (0, 0));
+            let n = within_reach(&regions, &reach, &mut fours);
+            let m = within_reach_from(&regions, &reach, &mut ones, (0, 0));
             proptest::prop_assert_eq!(&fours[..n], &ones[..m]);
         }
     }
