@@ -326,12 +326,16 @@ impl<R: Region> Lists<R> {
             // Without cells, every body, at the image nearest to i and, when the box is small,
             // the images around that one. No division, and the image's integers only where in
             // reach: at N 256 this loop was a quarter of every rebuild's instructions.
-            let reach2 = self.reach * self.reach;
-            let (centre, l, inv_l, take) = (*a.centre(), self.l, 1.0 / self.l, &take);
-            let nearest = move |b: &R| ((centre - b.centre()) * inv_l).map(round_nearest);
+            let (l, take) = (self.l, &take);
+            let reach = Reach {
+                centre: *a.centre(),
+                l,
+                inv_l: 1.0 / l,
+                reach2: self.reach * self.reach,
+            };
+            let nearest = move |b: &R| reach.nearest(b.centre());
             let image = move |j: usize, b: &R, near: V3| {
-                let d = b.centre() + near * l - centre;
-                (d.norm_squared() <= reach2 && take(j))
+                (reach.holds(b.centre(), &near) && take(j))
                     .then(|| (j as u32, [0, 1, 2].map(|k| near[k] as i32)))
             };
             if self.single_image {
@@ -343,12 +347,6 @@ impl<R: Region> Lists<R> {
                 // 9 % of the time (`perf`); 6 % without the branch, 4.7 % four at a time.
                 let mut within = std::mem::take(&mut self.within);
                 within.resize(self.regions.len(), 0);
-                let reach = Reach {
-                    centre,
-                    l,
-                    inv_l,
-                    reach2,
-                };
                 let n = within_reach(&self.regions, &reach, &mut within);
                 let candidates = within[..n]
                     .iter()
@@ -419,9 +417,6 @@ impl<R: Region> Lists<R> {
     }
 }
 
-/// Appends to `found` the `candidates` (index, image shift) whose regions overlap `a`: four at
-/// a time where the region tests them so ([`Region::IN_FOURS`]; a last group of fewer padded
-/// with its first), else one at a time.
 /// Where [`within_reach`] looks: bodies whose centre's nearest image, in a box of side `l`
 /// (`inv_l` = 1/`l`), lies within √`reach2` of `centre`.
 #[derive(Clone, Copy)]
@@ -430,6 +425,20 @@ struct Reach {
     l: f64,
     inv_l: f64,
     reach2: f64,
+}
+
+impl Reach {
+    /// The image of centre `c` nearest to `centre`, in box lengths.
+    #[inline]
+    fn nearest(&self, c: &V3) -> V3 {
+        ((self.centre - c) * self.inv_l).map(round_nearest)
+    }
+
+    /// Whether centre `c`, at its image `near`, lies within reach.
+    #[inline]
+    fn holds(&self, c: &V3, near: &V3) -> bool {
+        (c + near * self.l - self.centre).norm_squared() <= self.reach2
+    }
 }
 
 /// Writes to the front of `within` the index of every region within `reach`, in order, and
@@ -448,20 +457,13 @@ fn within_reach<R: Region>(regions: &[R], reach: &Reach, within: &mut [u32]) -> 
 /// [`within_reach`] one region at a time, from region `from` on, `n` indices written already.
 fn within_reach_from<R: Region>(
     regions: &[R],
-    &Reach {
-        centre,
-        l,
-        inv_l,
-        reach2,
-    }: &Reach,
+    reach: &Reach,
     within: &mut [u32],
     (mut n, from): (usize, usize),
 ) -> usize {
     for (j, b) in regions.iter().enumerate().skip(from) {
-        let near = ((centre - b.centre()) * inv_l).map(round_nearest);
-        let d = b.centre() + near * l - centre;
         within[n] = j as u32;
-        n += usize::from(d.norm_squared() <= reach2);
+        n += usize::from(reach.holds(b.centre(), &reach.nearest(b.centre())));
     }
     n
 }
@@ -507,6 +509,9 @@ mod avx2 {
     }
 }
 
+/// Appends to `found` the `candidates` (index, image shift) whose regions overlap `a`: four at
+/// a time where the region tests them so ([`Region::IN_FOURS`]; a last group of fewer padded
+/// with its first), else one at a time.
 fn overlapping<R: Region>(
     a: &R,
     regions: &[R],
