@@ -807,7 +807,7 @@ impl<M: Rigid> Engine<M> {
                             let source = Source::Deferred(deferred.len());
                             order.push((step.lower, step.lower, until, j, shift, source));
                             deferred.push(Deferred {
-                                start,
+                                start: start.map(|n| n.normalize()),
                                 next_axis: step.next_axis,
                             });
                         }
@@ -815,8 +815,8 @@ impl<M: Rigid> Engine<M> {
                 }
             }
             None => {
-                for &c in &close {
-                    let (j, shift, until, start) = c;
+                for &(j, shift, until, start) in &close {
+                    let start = start.map(|n| n.normalize());
                     let b = self.candidate_now(j, shift);
                     // The bodies that hold the pair, along its kept axis or else the line of
                     // centres: most candidates end here (39 % at p = 10), before the ascent
@@ -825,7 +825,7 @@ impl<M: Rigid> Engine<M> {
                     if self.m.enclosing_bound([i, j as usize], a, &b, &n) >= until - self.t {
                         continue;
                     }
-                    self.bound_close(i, a, b, c, &mut order, &mut near);
+                    self.bound_close(i, a, b, (j, shift, until, start), &mut order, &mut near);
                 }
             }
         }
@@ -1016,7 +1016,9 @@ struct Deferred {
 }
 
 /// A candidate of a rigid prediction whose bounding spheres overlap, before its quick bound:
-/// (index, image shift, time it must meet before, the pair's kept axis).
+/// (index, image shift, time it must meet before, the pair's kept axis). In `close`, the axis is
+/// as kept ([`PairAxes::get`]): the lanes normalise four at once, and the others
+/// normalise it when they use it.
 type Close = (u32, [i32; 3], f64, Option<V3>);
 
 /// Image shift of j as seen from i with unwrapped positions: the cell shift plus the image counters.

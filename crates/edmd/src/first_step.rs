@@ -83,7 +83,9 @@ impl EllipsoidLanes {
 }
 
 /// One candidate as the lanes take it: its stored state, the image offset of its box and the
-/// start of its ascent (the pair's kept unit axis, lab frame, from A towards B), if any.
+/// start of its ascent (the pair's kept axis, lab frame, from A towards B), if any: a unit
+/// vector to single precision ([`crate::axes::PairAxes::get`]), which the lanes
+/// normalise.
 #[derive(Clone, Copy)]
 pub struct Lane<'a> {
     pub body: &'a Body,
@@ -132,6 +134,14 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     fn dot(a: &V4, b: &V4) -> __m256d {
         add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+    }
+
+    /// 1/a, which the three components of a vector then multiply: the divider is the
+    /// kernel's busiest unit, and three divisions by one norm cost three times one.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn reciprocal(a: __m256d) -> __m256d {
+        div(splat(1.0), a)
     }
 
     #[inline]
@@ -189,8 +199,8 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     fn support_point(s: &V3, u: &V4) -> V4 {
         let su = [0, 1, 2].map(|c| mul(splat(s[c]), u[c]));
-        let h = norm(&su);
-        [0, 1, 2].map(|c| div(mul(splat(s[c]), su[c]), h))
+        let inv_h = reciprocal(norm(&su));
+        [0, 1, 2].map(|c| mul(mul(splat(s[c]), su[c]), inv_h))
     }
 
     /// `libm::sincos` of the lanes of `x` where `wanted` is set: where 2⁻²⁷√2 ≤ |x| ≲ π/4 (the
@@ -298,12 +308,9 @@ mod avx2 {
         );
         let (sin, cos) = sin_cos(mul(w_norm_b, tau), turns);
         // sin(wτ)/w and (1 − cos wτ)/w² of Eq. (5).
-        let first = select(turns, div(sin, w_norm_b), zero);
-        let second = select(
-            turns,
-            div(sub(splat(1.0), cos), mul(w_norm_b, w_norm_b)),
-            zero,
-        );
+        let inv_w = reciprocal(w_norm_b);
+        let first = select(turns, mul(sin, inv_w), zero);
+        let second = select(turns, mul(mul(sub(splat(1.0), cos), inv_w), inv_w), zero);
         let rot_b: [V4; 3] = [0, 1, 2].map(|p| {
             let u: V4 = [0, 1, 2].map(|c| lanes(|k| body(k).rot[(p, c)]));
             let wu = cross(&w_b, &u);
@@ -326,8 +333,8 @@ mod avx2 {
             })
         });
         let start: V4 = [0, 1, 2].map(|c| lanes(|k| lanes4[k].start.map_or(0.0, |n| n[c])));
-        let r_norm = norm(&r);
-        let n: V4 = [0, 1, 2].map(|c| select(kept, start[c], div(r[c], r_norm)));
+        let axis: V4 = [0, 1, 2].map(|c| select(kept, start[c], r[c]));
+        let n = times(&axis, reciprocal(norm(&axis)));
         let rot_a: [V4; 3] = [0, 1, 2].map(|p| [0, 1, 2].map(|c| splat(a.rot[(p, c)])));
         let off_a = to_lab(&rot_a, &support_point(&shape.s, &to_body(&rot_a, &n)));
         let minus_n = [0, 1, 2].map(|c| sub(zero, n[c]));
@@ -337,8 +344,7 @@ mod avx2 {
         // The ascent's next axis, damped by the radii of curvature (contact::AxisAscent).
         let damping = splat(1.0 / (2.0 * shape.rho));
         let along = plus(&n, &times(&minus(&between, &times(&n, gap)), damping));
-        let along_norm = norm(&along);
-        let next = [0, 1, 2].map(|c| div(along[c], along_norm));
+        let next = times(&along, reciprocal(norm(&along)));
         // The safe time of the gap: rigid::gap_safe_time with quadratic moduli.
         let (w_a, v_a) = (
             [0, 1, 2].map(|c| splat(a.w[c])),
@@ -350,11 +356,11 @@ mod avx2 {
         let (along_a, along_b) = (dot(&w_a, &n), dot(&w_b, &n));
         let opening = dot(&n, &minus(&v_b, &v_a));
         let closing = sub(add(mul(turn_a, l), mul(turn_b, l)), opening);
-        let infinity = splat(f64::INFINITY);
-        let linear = select(
-            _mm256_cmp_pd::<_CMP_GT_OQ>(closing, zero),
-            div(gap, closing),
-            infinity,
+        // A gap that does not close is ∞ away: 1/0.
+        let closes_at_all = _mm256_cmp_pd::<_CMP_GT_OQ>(closing, zero);
+        let linear = div(
+            select(closes_at_all, gap, splat(1.0)),
+            select(closes_at_all, closing, zero),
         );
         let rate = dot(
             &n,
@@ -382,17 +388,21 @@ mod avx2 {
         );
         // rigid::positive_for: 2g / (|ġ| + √(ġ² + 2Mg)) where the gap closes, (ġ + √…)/M else.
         let root_term = _mm256_sqrt_pd(add(mul(rate, rate), mul(mul(splat(2.0), accel), gap)));
-        let root = select(
-            _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero),
-            div(mul(splat(2.0), gap), sub(root_term, rate)),
-            div(add(rate, root_term), accel),
+        // Each lane's case picks its numerator and denominator, and one division serves all
+        // four cases (1/0: ∞ where the gap neither closes nor is bent towards closing).
+        let closes = _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero);
+        let accelerates = _mm256_cmp_pd::<_CMP_GT_OQ>(accel, zero);
+        let numerator = select(
+            accelerates,
+            select(closes, mul(splat(2.0), gap), add(rate, root_term)),
+            select(closes, gap, splat(1.0)),
         );
-        let no_accel = select(
-            _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero),
-            div(gap, sub(zero, rate)),
-            infinity,
+        let denominator = select(
+            accelerates,
+            select(closes, sub(root_term, rate), accel),
+            select(closes, sub(zero, rate), zero),
         );
-        let curved = select(_mm256_cmp_pd::<_CMP_GT_OQ>(accel, zero), root, no_accel);
+        let curved = div(numerator, denominator);
         // f64::max(linear, curved); a gap that is not positive (or NaN) proves nothing.
         let lower = select(
             _mm256_cmp_pd::<_CMP_GT_OQ>(gap, zero),
@@ -499,9 +509,9 @@ mod tests {
         }
 
         /// Each lane is the scalar quick bound's first step (to rounding) of the candidate moved
-        /// to the present, from its kept axis or the line of centres; where the bodies are apart
-        /// nothing overlaps before the bound (by the independent Perram–Wertheim scale), and
-        /// the next axis is a unit one.
+        /// to the present, from its kept axis (single precision, normalised by the lanes) or the
+        /// line of centres; where the bodies are apart nothing overlaps before the bound (by the
+        /// independent Perram–Wertheim scale), and the next axis is a unit one.
         #[test]
         fn each_lane_is_the_first_step_of_the_quick_bound_and_comes_before_any_contact(
             s in prop::array::uniform3(0.3f64..1.5),
@@ -516,11 +526,15 @@ mod tests {
             let now = 1.0;
             let a = a.at(now);
             let box_l = 3.0;
-            let starts = starts.map(|n| n.map(|n| (V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize()));
+            // Axes as kept, in single precision; the scalar bound takes them normalised.
+            let kept = starts.map(|n| {
+                n.map(|n| (V3::from(n) + V3::new(0.0, 0.0, 1e-3)).normalize().map(|c| f64::from(c as f32)))
+            });
+            let starts = kept.map(|n| n.map(|n| n.normalize()));
             let lanes: [Lane; 4] = [0, 1, 2, 3].map(|k| Lane {
                 body: &bs[k],
                 offset: V3::from(offsets[k].map(f64::from)) * box_l,
-                start: starts[k],
+                start: kept[k],
             });
             let steps = first_steps(&shape, &a, now, &lanes);
             for k in 0..4 {
