@@ -84,8 +84,7 @@ impl EllipsoidLanes {
 
 /// One candidate as the lanes take it: its stored state, the image offset of its box and the
 /// start of its ascent (the pair's kept axis, lab frame, from A towards B), if any: a unit
-/// vector to single precision ([`crate::axes::PairAxes::get`]), which the lanes
-/// normalise.
+/// vector to single precision, as the engine keeps it, which the lanes normalise.
 #[derive(Clone, Copy)]
 pub struct Lane<'a> {
     pub body: &'a Body,
