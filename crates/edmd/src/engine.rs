@@ -717,6 +717,14 @@ impl<M: Rigid> Engine<M> {
         deferred.clear();
         let lanes = self.m.lanes();
         let prefetching = self.bodies.len() >= PREFETCH_FROM;
+        // The partner of the collision just resolved, if this body is of it: asked of every
+        // close candidate, the pair's two indices were compared for each, in branches that
+        // flipped from one body's prediction to the other's.
+        let met_partner = self.met.and_then(|(p, q, ..)| match i {
+            _ if p as usize == i => Some(q as usize),
+            _ if q as usize == i => Some(p as usize),
+            _ => None,
+        });
         for (k, &(j, shift)) in cand.iter().enumerate() {
             // The bodies, events and kept axes of candidates a few ahead are seldom in cache at
             // large N.
@@ -748,7 +756,9 @@ impl<M: Rigid> Engine<M> {
             {
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
-                    if let Some((b, contact)) = self.contact_with(i, ju, a, shift) {
+                    if met_partner == Some(ju)
+                        && let Some((b, contact)) = self.contact_with(i, ju, a, shift)
+                    {
                         if self.met.is_some_and(|(p, ..)| p as usize == i) {
                             // The pair has just collided, and the partner is predicted next: its
                             // search of the pair reaches this body's new event (`until`), which
