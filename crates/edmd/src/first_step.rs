@@ -388,7 +388,7 @@ mod avx2 {
         // rigid::positive_for: 2g / (|ġ| + √(ġ² + 2Mg)) where the gap closes, (ġ + √…)/M else.
         let root_term = _mm256_sqrt_pd(add(mul(rate, rate), mul(mul(splat(2.0), accel), gap)));
         // Each lane's case picks its numerator and denominator, and one division serves all
-        // four cases (1/0: ∞ where the gap neither closes nor is bent towards closing).
+        // four cases (1/0: ∞ where the gap opens and no acceleration can turn it).
         let closes = _mm256_cmp_pd::<_CMP_LT_OQ>(rate, zero);
         let accelerates = _mm256_cmp_pd::<_CMP_GT_OQ>(accel, zero);
         let numerator = select(
