@@ -717,12 +717,12 @@ impl<M: Rigid> Engine<M> {
         deferred.clear();
         let lanes = self.m.lanes();
         let prefetching = self.bodies.len() >= PREFETCH_FROM;
-        // The partner of the collision just resolved, if this body is of it: asked of every
-        // close candidate, the pair's two indices were compared for each, in branches that
-        // flipped from one body's prediction to the other's.
+        // The partner of the collision just resolved, if this body is of it, and whether this
+        // body is the event's first: asked of every close candidate, the pair's two indices were
+        // compared for each, in branches that flipped from one body's prediction to the other's.
         let met_partner = self.met.and_then(|(p, q, ..)| match i {
-            _ if p as usize == i => Some(q as usize),
-            _ if q as usize == i => Some(p as usize),
+            _ if p as usize == i => Some((q as usize, true)),
+            _ if q as usize == i => Some((p as usize, false)),
             _ => None,
         });
         for (k, &(j, shift)) in cand.iter().enumerate() {
@@ -756,10 +756,11 @@ impl<M: Rigid> Engine<M> {
             {
                 if t1 == 0.0 {
                     // Bounding spheres already overlap: a separating axis bounds the contact time.
-                    if met_partner == Some(ju)
-                        && let Some((b, contact)) = self.contact_with(i, ju, a, shift)
+                    if let Some((partner, first)) = met_partner
+                        && partner == ju
+                        && let Some((b, contact)) = self.contact_with(first, ju, a, shift)
                     {
-                        if self.met.is_some_and(|(p, ..)| p as usize == i) {
+                        if first {
                             // The pair has just collided, and the partner is predicted next: its
                             // search of the pair reaches this body's new event (`until`), which
                             // covers what this one would (the rule above). Searched by both,
@@ -965,18 +966,18 @@ impl<M: Rigid> Engine<M> {
         q
     }
 
-    /// Body `j`'s candidate image (image shift `shift`) at the present and where it touches `a`
-    /// (body `i`), if they are the pair of the collision just resolved.
-    fn contact_with(&self, i: usize, j: usize, a: &Body, shift: [i32; 3]) -> Option<(Body, Known)> {
+    /// Body `j`'s candidate image (image shift `shift`) at the present and where it touches `a`,
+    /// `j` being `a`'s partner in the collision just resolved and `a` that event's first body
+    /// where `first`; `None` where the image is another than the one that collided.
+    fn contact_with(
+        &self,
+        first: bool,
+        j: usize,
+        a: &Body,
+        shift: [i32; 3],
+    ) -> Option<(Body, Known)> {
         let (p, q, (xc, _), offset) = self.met?;
         let (p, q) = (p as usize, q as usize);
-        // Every close candidate of every prediction asks: the pair is looked for first, and the
-        // candidate moved to the present only for it.
-        let first = match (i, j) {
-            _ if (i, j) == (p, q) => true,
-            _ if (i, j) == (q, p) => false,
-            _ => return None,
-        };
         let b = self.candidate_now(j as u32, shift);
         // The contact point as the event's first body saw it, its partner's image `offset` away.
         let (off_p, off_q) = (xc - self.bodies[p].r, xc - (self.bodies[q].r + offset));
