@@ -37,7 +37,7 @@ impl Region for Ball {
         true
     }
 
-    fn escape_time<S: Surface>(&self, _: &S, body: &SphereBody, _: f64) -> f64 {
+    fn escape_time<S: Surface>(&self, _: &S, body: &SphereBody, _: f64, _: f64) -> f64 {
         leaves_ball(&(body.r - self.c), &body.v, self.delta)
     }
 }
@@ -82,7 +82,7 @@ impl Region for SizedBall {
         (other.c + shift - self.c).norm_squared() <= reach * reach
     }
 
-    fn escape_time<S: Surface>(&self, _: &S, body: &SphereBody, _: f64) -> f64 {
+    fn escape_time<S: Surface>(&self, _: &S, body: &SphereBody, _: f64, _: f64) -> f64 {
         leaves_ball(&(body.r - self.c), &body.v, self.delta)
     }
 }

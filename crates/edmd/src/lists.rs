@@ -88,8 +88,9 @@ pub trait Region: Copy {
         [0, 1, 2, 3].map(|k| self.overlaps(others[k], &shifts[k], reach))
     }
     /// Time after `body.t` when the body may first touch the boundary of its region: exact or
-    /// early, never late (ε_d^nnl of Eq. 61 where it has to be stepped to).
-    fn escape_time<S: Surface>(&self, s: &S, body: &Self::Body, eps_nnl: f64) -> f64;
+    /// early, never late (ε_d^nnl of Eq. 61 where it has to be stepped to). A region that steps
+    /// may stop at the first step past `horizon`.
+    fn escape_time<S: Surface>(&self, s: &S, body: &Self::Body, eps_nnl: f64, horizon: f64) -> f64;
 }
 
 /// The lists whose lengths size the room of all ([`Lists::from_regions`]): every one up to this

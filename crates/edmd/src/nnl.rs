@@ -65,8 +65,8 @@ impl Region for Obp {
         [0, 1, 2, 3].map(|k| self.overlaps(others[k], &shifts[k], reach))
     }
 
-    fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64) -> f64 {
-        escape_time(s, body, self, eps_nnl)
+    fn escape_time<S: Surface>(&self, s: &S, body: &Body, eps_nnl: f64, horizon: f64) -> f64 {
+        escape_time(s, body, self, eps_nnl, horizon)
     }
 }
 
@@ -200,8 +200,9 @@ mod avx2 {
 /// by steps that no face gap can close within (a sharper bound than ḋ_k ≤ |v·u_k| + L‖w‖ of
 /// Eq. 60, see below), and the escape time is taken as soon as a gap falls below ε_d^nnl (Eq. 61):
 /// a lower bound, so a rebuild comes early, never late. Each axis is looked at again only when
-/// the safe time of its own two faces runs out.
-pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f64 {
+/// the safe time of its own two faces runs out. The steps stop at the first past `horizon`, whose
+/// time is a lower bound too.
+pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64, horizon: f64) -> f64 {
     let axes = [
         obp.rot.row(0).transpose(),
         obp.rot.row(1).transpose(),
@@ -269,6 +270,9 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64) -> f
             until[k] = tau + dt;
         }
         tau = until.into_iter().fold(f64::INFINITY, f64::min);
+        if tau >= horizon {
+            return tau;
+        }
     }
     tau
 }
@@ -388,9 +392,9 @@ mod tests {
             t: 0.0,
         };
         let o = Obp::around(&e, &body, 0.2);
-        assert!((escape_time(&e, &body, &o, 1e-3) - 0.4).abs() < 1e-14);
+        assert!((escape_time(&e, &body, &o, 1e-3, f64::INFINITY) - 0.4).abs() < 1e-14);
         body.w = V3::new(0.0, 0.0, 1.0);
-        let te = escape_time(&e, &body, &o, 1e-3);
+        let te = escape_time(&e, &body, &o, 1e-3, f64::INFINITY);
         // At the escape time every gap is still non-negative and the smallest is below ε_d^nnl.
         let p = body.pose_after(te);
         let mut min_gap = f64::INFINITY;
@@ -417,7 +421,8 @@ mod tests {
 
     proptest::proptest! {
         /// A turning body never leaves its box before its escape time, and is within ε_d^nnl of
-        /// a face at it: ellipsoids and superquadrics with flat faces (p up to 10), whose axes are
+        /// a face at it (looking only to a horizon, before it or at a step past the horizon):
+        /// ellipsoids and superquadrics with flat faces (p up to 10), whose axes are
         /// looked at again only when their own safe times run out. The gaps are checked on 400
         /// points of the way, from the support function.
         #[test]
@@ -428,6 +433,7 @@ mod tests {
             w in proptest::array::uniform3(-6.0f64..6.0),
             turn in proptest::array::uniform3(-3.0f64..3.0),
             delta in 0.02f64..0.3,
+            look in 0.0f64..1.2,
         ) {
             let q = crate::superquadric::Superquadric::with_unit_volume([x0, 1.0, 1.0], [2.0, 2.0, p])
                 .unwrap();
@@ -440,7 +446,7 @@ mod tests {
             };
             let eps = 5e-3;
             let o = Obp::around(&q, &body, delta);
-            let te = escape_time(&q, &body, &o, eps);
+            let te = escape_time(&q, &body, &o, eps, f64::INFINITY);
             proptest::prop_assert!(te.is_finite() && te >= 0.0, "{te}");
             for k in 0..=400 {
                 let tau = te * f64::from(k) / 400.0;
@@ -449,6 +455,14 @@ mod tests {
             }
             let at_escape = min_face_gap(&q, &body, &o, te);
             proptest::prop_assert!(at_escape < eps, "gap {at_escape} at the escape {te}");
+            // Looking no further than a horizon gives the same escape, or the time of a step
+            // past the horizon and before it: still a lower bound, never a stop short of it.
+            let horizon = te * look;
+            let early = escape_time(&q, &body, &o, eps, horizon);
+            proptest::prop_assert!(
+                early == te || (horizon..te).contains(&early),
+                "{early} with the horizon {horizon}, escape {te}"
+            );
         }
     }
 }

@@ -36,9 +36,11 @@ use crate::scene::Scene;
 pub const FORMAT: &str = "sweep-edmd-state";
 /// The layout of [`SavedState`]; a change to any saved engine structure must raise it.
 /// Version 2 lets a neighbour list spill beyond its room (`lists.lists.spill`); version 3 keeps
-/// rigid pairs' separating axes (`engine.*.axes`). An older file is a newer one without them,
-/// and is read as one (a rigid run from a version 2 file continues with no axes kept).
-pub const VERSION: u32 = 3;
+/// rigid pairs' separating axes (`engine.*.axes`); version 4 the collisions that set how far an
+/// escape time looks (`engine.*.pace`). An older file is a newer one without them, and is read
+/// as one (a rigid run from a version 2 file continues with no axes kept, one from a version 3
+/// file counts its collisions afresh).
+pub const VERSION: u32 = 4;
 
 /// A saved run (see the module's documentation for the format).
 #[derive(Serialize, Deserialize)]
