@@ -10,7 +10,8 @@
 //!   as it is (position, unwrapped, velocity, orientation rows, angular velocity, at its own local
 //!   time: bodies are advanced lazily), the clock, the collision counters, the calendar in its
 //!   heap order, the linked cells or the neighbour lists with their regions and build grid, the
-//!   measurement sums and the solver counters. f64 are stored exactly (CBOR doubles, ±∞ included).
+//!   measurement sums, the solver counters and the collisions behind the escape horizon. f64
+//!   are stored exactly (CBOR doubles, ±∞ included).
 //!
 //! The engine draws no random numbers after the initial state, so there is no random state to
 //! save: the seed only makes the initial configuration.
