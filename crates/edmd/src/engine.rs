@@ -92,6 +92,23 @@ pub(crate) struct Pace {
     collisions: u64,
 }
 
+impl Pace {
+    fn starting_at(since: f64) -> Self {
+        Pace {
+            since,
+            collisions: 0,
+        }
+    }
+
+    /// The mean free time of `n` bodies at time `t`, N (t − since) / 2C, once they have met one
+    /// other each on average: before, it is too rough to use.
+    fn mean_free_time(&self, t: f64, n: usize) -> Option<f64> {
+        let n = n as u64;
+        (2 * self.collisions >= n)
+            .then(|| (t - self.since) * n as f64 / (2 * self.collisions) as f64)
+    }
+}
+
 /// What [`Engine::snapshot`] saves; its layout is part of the state file (see [`crate::state`]).
 /// Bodies are saved whole whatever the model stores ([`Moving::to_body`]): a sphere's state file
 /// is the same as before spheres were stored compactly.
@@ -222,10 +239,7 @@ impl<M: FirstCollision> Engine<M> {
             failure: None,
             last_parting: None,
             sequence: Fingerprint::default(),
-            pace: Pace {
-                since: t,
-                collisions: 0,
-            },
+            pace: Pace::starting_at(t),
         };
         if let Neighbourhood::Ll { cells, cell_of, .. } = &mut e.nb {
             for (i, b) in e.bodies.iter().enumerate() {
@@ -285,10 +299,7 @@ impl<M: FirstCollision> Engine<M> {
             failure: None,
             last_parting: None,
             sequence: s.sequence,
-            pace: s.pace.unwrap_or(Pace {
-                since: s.t,
-                collisions: 0,
-            }),
+            pace: s.pace.unwrap_or(Pace::starting_at(s.t)),
         }
     }
 
@@ -350,25 +361,15 @@ impl<M: FirstCollision> Engine<M> {
     /// Body `i` reached the face of its box: a new box and list for it alone, then its events.
     fn rebuild_box(&mut self, i: usize) {
         self.advance_body(i);
-        let surf = self.m.surface_of(i);
-        let horizon = self.escape_horizon();
-        let Neighbourhood::Nnl {
-            lists,
-            escape_at,
-            eps,
-        } = &mut self.nb
-        else {
+        let Neighbourhood::Nnl { lists, .. } = &mut self.nb else {
             return;
         };
         // Rebuilds are rare (µs each): two clock reads time them for Eq. 73's split.
         let started = Instant::now();
-        if let Err(e) = lists.rebuild(&surf, i, &self.bodies[i]) {
+        if let Err(e) = lists.rebuild(&self.m.surface_of(i), i, &self.bodies[i]) {
             self.failure.get_or_insert(e.into());
         }
-        escape_at[i] = self.t
-            + lists
-                .region(i)
-                .escape_time(&surf, &self.bodies[i], *eps, horizon);
+        self.update_escape(i);
         self.acc.rebuild_s += started.elapsed().as_secs_f64();
         self.acc.rebuilds += 1;
         self.predict_for(i);
@@ -378,16 +379,13 @@ impl<M: FirstCollision> Engine<M> {
     /// seldom flies longer without a collision, which computes its escape anew; one that does
     /// rebuilds its box early (the time found by then is a lower bound).
     fn escape_horizon(&self) -> f64 {
-        let n = self.bodies.len() as u64;
-        // Until every body has met one other on average, the mean free time is too rough to use.
-        if 2 * self.pace.collisions < n {
-            return f64::INFINITY;
-        }
-        let free = (self.t - self.pace.since) * n as f64 / (2 * self.pace.collisions) as f64;
-        ESCAPE_LOOKAHEAD * free
+        self.pace
+            .mean_free_time(self.t, self.bodies.len())
+            .map_or(f64::INFINITY, |free| ESCAPE_LOOKAHEAD * free)
     }
 
-    /// After a collision: the escape time of `i` follows its new trajectory (Sec. 3.5, 5c).
+    /// The escape time of `i` from its box, for its present trajectory: after a collision (Sec.
+    /// 3.5, 5c) or in a new box.
     fn update_escape(&mut self, i: usize) {
         let surf = self.m.surface_of(i);
         let horizon = self.escape_horizon();
