@@ -111,7 +111,7 @@ mod avx2 {
     use super::{EllipsoidLanes, FirstSteps, Lane};
     use crate::geometry::V3;
     use crate::lanes::{add, lanes, mul, splat, sub};
-    use crate::rigid::Body;
+    use crate::rigid::{Body, COS_KERNEL, KERNEL_WORDS, SIN_KERNEL};
 
     /// A vector of three components, four lanes each.
     type V4 = [__m256d; 3];
@@ -209,25 +209,8 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) fn sin_cos(x: __m256d, wanted: __m256d) -> (__m256d, __m256d) {
-        // fdlibm's coefficients (k_sin.c, k_cos.c), by their bits.
-        const S: [u64; 6] = [
-            0xbfc5_5555_5555_5549,
-            0x3f81_1111_1110_f8a6,
-            0xbf2a_01a0_19c1_61d5,
-            0x3ec7_1de3_57b1_fe7d,
-            0xbe5a_e5e6_8a2b_9ceb,
-            0x3de5_d93a_5acf_d57c,
-        ];
-        const C: [u64; 6] = [
-            0x3fa5_5555_5555_554c,
-            0xbf56_c16c_16c1_5177,
-            0x3efa_01a0_19cb_1590,
-            0xbe92_7e4f_809c_52ad,
-            0x3e21_ee9e_bdb4_b1c4,
-            0xbda8_fae9_be88_38d4,
-        ];
-        let c = |k: usize| splat(f64::from_bits(C[k]));
-        let (z, sc) = (mul(x, x), |k: usize| splat(f64::from_bits(S[k])));
+        let c = |k: usize| splat(f64::from_bits(COS_KERNEL[k]));
+        let (z, sc) = (mul(x, x), |k: usize| splat(f64::from_bits(SIN_KERNEL[k])));
         let w = mul(z, z);
         // k_sin(x, 0, 0) = x + z x (S1 + z r).
         let r = add(
@@ -246,12 +229,12 @@ mod avx2 {
             one_less,
             add(sub(sub(splat(1.0), one_less), half_z), mul(z, r)),
         );
-        // libm::sincos takes the kernels where the high word of |x| lies in
-        // [0x3e46a09e, 0x3fe921fb].
+        // libm::sincos takes the kernels where the high word of |x| is one of KERNEL_WORDS.
+        let word = |w: u32| splat(f64::from_bits(u64::from(w) << 32));
         let abs = _mm256_andnot_pd(splat(-0.0), x);
         let kernels = _mm256_and_pd(
-            _mm256_cmp_pd::<_CMP_GE_OQ>(abs, splat(f64::from_bits(0x3e46_a09e_0000_0000))),
-            _mm256_cmp_pd::<_CMP_LT_OQ>(abs, splat(f64::from_bits(0x3fe9_21fc_0000_0000))),
+            _mm256_cmp_pd::<_CMP_GE_OQ>(abs, word(*KERNEL_WORDS.start())),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(abs, word(KERNEL_WORDS.end() + 1)),
         );
         let others = _mm256_movemask_pd(_mm256_andnot_pd(kernels, wanted));
         if others == 0 {
@@ -505,6 +488,16 @@ mod tests {
                     "{:e}: ({:e}, {:e}) against libm's ({s:e}, {c:e})", x[k], sin[k], cos[k]
                 );
             }
+        }
+
+        /// The scalar turn's sine and cosine are `libm::sincos`'s to the bit.
+        #[test]
+        fn one_angle_turns_to_the_bit_as_libm_does(x in angle()) {
+            let ((s, c), (ls, lc)) = (crate::rigid::sin_cos(x), libm::sincos(x));
+            prop_assert!(
+                s.to_bits() == ls.to_bits() && c.to_bits() == lc.to_bits(),
+                "{x:e}: ({s:e}, {c:e}) against libm's ({ls:e}, {lc:e})"
+            );
         }
 
         /// Each lane is the scalar quick bound's first step (to rounding) of the candidate moved
