@@ -26,7 +26,7 @@ pub struct Body {
 /// the two 3 × 3 products of R(0)(I + M), in a rotation that every candidate of a contact
 /// search pays (3.5 % of τ_c, ellipsoids X0 = 2, φ 0.5, N 256). Its sine and cosine are
 /// `libm::sincos`'s (fdlibm's, under an ulp), cheaper than the C library's (MEASUREMENTS.md, "The
-/// turns' sines and cosines"), by [`sin_cos`], and [`crate::first_step`] computes them four at a
+/// turns' sines and cosines"), by `sin_cos`, and [`crate::first_step`] computes them four at a
 /// time to the same bits.
 pub fn rotate(rot: &M3, w: &V3, t: f64) -> M3 {
     let wn = w.norm();
