@@ -106,14 +106,17 @@ fn turn(rot: &M3, wn: f64, axes: &[(V3, V3); 3], t: f64) -> M3 {
 }
 
 /// A body's free flight from its own time, for the many poses a contact search asks along it:
-/// the cross products of Eq. (5) that every pose shares (`turn_axes`) are taken once, and the
-/// last pose is kept, which the search asks for again (the distance, the slope and the safe time
-/// at one time). Each pose is [`Body::pose_after`]'s, to the bit.
+/// the cross products of Eq. (5) that every pose shares (`turn_axes`) are taken once, at the
+/// first pose that turns, and the last pose is kept, which the search asks for again (the
+/// distance, the slope and the safe time at one time). Each pose is [`Body::pose_after`]'s, to
+/// the bit. Many flights never turn (a box escape whose first step reaches the horizon asks only
+/// for the present): taking the cross products at the start cost 1 % more instructions a
+/// collision (X0 = 2, φ 0.5, N 256).
 pub struct Flight<'a> {
     body: &'a Body,
     w_norm: f64,
-    /// [`turn_axes`] of the body; `None` where |w| is 0.
-    axes: Option<[(V3, V3); 3]>,
+    /// [`turn_axes`] of the body, taken at the first turn asked for (never where |w| is 0).
+    axes: std::cell::OnceCell<[(V3, V3); 3]>,
     last: std::cell::Cell<Option<(f64, Pose)>>,
 }
 
@@ -123,8 +126,7 @@ impl<'a> Flight<'a> {
         Flight {
             body,
             w_norm,
-            // `rotate` leaves a body whose |w| is 0 unturned, underflowed or not.
-            axes: (w_norm != 0.0).then(|| turn_axes(&body.rot, &body.w)),
+            axes: std::cell::OnceCell::new(),
             last: std::cell::Cell::new(None),
         }
     }
@@ -143,9 +145,12 @@ impl<'a> Flight<'a> {
             return pose;
         }
         let b = self.body;
-        let rot = match &self.axes {
-            Some(axes) if tau != 0.0 => turn(&b.rot, self.w_norm, axes, tau),
-            _ => b.rot,
+        // `rotate` leaves a body whose |w| is 0 unturned, underflowed or not.
+        let rot = if tau != 0.0 && self.w_norm != 0.0 {
+            let axes = self.axes.get_or_init(|| turn_axes(&b.rot, &b.w));
+            turn(&b.rot, self.w_norm, axes, tau)
+        } else {
+            b.rot
         };
         let pose = Pose {
             r: b.r + b.v * tau,
