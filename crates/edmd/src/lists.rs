@@ -552,17 +552,14 @@ mod avx2 {
         let c = [0, 1, 2].map(|k| splat(reach.centre[k]));
         let (magic, l, inv_l) = (splat(ROUND_MAGIC), splat(reach.l), splat(reach.inv_l));
         let reach2 = splat(reach.reach2);
-        let [x, y, z] = centres.0.each_ref().map(|c| c.chunks_exact(4));
+        let [xs, ys, zs] = centres.0.each_ref().map(|c| c.chunks_exact(4));
         let mut n = 0;
-        for (q, ((x, y), z)) in x.zip(y).zip(z).enumerate() {
-            let d = [x, y, z].map(|four| {
-                // SAFETY: `four` holds four f64 (unaligned load).
-                unsafe { _mm256_loadu_pd(four.as_ptr()) }
-            });
+        for (q, ((x, y), z)) in xs.zip(ys).zip(zs).enumerate() {
+            // SAFETY: each of `x`, `y`, `z` holds four f64 (unaligned loads).
+            let b = [x, y, z].map(|four| unsafe { _mm256_loadu_pd(four.as_ptr()) });
             let d = [0, 1, 2].map(|k| {
-                let b = d[k];
-                let near = sub(add(mul(sub(c[k], b), inv_l), magic), magic);
-                sub(add(b, mul(near, l)), c[k])
+                let near = sub(add(mul(sub(c[k], b[k]), inv_l), magic), magic);
+                sub(add(b[k], mul(near, l)), c[k])
             });
             let r2 = add(add(mul(d[0], d[0]), mul(d[1], d[1])), mul(d[2], d[2]));
             let hit = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(r2, reach2)) as usize;
