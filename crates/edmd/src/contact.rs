@@ -479,6 +479,9 @@ struct AxisAscent {
     damping: f64,
     /// The next direction to try, in A's frame.
     n: V3,
+    /// `n` before its normalisation, which shapes with [`Surface::SCALE_FREE_SUPPORT`] take
+    /// their support points along.
+    m: V3,
     /// The largest gap so far, its direction and support offsets (A's frame).
     best: (f64, V3, V3, V3),
     /// What the best step's support points left for their moduli.
@@ -508,6 +511,7 @@ impl AxisAscent {
             // bound. A flat face has no largest radius of curvature; its bounding radius stands in.
             damping: 1.0 / (search_radius(sa) + search_radius(sb)),
             n,
+            m: n,
             best: (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros()),
             kept: [f64::NAN; 2],
             rot_a: pa.rot,
@@ -526,8 +530,13 @@ impl AxisAscent {
     fn step_to<S: Surface>(&mut self, sa: &S, sb: &S, steps: usize) {
         while self.steps < steps {
             let n = self.n;
-            let (offset_a, kept_a) = sa.support_point_kept(&n);
-            let (offset_b, kept_b) = sb.support_point_kept(&-(self.b_to_a.tr_mul(&n)));
+            // Along the direction not yet normalised, the support points do not wait for the
+            // square root and division of its normalisation, which runs beside them: a whole
+            // ascent of two X0 = 2 ellipsoids takes 26 % less time (`cargo bench -p edmd --bench
+            // kernels`, MEASUREMENTS.md).
+            let along = if S::SCALE_FREE_SUPPORT { self.m } else { n };
+            let (offset_a, kept_a) = sa.support_point_kept(&along);
+            let (offset_b, kept_b) = sb.support_point_kept(&-(self.b_to_a.tr_mul(&along)));
             let offset_b = self.b_to_a * offset_b;
             let between = self.r + offset_b - offset_a;
             let gap = n.dot(&between);
@@ -535,7 +544,8 @@ impl AxisAscent {
                 self.best = (gap, n, offset_a, offset_b);
                 self.kept = [kept_a, kept_b];
             }
-            self.n = (n + (between - n * gap) * self.damping).normalize();
+            self.m = n + (between - n * gap) * self.damping;
+            self.n = self.m.normalize();
             self.steps += 1;
         }
     }

@@ -112,6 +112,8 @@ impl Surface for Ellipsoid {
         let sn = self.s.component_mul(n);
         self.s.component_mul(&sn) / sn.norm()
     }
+    /// s∘s∘n / |s∘n| is homogeneous of degree 0 in n.
+    const SCALE_FREE_SUPPORT: bool = true;
     fn semi_axes(&self) -> V3 {
         self.s
     }
@@ -122,7 +124,30 @@ impl Surface for Ellipsoid {
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
+
+    proptest! {
+        /// `SCALE_FREE_SUPPORT`: along any positive multiple of a direction the support point is
+        /// the one along the unit direction, to rounding: on the surface, its normal along the
+        /// direction (semi-axes of aspect up to 100).
+        #[test]
+        fn the_support_point_does_not_depend_on_the_direction_s_length(
+            s in prop::array::uniform3(0.05f64..5.0),
+            d in prop::array::uniform3(-1.0f64..1.0),
+            scale in 1e-3f64..1e3,
+        ) {
+            let d = V3::from(d);
+            prop_assume!(d.norm() > 1e-3);
+            let (e, n) = (Ellipsoid::new(s[0], s[1], s[2]), d.normalize());
+            let (unit, scaled) = (e.support_point(&n), e.support_point(&(n * scale)));
+            let size = V3::from(s).max();
+            prop_assert!((scaled - unit).norm() <= 1e-14 * size, "{scaled} against {unit}");
+            prop_assert!(e.f(&scaled).abs() <= 1e-12, "off the surface: {}", e.f(&scaled));
+            prop_assert!((e.grad(&scaled).normalize() - n).norm() <= 1e-9);
+        }
+    }
 
     #[test]
     fn gradient_and_hessian_match_finite_differences() {

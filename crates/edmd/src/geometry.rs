@@ -145,6 +145,9 @@ pub trait Surface {
     fn support_point_kept(&self, n: &V3) -> (V3, f64) {
         (self.support_point(n), f64::NAN)
     }
+    /// Whether [`Surface::support_point_kept`] takes any positive multiple of a unit direction
+    /// to the same point (to rounding), so that a direction need not be normalised first.
+    const SCALE_FREE_SUPPORT: bool = false;
     /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
     /// support function: for an ellipsoid s_max²/s_min.
     fn max_curvature_radius(&self) -> f64;
