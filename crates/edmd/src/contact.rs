@@ -532,8 +532,8 @@ impl AxisAscent {
             let n = self.n;
             // Along the direction not yet normalised, the support points do not wait for the
             // square root and division of its normalisation, which runs beside them: a whole
-            // ascent of two X0 = 2 ellipsoids takes 26 % less time (`cargo bench -p edmd --bench
-            // kernels`, MEASUREMENTS.md).
+            // ascent of two X0 = 2 ellipsoids takes 21–26 % less time (`cargo bench -p edmd
+            // --bench kernels`, MEASUREMENTS.md).
             let along = if S::SCALE_FREE_SUPPORT { self.m } else { n };
             let (offset_a, kept_a) = sa.support_point_kept(&along);
             let (offset_b, kept_b) = sb.support_point_kept(&-(self.b_to_a.tr_mul(&along)));
