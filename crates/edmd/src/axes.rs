@@ -89,9 +89,9 @@ impl PairAxes {
         self.partners.is_empty()
     }
 
-    /// The axis last kept for the pair, oriented from `i` towards `j`, as kept: a unit vector
-    /// to single precision, which is not one in double (a gap along it would be scaled by its
-    /// length). Callers normalise it; the lanes of [`crate::first_step`] four at a time.
+    /// The axis last kept for the pair, oriented from `i` towards `j`, as kept: of about unit
+    /// length, in single precision (a gap along it would be scaled by its length). Callers
+    /// normalise it; the lanes of [`crate::first_step`] four at a time.
     #[inline]
     pub(crate) fn get(&self, i: usize, j: usize) -> Option<V3> {
         let (row, partner, sign) = Self::key(i, j);

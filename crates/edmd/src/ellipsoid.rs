@@ -114,6 +114,10 @@ impl Surface for Ellipsoid {
     }
     /// s∘s∘n / |s∘n| is homogeneous of degree 0 in n.
     const SCALE_FREE_SUPPORT: bool = true;
+    fn support_point_scaled(&self, m: &V3) -> (V3, f64) {
+        let sm = self.s.component_mul(m);
+        (self.s.component_mul(&sm), sm.norm())
+    }
     fn semi_axes(&self) -> V3 {
         self.s
     }
@@ -129,9 +133,9 @@ mod tests {
     use super::*;
 
     proptest! {
-        /// `SCALE_FREE_SUPPORT`: along any positive multiple of a direction the support point is
-        /// the one along the unit direction, to rounding: on the surface, its normal along the
-        /// direction (semi-axes of aspect up to 100).
+        /// `SCALE_FREE_SUPPORT`: along any positive multiple of a direction, the support point
+        /// p/k of `support_point_scaled` is the one along the unit direction, to rounding: on
+        /// the surface, its normal along the direction (semi-axes of aspect up to 100).
         #[test]
         fn the_support_point_does_not_depend_on_the_direction_s_length(
             s in prop::array::uniform3(0.05f64..5.0),
@@ -141,7 +145,9 @@ mod tests {
             let d = V3::from(d);
             prop_assume!(d.norm() > 1e-3);
             let (e, n) = (Ellipsoid::new(s[0], s[1], s[2]), d.normalize());
-            let (unit, scaled) = (e.support_point(&n), e.support_point(&(n * scale)));
+            let (p, k) = e.support_point_scaled(&(n * scale));
+            prop_assert!(k > 0.0);
+            let (unit, scaled) = (e.support_point(&n), p / k);
             let size = V3::from(s).max();
             prop_assert!((scaled - unit).norm() <= 1e-14 * size, "{scaled} against {unit}");
             prop_assert!(e.f(&scaled).abs() <= 1e-12, "off the surface: {}", e.f(&scaled));

@@ -145,9 +145,15 @@ pub trait Surface {
     fn support_point_kept(&self, n: &V3) -> (V3, f64) {
         (self.support_point(n), f64::NAN)
     }
-    /// Whether [`Surface::support_point_kept`] takes any positive multiple of a unit direction
-    /// to the same point (to rounding), so that a direction need not be normalised first.
+    /// Whether the support point along any positive multiple m of a unit direction is that of
+    /// the direction, given as p/k by [`Surface::support_point_scaled`], so that a direction
+    /// need not be normalised first. Such shapes keep nothing for the moduli.
     const SCALE_FREE_SUPPORT: bool = false;
+    /// Where [`Surface::SCALE_FREE_SUPPORT`]: (p, k), k > 0, with p/k the support point along
+    /// the body-frame direction `m` of any nonzero length, without its division.
+    fn support_point_scaled(&self, m: &V3) -> (V3, f64) {
+        (self.support_point(&m.normalize()), 1.0)
+    }
     /// The largest principal radius of curvature of the surface, which bounds the Hessian of the
     /// support function: for an ellipsoid s_max²/s_min.
     fn max_curvature_radius(&self) -> f64;
