@@ -39,6 +39,14 @@ pub(crate) struct PairAxes {
     next: Vec<u8>,
 }
 
+/// The slot of a row that held a pair when [`PairAxes::get`] looked, or none.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct SlotOf(u8);
+
+impl SlotOf {
+    const NONE: SlotOf = SlotOf(u8::MAX);
+}
+
 /// A kept axis as state files hold it: the partner and the direction.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 struct Slot(u32, [f32; 3]);
@@ -91,13 +99,18 @@ impl PairAxes {
 
     /// The axis last kept for the pair, oriented from `i` towards `j`, as kept: of about unit
     /// length, in single precision (a gap along it would be scaled by its length). Callers
-    /// normalise it; the lanes of [`crate::first_step`] four at a time.
+    /// normalise it; the lanes of [`crate::first_step`] four at a time. With it, where the pair
+    /// is kept, for [`PairAxes::put_at`]: a prediction reads a close candidate's axis, then keeps
+    /// the pair's next one there without searching the row again.
     #[inline]
-    pub(crate) fn get(&self, i: usize, j: usize) -> Option<V3> {
+    pub(crate) fn get(&self, i: usize, j: usize) -> (Option<V3>, SlotOf) {
         let (row, partner, sign) = Self::key(i, j);
-        let k = self.partners.get(row)?.slot_of(partner)?;
+        let Some(k) = self.partners.get(row).and_then(|p| p.slot_of(partner)) else {
+            return (None, SlotOf::NONE);
+        };
         let [x, y, z] = self.axes[row * SLOTS + k];
-        Some(V3::new(f64::from(x), f64::from(y), f64::from(z)) * sign)
+        let n = V3::new(f64::from(x), f64::from(y), f64::from(z)) * sign;
+        (Some(n), SlotOf(k as u8))
     }
 
     /// Asks for the row that holds the pair ahead of [`PairAxes::get`]: at N = 10⁵ its partners'
@@ -138,6 +151,21 @@ impl PairAxes {
             }
         };
         self.axes[row * SLOTS + k] = [n.x as f32, n.y as f32, n.z as f32];
+    }
+
+    /// [`PairAxes::put`] where [`PairAxes::get`] found the pair's slot: kept there if the
+    /// pair still holds it (another pair may have taken it since, in its row's turn).
+    #[inline(always)]
+    pub(crate) fn put_at(&mut self, slot: SlotOf, bodies: usize, i: usize, j: usize, n: &V3) {
+        let (row, partner, sign) = Self::key(i, j);
+        let k = usize::from(slot.0);
+        match self.partners.get(row) {
+            Some(p) if k < SLOTS && p.0[k] == partner => {
+                let n = n * sign;
+                self.axes[row * SLOTS + k] = [n.x as f32, n.y as f32, n.z as f32];
+            }
+            _ => self.put(bodies, i, j, n),
+        }
     }
 
     /// Rows for `bodies` bodies, all slots empty: at the first axis kept (never, for spheres).
@@ -201,24 +229,50 @@ mod tests {
     #[test]
     fn axes_come_back_oriented_and_rows_forget_the_oldest() {
         let mut axes = PairAxes::default();
-        assert_eq!(axes.get(0, 1), None);
+        assert_eq!(axes.get(0, 1).0, None);
         let n = V3::new(0.6, -0.8, 0.0);
         axes.put(40, 3, 7, &n);
         let as_kept = V3::new(f64::from(0.6f32), f64::from(-0.8f32), 0.0);
-        assert_eq!(axes.get(3, 7), Some(as_kept));
-        assert_eq!(axes.get(7, 3), Some(-as_kept));
+        assert_eq!(axes.get(3, 7).0, Some(as_kept));
+        assert_eq!(axes.get(7, 3).0, Some(-as_kept));
         axes.put(40, 7, 3, &V3::x());
-        assert!((axes.get(3, 7).expect("kept") + V3::x()).norm() < 1e-15);
+        assert!((axes.get(3, 7).0.expect("kept") + V3::x()).norm() < 1e-15);
         for j in 8..8 + SLOTS {
             axes.put(40, 3, j, &V3::z());
         }
         assert_eq!(
-            axes.get(3, 7),
+            axes.get(3, 7).0,
             None,
             "the oldest pair of row 3 is forgotten"
         );
-        assert!(axes.get(8, 3).is_some() && axes.get(3, 8 + SLOTS - 1).is_some());
-        assert_eq!(axes.get(2, 7), None);
+        assert!(axes.get(8, 3).0.is_some() && axes.get(3, 8 + SLOTS - 1).0.is_some());
+        assert_eq!(axes.get(2, 7).0, None);
+    }
+
+    /// An axis kept at the slot where it was read goes to its pair: there, while the pair holds
+    /// the slot; elsewhere in the row, without touching the pair that took it, once the row's
+    /// turn has given it away.
+    #[test]
+    fn an_axis_kept_where_it_was_read_goes_to_its_own_pair() {
+        let mut axes = PairAxes::default();
+        assert_eq!(axes.get(3, 7), (None, SlotOf::NONE));
+        axes.put_at(SlotOf::NONE, 40, 7, 3, &V3::x());
+        let (kept, slot) = axes.get(3, 7);
+        assert_eq!(kept, Some(-V3::x()));
+        axes.put_at(slot, 40, 3, 7, &V3::y());
+        assert_eq!(axes.get(3, 7), (Some(V3::y()), slot), "kept in its slot");
+        for j in 8..8 + SLOTS {
+            axes.put(40, 3, j, &V3::z());
+        }
+        assert_eq!(axes.get(3, 7).0, None, "its slot was given away");
+        axes.put_at(slot, 40, 3, 7, &V3::x());
+        assert_eq!(axes.get(3, 7).0, Some(V3::x()));
+        let others = (8..8 + SLOTS).filter(|&j| axes.get(3, j).0 == Some(V3::z()));
+        assert_eq!(
+            others.count(),
+            SLOTS - 1,
+            "only the oldest other pair gave way"
+        );
     }
 
     /// State files keep the form axes were saved in before partners had a line of their own:
@@ -230,9 +284,9 @@ mod tests {
         slots[5] = Slot(1, [0.0, 0.6, -0.8]);
         let old = serde_json::json!({ "slots": slots, "next": [6, 0] });
         let axes: PairAxes = serde_json::from_value(old.clone()).expect("old form");
-        let n = axes.get(1, 0).expect("kept");
+        let n = axes.get(1, 0).0.expect("kept");
         assert!((n - V3::new(0.0, -0.6, 0.8)).norm() < 1e-7);
-        assert_eq!(axes.get(1, 2), None, "row 1 keeps nothing");
+        assert_eq!(axes.get(1, 2).0, None, "row 1 keeps nothing");
         assert_eq!(serde_json::to_value(&axes).expect("saved"), old);
         let mut moved = axes.clone();
         moved.put(2, 1, 0, &V3::x());
@@ -246,6 +300,6 @@ mod tests {
         );
         assert_eq!(back, moved);
         assert_eq!(back.next, vec![6, 1], "row 1's next slot is saved");
-        assert!((back.get(0, 1).expect("kept") + V3::x()).norm() < 1e-15);
+        assert!((back.get(0, 1).0.expect("kept") + V3::x()).norm() < 1e-15);
     }
 }
