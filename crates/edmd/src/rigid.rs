@@ -535,17 +535,16 @@ pub fn gap_safe_time_towards(a: &GapSide, b: &GapSide, n: &V3, gap: f64, towards
         Towards::Future => (forward, 1.0),
         Towards::Past => (backward, -1.0),
     };
-    let linear = if closing > 0.0 {
-        gap / closing
-    } else {
-        f64::INFINITY
-    };
+    // The linear bound is +∞ where the gap cannot close, and no bound is longer.
+    if !(closing > 0.0) {
+        return f64::INFINITY;
+    }
     let rate = sign * n.dot(&((bb.v + bb.w.cross(&b.offset)) - (ba.v + ba.w.cross(&a.offset))));
-    let curved = match (a.modulus.curvature_radius(), b.modulus.curvature_radius()) {
+    match (a.modulus.curvature_radius(), b.modulus.curvature_radius()) {
         (Some(rho_a), Some(rho_b)) => {
             let m = support_acceleration_bound(&ba.w, n, a.l, rho_a, a.h_min)
                 + support_acceleration_bound(&bb.w, n, b.l, rho_b, b.h_min);
-            positive_for(gap, rate, m)
+            longer_of(gap, closing, rate, m)
         }
         _ => {
             let mut p = Powers::default();
@@ -553,10 +552,25 @@ pub fn gap_safe_time_towards(a: &GapSide, b: &GapSide, n: &V3, gap: f64, towards
                 let w = side.body.w;
                 push_powers(&side.modulus, w.cross(n).norm(), w.norm(), side.l, &mut p);
             }
-            positive_while(gap, rate, &p)
+            (gap / closing).max(positive_while(gap, rate, &p))
         }
-    };
-    linear.max(curved)
+    }
+}
+
+/// The longer of gap/closing (closing > 0) and [`positive_for`]`(gap, rate, accel)`. Where the
+/// gap closes both divide it, 2g/(2·closing) and 2g/(|ġ| + √(ġ² + 2Mg)) (g/|ġ| = 2g/2|ġ| where
+/// M = 0): the longer is 2g over the smaller denominator, one division where there were two,
+/// to the same bits (doubling is exact).
+fn longer_of(gap: f64, closing: f64, rate: f64, accel: f64) -> f64 {
+    if rate < 0.0 {
+        let twice = if accel > 0.0 {
+            (rate * rate + 2.0 * accel * gap).sqrt() - rate
+        } else {
+            -2.0 * rate
+        };
+        return 2.0 * gap / (2.0 * closing).min(twice);
+    }
+    (gap / closing).max(positive_for(gap, rate, accel))
 }
 
 /// How long g(τ) ≥ g + ġτ − ½Mτ² stays positive, for g > 0: the positive root of g + ġτ − ½Mτ²,
@@ -656,6 +670,23 @@ mod tests {
             }
             proptest::prop_assert!(tau <= reference * (1.0 + 1e-6), "{tau:e} against {reference:e}");
             proptest::prop_assert!(tau >= reference * (1.0 - 1e-3), "{tau:e} against {reference:e}");
+        }
+    }
+
+    proptest::proptest! {
+        /// The longer safe time in one division is, to the bit, the longer of the two divided
+        /// apart, the linear gap/closing and the quadratic root: closing and opening gaps, with
+        /// and without a curvature bound, rates and gaps over many decades.
+        #[test]
+        fn the_longer_bound_in_one_division_is_the_longer_of_the_two(
+            gap in proptest::prop_oneof![1e-12f64..1e-6, 1e-6f64..10.0],
+            closing in proptest::prop_oneof![1e-9f64..1e-3, 1e-3f64..100.0],
+            rate in proptest::prop_oneof![-100.0f64..100.0, -1e-6f64..1e-6],
+            accel in proptest::prop_oneof![proptest::strategy::Just(0.0), 1e-9f64..1e3],
+        ) {
+            let apart = (gap / closing).max(positive_for(gap, rate, accel));
+            let one = longer_of(gap, closing, rate, accel);
+            proptest::prop_assert_eq!(one.to_bits(), apart.to_bits(), "{:e} against {:e}", one, apart);
         }
     }
 
