@@ -251,22 +251,26 @@ pub fn escape_time<S: Surface>(s: &S, body: &Body, obp: &Obp, eps_nnl: f64, hori
             let h_rate = u.dot(&body.w.cross(&support));
             let o = (p.r - obp.c).dot(u);
             let vu = body.v.dot(u);
-            let mut dt = f64::INFINITY;
-            for (gap, rate) in [
-                (obp.half[k] - o - h, -vu - h_rate),
-                (obp.half[k] + o - h, vu - h_rate),
-            ] {
-                if gap < eps_nnl {
-                    return tau;
-                }
-                dt = dt.min(if accel[k].is_infinite() {
-                    // A flat face has no curvature bound (Surface::max_curvature_radius = +∞):
-                    // the gap changes at most at |v·u| + L|w × u| (Eq. 60 along one axis).
-                    gap / (vu.abs() + l * body.w.cross(u).norm())
-                } else {
-                    positive_for(gap, rate, accel[k])
-                });
+            let (low, high) = (obp.half[k] - o - h, obp.half[k] + o - h);
+            if low < eps_nnl || high < eps_nnl {
+                return tau;
             }
+            let (rate_low, rate_high) = (-vu - h_rate, vu - h_rate);
+            let dt = if accel[k].is_infinite() {
+                // A flat face has no curvature bound (Surface::max_curvature_radius = +∞): the
+                // gap changes at most at |v·u| + L|w × u| (Eq. 60 along one axis), the same for
+                // both faces.
+                low.min(high) / (vu.abs() + l * body.w.cross(u).norm())
+            } else if high >= low && rate_high >= rate_low {
+                // `positive_for` rises with the gap and with its rate: the face the body is
+                // nearer and moves towards holds out the shorter time, and the other needs no
+                // root of its own.
+                positive_for(low, rate_low, accel[k])
+            } else if low >= high && rate_low >= rate_high {
+                positive_for(high, rate_high, accel[k])
+            } else {
+                positive_for(low, rate_low, accel[k]).min(positive_for(high, rate_high, accel[k]))
+            };
             until[k] = tau + dt;
         }
         tau = until.into_iter().fold(f64::INFINITY, f64::min);
