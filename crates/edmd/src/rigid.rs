@@ -536,7 +536,7 @@ pub fn gap_safe_time_towards(a: &GapSide, b: &GapSide, n: &V3, gap: f64, towards
         Towards::Past => (backward, -1.0),
     };
     // The linear bound is +∞ where the gap cannot close, and no bound is longer.
-    if !(closing > 0.0) {
+    if closing.is_nan() || closing <= 0.0 {
         return f64::INFINITY;
     }
     let rate = sign * n.dot(&((bb.v + bb.w.cross(&b.offset)) - (ba.v + ba.w.cross(&a.offset))));
