@@ -477,10 +477,9 @@ struct AxisAscent {
     /// The line of centres in A's frame.
     r: V3,
     damping: f64,
-    /// The next direction to try, in A's frame (the unscaled steps').
+    /// The next direction to try, in A's frame: a unit vector after [`AxisAscent::step`], of
+    /// any length after [`AxisAscent::step_scale_free`].
     n: V3,
-    /// `n` before its normalisation: what the scaled steps step from.
-    m: V3,
     /// The largest gap so far, its direction and support offsets (A's frame).
     best: (f64, V3, V3, V3),
     /// What the best step's support points left for their moduli.
@@ -510,7 +509,6 @@ impl AxisAscent {
             // bound. A flat face has no largest radius of curvature; its bounding radius stands in.
             damping: 1.0 / (search_radius(sa) + search_radius(sb)),
             n,
-            m: n,
             best: (f64::NEG_INFINITY, n, V3::zeros(), V3::zeros()),
             kept: [f64::NAN; 2],
             rot_a: pa.rot,
@@ -551,12 +549,11 @@ impl AxisAscent {
             self.best = (gap, n, offset_a, offset_b);
             self.kept = [kept_a, kept_b];
         }
-        self.m = n + (between - n * gap) * self.damping;
-        self.n = self.m.normalize();
+        self.n = (n + (between - n * gap) * self.damping).normalize();
     }
 
-    /// [`AxisAscent::step`] where the support point along m is p/k for any positive multiple m
-    /// of the direction ([`Surface::support_point_scaled`]): the step is the same, multiplied
+    /// [`AxisAscent::step`] from the direction m that `n` holds, of any length, where the support
+    /// point along m is p/k ([`Surface::support_point_scaled`]): the step is the same, multiplied
     /// through by |m|² k_A k_B, so that the next direction waits on no division. With x_A =
     /// p_A/k_A, x_B = p_B/k_B, n = m/|m| and B = (x_B − x_A + r) k_A k_B, the gap is
     /// g = m·B / (|m| k_A k_B), and the next direction n + (x_B − x_A − n g) κ is
@@ -566,7 +563,7 @@ impl AxisAscent {
     /// (`perf`, MEASUREMENTS.md).
     #[inline(always)]
     fn step_scale_free<S: Surface>(&mut self, sa: &S, sb: &S) {
-        let m = self.m;
+        let m = self.n;
         let (pa, ka) = sa.support_point_scaled(&m);
         let (pb, kb) = sb.support_point_scaled(&-(self.b_to_a.tr_mul(&m)));
         let pb = self.b_to_a * pb;
@@ -588,18 +585,14 @@ impl AxisAscent {
             );
             self.kept = [f64::NAN; 2];
         }
-        self.m = (m * (len * k - self.damping * dot) + between * (self.damping * mm)) * inv;
+        self.n = (m * (len * k - self.damping * dot) + between * (self.damping * mm)) * inv;
     }
 
     /// The direction the next step would try, in the lab frame: a unit vector after unscaled
     /// steps, else one of about unit length, which the engine keeps ([`crate::axes`]) and
     /// normalises when it starts from it.
-    fn next_axis<S: Surface>(&self) -> V3 {
-        self.rot_a.tr_mul(if S::SCALE_FREE_SUPPORT {
-            &self.m
-        } else {
-            &self.n
-        })
+    fn next_axis(&self) -> V3 {
+        self.rot_a.tr_mul(&self.n)
     }
 
     /// The best gap so far, in the lab frame.
@@ -693,7 +686,7 @@ pub fn quick_bound<S: Surface>(
                     lower,
                     estimate: lower,
                     now: None,
-                    axis: Some(ascent.next_axis::<S>()),
+                    axis: Some(ascent.next_axis()),
                 };
             }
             lower
@@ -708,7 +701,7 @@ pub fn quick_bound<S: Surface>(
         lower,
         estimate: gap.closing_estimate(a, b).max(lower),
         now: Some((gap, safe)),
-        axis: Some(ascent.next_axis::<S>()),
+        axis: Some(ascent.next_axis()),
     }
 }
 

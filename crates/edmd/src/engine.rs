@@ -1005,8 +1005,8 @@ impl<M: Rigid> Engine<M> {
 
     /// [`Rigid::quick_bound`] of body `i` (`a`) and candidate `j` (`b`, at the present) before
     /// time `until`, its ascent started at the pair's kept axis `start`, read from `slot`. The
-    /// axis the ascent would try next is kept for the pair, whatever the bound rules. Inlined: called apart, it cost
-    /// 0.3 % more instructions a collision (X0 = 2, φ 0.5, N 256).
+    /// axis the ascent would try next is kept for the pair, whatever the bound rules. Inlined:
+    /// called apart, it cost 0.3 % more instructions a collision (X0 = 2, φ 0.5, N 256).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn quick_bound_kept(
