@@ -1,0 +1,80 @@
+#!/usr/bin/env python3
+"""Issue 29's ratio target (MEASUREMENTS.md, "EDMD round 3"): the ellipsoids' τ_c (X0 2, φ 0.5,
+N 256, Δ_NNL 0.085) over the spheres' τ_c at the same N and φ, in the same run.
+
+usage: ratio.py SCENE [--rounds R] [--seed S]
+
+SCENE is a `cargo build --release -p edmd --example scene` binary. Each round runs the spheres,
+the ellipsoids and the spheres again, one after the other, and divides the ellipsoids' CPU time
+per collision by the mean of the two sphere runs around it: on a shared machine whose speed
+drifts by tens of percent from minute to minute, only times taken this close together compare.
+Printed: every round, then the median of the rounds' ratios with a 95 % bootstrap interval
+(percentile, 10,000 resamples, seeded), the quartiles, how many rounds are at or under 12 ×,
+the median over the median and the fastest run over the fastest.
+"""
+import json
+import random
+import statistics
+import subprocess
+import sys
+
+from round3 import ELLIPSOID, SPHERES, scene_keys
+
+TARGET = 12.0
+
+
+def tau(binary, spec):
+    out = subprocess.run([binary] + scene_keys(spec), capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"{binary} {spec}: {out.stderr.strip().splitlines()[-1:]}")
+    r = json.loads(out.stdout)
+    if r["overlaps"] or r["solver_failures"]:
+        sys.exit(f"{spec}: {r['overlaps']} overlaps, {r['solver_failures']} solver failures")
+    return r["tau_c_cpu_us"]
+
+
+def bootstrap_median(xs, resamples=10_000, seed=0):
+    rng = random.Random(seed)
+    medians = sorted(statistics.median(rng.choices(xs, k=len(xs))) for _ in range(resamples))
+    return medians[int(0.025 * resamples)], medians[int(0.975 * resamples) - 1]
+
+
+def main(argv):
+    if not argv or argv[0].startswith("-"):
+        sys.exit(__doc__)
+    binary, rounds, seed = argv[0], 30, 0
+    args = iter(argv[1:])
+    for a in args:
+        if a == "--rounds":
+            rounds = int(next(args))
+        elif a == "--seed":
+            seed = int(next(args))
+        else:
+            sys.exit(f"unknown argument {a!r}\n{__doc__}")
+    ellipsoids = ELLIPSOID + " delta_nnl=0.085"
+    rows = []
+    for k in range(rounds):
+        before = tau(binary, SPHERES)
+        ell = tau(binary, ellipsoids)
+        after = tau(binary, SPHERES)
+        spheres = 0.5 * (before + after)
+        rows.append((spheres, ell, min(before, after)))
+        print(f"round {k + 1:3}: spheres {before:.3f} / {after:.3f} µs, ellipsoids {ell:.2f} µs, "
+              f"{ell / spheres:.2f} ×", flush=True)
+    ratios = [e / s for s, e, _ in rows]
+    lo, hi = bootstrap_median(ratios, seed=seed)
+    q = statistics.quantiles(ratios, n=4)
+    at_most = sum(r <= TARGET for r in ratios)
+    spheres_med = statistics.median(s for s, _, _ in rows)
+    ell_med = statistics.median(e for _, e, _ in rows)
+    fastest = min(e for _, e, _ in rows) / min(f for _, _, f in rows)
+    print(f"rounds {rounds}: median ratio {statistics.median(ratios):.2f} × "
+          f"(95 % bootstrap {lo:.2f}–{hi:.2f}; quartiles {q[0]:.2f} / {q[2]:.2f}); "
+          f"{at_most} of {rounds} at or under {TARGET:g} ×")
+    print(f"median over median {ell_med / spheres_med:.2f} × "
+          f"(ellipsoids {ell_med:.2f} µs, spheres {spheres_med:.3f} µs); "
+          f"fastest over fastest {fastest:.2f} ×")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
