@@ -2,8 +2,6 @@
 """Issue 29's ratio target (MEASUREMENTS.md, "EDMD round 3"): the ellipsoids' τ_c (X0 2, φ 0.5,
 N 256, Δ_NNL 0.085) over the spheres' τ_c at the same N and φ, in the same run.
 
-usage: ratio.py SCENE [--rounds R] [--seed S]
-
 SCENE is a `cargo build --release -p edmd --example scene` binary. Each round runs the spheres,
 the ellipsoids and the spheres again, one after the other, and divides the ellipsoids' CPU time
 per collision by the mean of the two sphere runs around it: on a shared machine whose speed
@@ -12,6 +10,7 @@ Printed: every round, then the median of the rounds' ratios with a 95 % bootstra
 (percentile, 10,000 resamples, seeded), the quartiles, how many rounds are at or under 12 ×,
 the median over the median and the fastest run over the fastest.
 """
+import argparse
 import json
 import random
 import statistics
@@ -24,7 +23,10 @@ TARGET = 12.0
 
 
 def tau(binary, spec):
-    out = subprocess.run([binary] + scene_keys(spec), capture_output=True, text=True)
+    try:
+        out = subprocess.run([binary] + scene_keys(spec), capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"{binary}: {e}")
     if out.returncode != 0:
         sys.exit(f"{binary} {spec}: {out.stderr.strip().splitlines()[-1:]}")
     r = json.loads(out.stdout)
@@ -40,17 +42,14 @@ def bootstrap_median(xs, resamples=10_000, seed=0):
 
 
 def main(argv):
-    if not argv or argv[0].startswith("-"):
-        sys.exit(__doc__)
-    binary, rounds, seed = argv[0], 30, 0
-    args = iter(argv[1:])
-    for a in args:
-        if a == "--rounds":
-            rounds = int(next(args))
-        elif a == "--seed":
-            seed = int(next(args))
-        else:
-            sys.exit(f"unknown argument {a!r}\n{__doc__}")
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("scene", help="an `examples/scene` binary of the edmd crate")
+    parser.add_argument("--rounds", type=int, default=30, help="paired rounds (at least 2; default 30)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling")
+    args = parser.parse_args(argv)
+    if args.rounds < 2:
+        parser.error(f"--rounds {args.rounds}: at least 2 rounds, for the quartiles and the interval")
+    binary, rounds, seed = args.scene, args.rounds, args.seed
     ellipsoids = ELLIPSOID + " delta_nnl=0.085"
     rows = []
     for k in range(rounds):
