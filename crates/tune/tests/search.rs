@@ -75,12 +75,56 @@ fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
     (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
 }
 
+/// Noisy searches (noise up to 3 % a run, the minimum anywhere, a curvature of 0.3–6, one to
+/// four runs in flight), seeded so that the count is the same on every run: the value chosen
+/// lies more than 5 % and four noise deviations above the minimum in about one search in ten
+/// thousand (the best of a few noisy runs is sometimes a lucky one down a flank; 42 in 400,000
+/// measured, the worst 6.3 deviations), and never far beyond.
+#[test]
+fn noisy_searches_rarely_stop_far_from_the_minimum() {
+    let range = Range::new(0.02, 1.5).unwrap();
+    let settings = minimise::Settings::default();
+    let mut draws = Xoshiro256PlusPlus::seed_from_u64(29);
+    let uniform =
+        |rng: &mut Xoshiro256PlusPlus| (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+    let searches = 20_000;
+    let (mut far, mut worst) = (0, 0.0f64);
+    for _ in 0..searches {
+        let t_star = uniform(&mut draws);
+        let curvature = 0.3 + 5.7 * uniform(&mut draws);
+        let noise = 0.03 * uniform(&mut draws);
+        let parallel = 1 + (4.0 * uniform(&mut draws)) as usize;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(draws.next_u64());
+        let truth = |x: f64| 30.0 * (1.0 + curvature * (range.position(x) - t_star).powi(2));
+        let (c, _) = drive(
+            &range,
+            &Goal::Minimise(settings),
+            settings.max_evaluations,
+            parallel,
+            |p| Outcome::Value(truth(p.x) * (1.0 + noise * normal(&mut rng))),
+            Vec::new(),
+        );
+        let excess = truth(c.objective.unwrap().x) / truth(range.exact(t_star)) - 1.0;
+        if excess > 0.05 {
+            worst = worst.max(excess / noise);
+            far += usize::from(excess > 4.0 * noise);
+        }
+    }
+    println!("{far} of {searches} beyond 5 % and four deviations, the worst {worst:.2} deviations");
+    assert!(far <= searches / 1000, "{far} of {searches}");
+    assert!(worst <= 8.0, "{worst}");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
-    /// A noisy τ_c(Δ) = base · (1 + a (log-position − t*)²): the value chosen costs at most 5 %
-    /// (or four noise deviations, where the noise is larger than the curvature can show) above the
-    /// true minimum, within the budget, and without noise the interval holds the minimum.
+    /// A noisy τ_c(Δ) = base · (1 + a (log-position − t*)²): the search stops within the
+    /// budget with a run it made. Without noise the value chosen is within the value tolerance
+    /// of the minimum (the search stops where its best mean is within the tolerance of that mean
+    /// above the vertex: best − min ≤ tol · best, so best ≤ min / (1 − tol)) and the interval
+    /// holds the minimum. With noise no bound holds for every seed (the best of a few noisy runs
+    /// can be a lucky one far down a flank): `noisy_searches_rarely_stop_far_from_the_minimum`
+    /// counts how often.
     #[test]
     fn the_minimum_of_a_noisy_parabola_is_found_within_the_budget(
         t_star in 0.0f64..1.0,
@@ -98,10 +142,11 @@ proptest! {
         prop_assert!(done.len() <= settings.max_evaluations);
         prop_assert!(matches!(c.stopped, Stopped::Converged | Stopped::Budget), "{c:?}");
         let chosen = c.objective.unwrap().x;
-        let best_possible = truth(range.exact(t_star));
-        let excess = truth(chosen) / best_possible - 1.0;
-        prop_assert!(excess <= 0.05f64.max(4.0 * noise), "{excess} {c:?} {done:?}");
+        prop_assert!(done.iter().any(|e| e.x == chosen), "{c:?} {done:?}");
         if noise == 0.0 {
+            let excess = truth(chosen) / truth(range.exact(t_star)) - 1.0;
+            let tolerance = settings.value_tolerance;
+            prop_assert!(excess <= tolerance / (1.0 - tolerance) + 1e-12, "{excess} {c:?} {done:?}");
             let [lo, hi] = c.interval.unwrap();
             let x_star = range.exact(t_star);
             prop_assert!(lo <= x_star * (1.0 + 1e-12) && x_star <= hi * (1.0 + 1e-12), "{c:?}");
