@@ -118,7 +118,9 @@ fn run_rejects_a_bad_programmatic_scene_before_any_work() {
         matches!(e, EdmdError::Scene(SceneError::Invalid { key: "phi", .. })),
         "{e}"
     );
-    assert!(t.elapsed().as_millis() < 100);
+    // Any work on 10⁸ bodies (their allocation alone) takes seconds; a second leaves room for a
+    // loaded CI machine that preempts the test for a few time slices.
+    assert!(t.elapsed().as_millis() < 1000, "{:?}", t.elapsed());
 }
 
 #[test]

@@ -30,9 +30,11 @@
 //!   pair widths out; the three are judged as the pair was, and must agree by their own
 //!   parabola too (convex, the better run within [`TOLERANCE`] of its vertex). A state point
 //!   with a fourth value, or a failed run, or a prior that is gone, searches on its own from
-//!   what it has. Without noise a wrong prior costs runs, not the answer (tests/pool.rs); with
-//!   noise of a few per cent a pair far down a flank can pass for one straddling the minimum
-//!   (MEASUREMENTS.md gives how often).
+//!   what it has. Without noise a wrong expected minimum costs runs, not the answer; a curve
+//!   r× sharper than the shared curvature says puts a pooled stop up to r× [`TOLERANCE`] above
+//!   its minimum, which two runs cannot tell (tests/pool.rs). With noise of a few per cent a
+//!   pair far down a flank can pass for one straddling the minimum (MEASUREMENTS.md gives how
+//!   often).
 //! - Every member's own search, the leader's included, locates to [`TOLERANCE`] too (its
 //!   `value_tolerance` raised to it): a table's minima are found to one tolerance.
 //!
