@@ -11,25 +11,22 @@ Printed: every round, then the median of the rounds' ratios with a 95 % bootstra
 the median over the median and the fastest run over the fastest.
 """
 import argparse
-import json
 import random
 import statistics
-import subprocess
 import sys
 
-from round3 import ELLIPSOID, SPHERES, scene_keys
+from round3 import ELLIPSOID_TUNED, SPHERES, run
 
 TARGET = 12.0
 
 
 def tau(binary, spec):
     try:
-        out = subprocess.run([binary] + scene_keys(spec), capture_output=True, text=True)
+        r = run(binary, spec)
     except OSError as e:
         sys.exit(f"{binary}: {e}")
-    if out.returncode != 0:
-        sys.exit(f"{binary} {spec}: {out.stderr.strip().splitlines()[-1:]}")
-    r = json.loads(out.stdout)
+    if "error" in r:
+        sys.exit(f"{binary} {spec}: {r['error']}")
     if r["overlaps"] or r["solver_failures"]:
         sys.exit(f"{spec}: {r['overlaps']} overlaps, {r['solver_failures']} solver failures")
     return r["tau_c_cpu_us"]
@@ -50,11 +47,10 @@ def main(argv):
     if args.rounds < 2:
         parser.error(f"--rounds {args.rounds}: at least 2 rounds, for the quartiles and the interval")
     binary, rounds, seed = args.scene, args.rounds, args.seed
-    ellipsoids = ELLIPSOID + " delta_nnl=0.085"
     rows = []
     for k in range(rounds):
         before = tau(binary, SPHERES)
-        ell = tau(binary, ellipsoids)
+        ell = tau(binary, ELLIPSOID_TUNED)
         after = tau(binary, SPHERES)
         spheres = 0.5 * (before + after)
         rows.append((spheres, ell, min(before, after)))
