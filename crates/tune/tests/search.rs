@@ -67,11 +67,14 @@ fn drive(
     panic!("the search did not stop in 1000 steps");
 }
 
+/// A uniform draw in (0, 1].
+fn uniform(rng: &mut Xoshiro256PlusPlus) -> f64 {
+    ((rng.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64
+}
+
 fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
     // Box–Muller from two uniforms in (0, 1].
-    let u =
-        |rng: &mut Xoshiro256PlusPlus| ((rng.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64;
-    let (a, b) = (u(rng), u(rng));
+    let (a, b) = (uniform(rng), uniform(rng));
     (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
 }
 
@@ -85,8 +88,6 @@ fn noisy_searches_rarely_stop_far_from_the_minimum() {
     let range = Range::new(0.02, 1.5).unwrap();
     let settings = minimise::Settings::default();
     let mut draws = Xoshiro256PlusPlus::seed_from_u64(29);
-    let uniform =
-        |rng: &mut Xoshiro256PlusPlus| (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
     let searches = 20_000;
     let (mut far, mut worst) = (0, 0.0f64);
     for _ in 0..searches {
