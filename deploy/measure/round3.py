@@ -2,8 +2,6 @@
 """Issue 29's table (MEASUREMENTS.md, "EDMD round 3"): the cost of rigid bodies against spheres
 and the peer, before and after, in one session.
 
-usage: round3.py OLD_SCENE NEW_SCENE [PEER] [--rounds R] [--only NAME,NAME]
-
 OLD_SCENE and NEW_SCENE are `cargo build --release -p edmd --example scene` binaries or `sweep`
 binaries (a name containing "sweep": run as `sweep edmd SCENE.toml --format json`), built from main
 before a change and after it; they run alternately, case by case, in R rounds (default 2).
@@ -12,6 +10,7 @@ Every case is seeded (seed 0) and on NNL; τ_c is CPU time per collision. Fallba
 counts (relaxation and equilibration included), also given per 10⁵ collisions of equilibration
 and measurement: an upper bound of the measured rate.
 """
+import argparse
 import json
 import os
 import subprocess
@@ -52,7 +51,8 @@ def run(binary, spec):
     else:
         out = subprocess.run([binary] + scene_keys(spec), capture_output=True, text=True)
     if out.returncode != 0:
-        return {"error": out.stderr.strip().splitlines()[-1:]}
+        last = out.stderr.strip().splitlines()[-1:]
+        return {"error": f"exit status {out.returncode}" + (f": {last[0]}" if last else "")}
     return json.loads(out.stdout)
 
 
@@ -80,18 +80,19 @@ def line(name, side, spec, r, sphere_tau):
 
 
 def main(argv):
-    args = [a for a in argv if not a.startswith("--")]
-    rounds = 2
-    only = None
-    for i, a in enumerate(argv):
-        if a == "--rounds":
-            rounds = int(argv[i + 1])
-            args.remove(argv[i + 1])
-        if a == "--only":
-            only = argv[i + 1].split(",")
-            args.remove(argv[i + 1])
-    old, new = args[0], args[1]
-    peer_bin = args[2] if len(args) > 2 else None
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("old", metavar="OLD_SCENE", help="the scene or sweep binary built before the change")
+    parser.add_argument("new", metavar="NEW_SCENE", help="the scene or sweep binary built after it")
+    parser.add_argument("peer", metavar="PEER", nargs="?", help="the peer's md-single, for spheres beside ours")
+    parser.add_argument("--rounds", type=int, default=2, help="rounds, each case alternating old and new (default 2)")
+    parser.add_argument("--only", type=lambda s: s.split(","), help="cases whose names contain one of NAME,NAME (spheres always run)")
+    args = parser.parse_args(argv)
+    if args.rounds < 1:
+        parser.error(f"--rounds {args.rounds}: at least 1")
+    for binary in filter(None, (args.old, args.new, args.peer)):
+        if not os.access(binary, os.X_OK):
+            parser.error(f"{binary}: not an executable file")
+    old, new, peer_bin, rounds, only = args.old, args.new, args.peer, args.rounds, args.only
     print("| case | binary | τ_c CPU (µs) | / spheres | distance calls/coll. | NR it./solve "
           "| distance fallbacks (per 10⁵) | contact fallbacks | overlaps / failures | Z | init ms/body |")
     print("|---|---|---:|---:|---:|---:|---|---:|---|---|---:|")
