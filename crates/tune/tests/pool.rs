@@ -2,9 +2,12 @@
 //! minima are known: two runs per follower where the table's curves share their shape, a search
 //! of its own where a follower's curve is elsewhere, and the driver's invariants throughout.
 
+mod common;
+
+use common::normal;
 use proptest::prelude::*;
 use rand_xoshiro::Xoshiro256PlusPlus;
-use rand_xoshiro::rand_core::{Rng, SeedableRng};
+use rand_xoshiro::rand_core::SeedableRng;
 use tune::{Conclusion, Evaluation, Goal, Outcome, Proposal, Range, Step, Stopped, minimise, pool};
 
 /// A state point's curve: τ(t) = level · (1 + curvature · (t − t*)²) in the log position t.
@@ -89,15 +92,10 @@ fn drive(
         assert!(!queue.is_empty(), "every search waits and nothing runs");
         let (p, q) = queue.remove(0);
         in_flight[p].retain(|f| *f != q);
-        let (a, b) = (
-            ((rng.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64,
-            ((rng.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64,
-        );
-        let normal = (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos();
         done[p].push(Evaluation {
             x: q.x,
             repeat: q.repeat,
-            outcome: Outcome::Value(curves[p].at(range, q.x) * (1.0 + noise * normal)),
+            outcome: Outcome::Value(curves[p].at(range, q.x) * (1.0 + noise * normal(&mut rng))),
         });
     }
     panic!("the table did not stop in 1000 steps");

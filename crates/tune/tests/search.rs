@@ -1,6 +1,9 @@
 //! The searches driven to the end against functions whose answer is known: a noisy parabola in
 //! log x for the minimum, a threshold for the loosest safe value.
 
+mod common;
+
+use common::{normal, uniform};
 use proptest::prelude::*;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rand_xoshiro::rand_core::{Rng, SeedableRng};
@@ -67,15 +70,31 @@ fn drive(
     panic!("the search did not stop in 1000 steps");
 }
 
-/// A uniform draw in (0, 1].
-fn uniform(rng: &mut Xoshiro256PlusPlus) -> f64 {
-    ((rng.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64
-}
-
-fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
-    // Box–Muller from two uniforms in (0, 1].
-    let (a, b) = (uniform(rng), uniform(rng));
-    (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+/// τ_c(Δ) = 30 (1 + `curvature` (log-position − `t_star`)²) over `range`, each run's value
+/// off by a relative normal error of deviation `noise` (drawn from `seed`), minimised with the
+/// default settings and `parallel` runs in flight: the conclusion, every run, and how far the
+/// value chosen lies above the true minimum (relative).
+fn search_noisy_parabola(
+    range: &Range,
+    t_star: f64,
+    curvature: f64,
+    noise: f64,
+    parallel: usize,
+    seed: u64,
+) -> (Conclusion, Vec<Evaluation>, f64) {
+    let settings = minimise::Settings::default();
+    let truth = |x: f64| 30.0 * (1.0 + curvature * (range.position(x) - t_star).powi(2));
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let (c, done) = drive(
+        range,
+        &Goal::Minimise(settings),
+        settings.max_evaluations,
+        parallel,
+        |p| Outcome::Value(truth(p.x) * (1.0 + noise * normal(&mut rng))),
+        Vec::new(),
+    );
+    let excess = truth(c.objective.unwrap().x) / truth(range.exact(t_star)) - 1.0;
+    (c, done, excess)
 }
 
 /// Noisy searches (noise up to 3 % a run, the minimum anywhere, a curvature of 0.3–6, one to
@@ -86,7 +105,6 @@ fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
 #[test]
 fn noisy_searches_rarely_stop_far_from_the_minimum() {
     let range = Range::new(0.02, 1.5).unwrap();
-    let settings = minimise::Settings::default();
     let mut draws = Xoshiro256PlusPlus::seed_from_u64(29);
     let searches = 20_000;
     let (mut far, mut worst) = (0, 0.0f64);
@@ -95,17 +113,9 @@ fn noisy_searches_rarely_stop_far_from_the_minimum() {
         let curvature = 0.3 + 5.7 * uniform(&mut draws);
         let noise = 0.03 * uniform(&mut draws);
         let parallel = 1 + (4.0 * uniform(&mut draws)) as usize;
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(draws.next_u64());
-        let truth = |x: f64| 30.0 * (1.0 + curvature * (range.position(x) - t_star).powi(2));
-        let (c, _) = drive(
-            &range,
-            &Goal::Minimise(settings),
-            settings.max_evaluations,
-            parallel,
-            |p| Outcome::Value(truth(p.x) * (1.0 + noise * normal(&mut rng))),
-            Vec::new(),
-        );
-        let excess = truth(c.objective.unwrap().x) / truth(range.exact(t_star)) - 1.0;
+        let seed = draws.next_u64();
+        let (_, _, excess) =
+            search_noisy_parabola(&range, t_star, curvature, noise, parallel, seed);
         if excess > 0.05 {
             worst = worst.max(excess / noise);
             far += usize::from(excess > 4.0 * noise);
@@ -136,16 +146,12 @@ proptest! {
     ) {
         let range = Range::new(0.02, 1.5).unwrap();
         let settings = minimise::Settings::default();
-        let truth = |x: f64| 30.0 * (1.0 + curvature * (range.position(x) - t_star).powi(2));
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-        let (c, done) = drive(&range, &Goal::Minimise(settings), settings.max_evaluations, parallel,
-            |p| Outcome::Value(truth(p.x) * (1.0 + noise * normal(&mut rng))), Vec::new());
+        let (c, done, excess) = search_noisy_parabola(&range, t_star, curvature, noise, parallel, seed);
         prop_assert!(done.len() <= settings.max_evaluations);
         prop_assert!(matches!(c.stopped, Stopped::Converged | Stopped::Budget), "{c:?}");
         let chosen = c.objective.unwrap().x;
         prop_assert!(done.iter().any(|e| e.x == chosen), "{c:?} {done:?}");
         if noise == 0.0 {
-            let excess = truth(chosen) / truth(range.exact(t_star)) - 1.0;
             let tolerance = settings.value_tolerance;
             prop_assert!(excess <= tolerance / (1.0 - tolerance) + 1e-12, "{excess} {c:?} {done:?}");
             let [lo, hi] = c.interval.unwrap();
